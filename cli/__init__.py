@@ -1,0 +1,1 @@
+"""The zenav command line."""

@@ -1,0 +1,48 @@
+"""`zenav bench`: measure accuracy, latency, cost and simulation speed; write the report."""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import logging
+import sys
+from pathlib import Path
+
+from zenav.cli.main import EXIT_OK
+
+
+# The bench's sections (tools/bench.py SECTIONS; a test keeps them equal): named here so
+# that building the parser imports none of the bench's optional packages.
+SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation")
+
+
+def add_arguments(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("bench", help="measure accuracy, latency, cost and simulation speed; write a markdown report with plots")
+    p.add_argument("--quick", action="store_true", help="a short run for CI (under 2 minutes): fewer seeds, modes and windows")
+    p.add_argument("--out", type=Path, default=Path("docs/bench"), help="report directory (default docs/bench)")
+    p.add_argument("--only", action="append", choices=SECTIONS, help="measure only this section (repeatable)")
+    p.add_argument("--rtf", type=float, help="most the accuracy runs may use (default 5; the speed study may lower it)")
+    p.add_argument("-v", "--verbose", action="store_true", help="show the in-process services' warnings")
+    p.set_defaults(func=run)
+
+
+def command_line(args: argparse.Namespace) -> str:
+    """The command as it would be typed, for the report."""
+    parts = ["zenav bench"] + (["--quick"] if args.quick else []) + [f"--only {s}" for s in args.only or []]
+    parts += [f"--rtf {args.rtf:g}"] if args.rtf is not None else []
+    return " ".join(parts + [f"--out {args.out}"])
+
+
+def run(args: argparse.Namespace) -> int:
+    from zenav.tools import bench, bench_report
+
+    logging.basicConfig(level=logging.WARNING, format="%(name)s %(levelname)s %(message)s", stream=sys.stderr)
+    if not args.verbose:  # the stacks run in this process for accuracy: their warnings would flood the terminal
+        logging.getLogger("zenav").setLevel(logging.ERROR)
+    plan = bench.only(bench.QUICK if args.quick else bench.FULL, args.only)
+    if args.rtf is not None:
+        plan = dataclasses.replace(plan, rtf=args.rtf)
+    args.out.mkdir(parents=True, exist_ok=True)
+    res = bench.run(plan, args.out, command_line(args))
+    path = bench_report.write(res, args.out)
+    print(f"{path} written; the run took {res.duration:.0f} s")
+    return EXIT_OK

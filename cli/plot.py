@@ -1,0 +1,34 @@
+"""`zenav plot IN.mcap -o OUT.png`: trajectory and error-over-time plots of a recording."""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+from zenav.cli.main import EXIT_FAILED, EXIT_OK
+
+
+def add_arguments(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("plot", help="plot truth, odom, fused pose and VPS fixes of a recording to a PNG")
+    p.add_argument("input", metavar="IN.mcap", help="a recording made by `zenav record`")
+    p.add_argument("-o", "--out", metavar="OUT.png", required=True, help="image to write")
+    p.add_argument("--robot", help="robot id to plot (default: the first in the file)")
+    p.add_argument("--title", help="figure title (default: the input file name)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from zenav.tools.plot import errors, plot_file, rms  # optional dependencies: imported when used
+
+    try:
+        run_ = plot_file(args.input, args.out, args.robot, args.title)
+    except (OSError, ValueError) as e:
+        print(f"zenav plot: {e}", file=sys.stderr)
+        return EXIT_FAILED
+    for name in ("odom", "pose", "fixes"):
+        _, pos, th = errors(getattr(run_, name), run_.truth)
+        if len(pos):
+            heading = math.degrees(rms(th))
+            print(f"{name:<6} rms {rms(pos) * 100:6.2f} cm  final {pos[-1] * 100:6.2f} cm  heading rms {heading:5.2f} deg")
+    print(f"wrote {args.out}", file=sys.stderr)
+    return EXIT_OK

@@ -1,0 +1,1 @@
+"""Shared pieces of every zenav service: messages, codec, keys, clock, config, runtime."""

@@ -1,0 +1,127 @@
+"""Running one service as a process: args and env -> settings -> session -> run."""
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import signal
+import sys
+import threading
+import time
+import tomllib
+from typing import Callable, Optional, Sequence
+
+from zenav.common.bus import ZenohBus
+from zenav.common.config import ConfigError, Settings
+from zenav.common.runtime import Service
+
+
+def deployment_args(parser: argparse.ArgumentParser) -> None:
+    """The deployment options every zenav process takes (each also from env)."""
+    parser.add_argument("--robot", default=os.environ.get("ZENAV_ROBOT"), help="robot id (env ZENAV_ROBOT; default r1)")
+    parser.add_argument(
+        "--connect", default=os.environ.get("ZENOH_CONNECT"), help="router endpoint(s) (env ZENOH_CONNECT; default tcp/127.0.0.1:7447)"
+    )
+    parser.add_argument("--config", default=os.environ.get("ZENAV_CONFIG"), help="config file (env ZENAV_CONFIG)")
+    parser.add_argument("--scenario", default=os.environ.get("ZENAV_SCENARIO"), help="scenario preset (env ZENAV_SCENARIO)")
+    parser.add_argument("--seed", type=int, default=os.environ.get("ZENAV_SEED"), help="random seed (env ZENAV_SEED)")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="SECTION.KEY=VALUE",
+        help="override one config key, value in TOML syntax (repeatable): --set sim.rtf=5",
+    )
+
+
+def parse_sets(items: Sequence[str]) -> dict[str, dict]:
+    """`["sim.rtf=5", 'odometry.integrator="arc"']` -> {"sim": {"rtf": 5}, ...}; ConfigError if malformed."""
+    out: dict[str, dict] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        section, dot, key = name.strip().partition(".")
+        if not (sep and dot and section and key):
+            raise ConfigError(f"--set {item!r}: expected SECTION.KEY=VALUE")
+        try:
+            parsed = tomllib.loads(f"v = {value.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            parsed = value.strip()  # bare words are strings: --set odometry.integrator=arc
+        out.setdefault(section, {})[key] = parsed
+    return out
+
+
+def settings_from_args(args: argparse.Namespace, **overrides: dict) -> Settings:
+    """Settings from the config file, with the deployment options applied."""
+    dep = {"robot": args.robot, "connect": args.connect, "scenario": args.scenario, "seed": args.seed}
+    dep = {k: (int(v) if k == "seed" and v is not None else v) for k, v in dep.items()}
+    sets = parse_sets(args.set)
+    sets["deployment"] = {**sets.get("deployment", {}), **{k: v for k, v in dep.items() if v is not None}}
+    for name, values in overrides.items():
+        sets[name] = {**sets.get(name, {}), **values}
+    return Settings.load(args.config, **sets)
+
+
+def setup_logging(level: str = "INFO") -> None:
+    logging.basicConfig(
+        level=os.environ.get("ZENAV_LOG", level).upper(),
+        format="%(asctime)s %(name)s %(levelname)s %(message)s",
+        stream=sys.stderr,
+    )
+
+
+def stop_on_signals(on_stop: Optional[Callable[[], None]] = None) -> threading.Event:
+    """An event set by SIGINT or SIGTERM (Ctrl-C, `docker stop`, `zenav up`); `on_stop` runs too."""
+    done = threading.Event()
+
+    def handler(signum: int, frame: object) -> None:
+        done.set()
+        if on_stop is not None:
+            on_stop()
+
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
+    return done
+
+
+def watch_parent(stop: Callable[[], None]) -> None:
+    """Under `zenav up` (ZENAV_PARENT_PID set): stop when the launcher is gone."""
+    parent = os.environ.get("ZENAV_PARENT_PID")
+    if not parent:
+        return
+
+    def loop() -> None:
+        while os.getppid() == int(parent):
+            time.sleep(1.0)  # polling the parent, not synchronising anything
+        logging.getLogger("zenav").warning("launcher %s gone: stopping", parent)
+        stop()
+
+    threading.Thread(target=loop, name="zenav-parent-watch", daemon=True).start()
+
+
+def main(service_cls: type[Service], argv: Optional[Sequence[str]] = None) -> int:
+    """Run `service_cls` until SIGINT or SIGTERM; exit 2 on bad config."""
+    parser = argparse.ArgumentParser(prog=f"zenav-{service_cls.name}", description=service_cls.__doc__)
+    deployment_args(parser)
+    args = parser.parse_args(argv)
+    setup_logging()
+    bus = None
+    try:
+        settings = settings_from_args(args)
+        svc_clock = service_cls.make_clock(settings)
+        bus = ZenohBus.open(settings.deployment.connect)
+        svc = service_cls(settings, bus, svc_clock)
+    except ConfigError as e:
+        print(f"zenav-{service_cls.name}: {e}", file=sys.stderr)
+        if bus is not None:
+            bus.close()
+        return 2
+
+    stop_on_signals(svc.stop)
+    watch_parent(svc.stop)
+    try:
+        svc.start()
+        svc.run()
+    finally:
+        svc.close()
+        bus.close()
+    return 0

@@ -1,0 +1,45 @@
+"""SE(2) poses and angle helpers (REP-103: x forward, y left, theta CCW, radians)."""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+
+def wrap_angle(a: float) -> float:
+    """Wrap an angle to (-pi, pi]."""
+    w = math.fmod(a, 2.0 * math.pi)
+    if w <= -math.pi:
+        w += 2.0 * math.pi
+    elif w > math.pi:
+        w -= 2.0 * math.pi
+    return w
+
+
+class Pose2(NamedTuple):
+    """A rigid transform in the plane: position [m] and heading [rad]."""
+
+    x: float = 0.0
+    y: float = 0.0
+    theta: float = 0.0
+
+    def compose(self, other: Pose2) -> Pose2:
+        """self * other: apply `other` expressed in this pose's frame."""
+        c, s = math.cos(self.theta), math.sin(self.theta)
+        return Pose2(
+            self.x + c * other.x - s * other.y,
+            self.y + s * other.x + c * other.y,
+            wrap_angle(self.theta + other.theta),
+        )
+
+    def inverse(self) -> Pose2:
+        """The transform that undoes this one."""
+        c, s = math.cos(self.theta), math.sin(self.theta)
+        return Pose2(-c * self.x - s * self.y, s * self.x - c * self.y, wrap_angle(-self.theta))
+
+    def between(self, other: Pose2) -> Pose2:
+        """The motion from this pose to `other`, in this pose's frame (self^-1 * other)."""
+        return self.inverse().compose(other)
+
+    def distance_to(self, x: float, y: float) -> float:
+        """Euclidean distance from this position to (x, y) [m]."""
+        return math.hypot(x - self.x, y - self.y)

@@ -1,0 +1,62 @@
+"""The contract's key expressions, and which message type travels on each."""
+from __future__ import annotations
+
+import re
+
+from zenav.common import messages as m
+
+SERVICES = ("sim", "odometry", "vps", "localizer", "navigator", "motor")
+_ROBOT_ID = re.compile(m.ROBOT_ID_PATTERN)
+
+# Topic suffix (after zenav/<robot>/) -> message type.
+TOPICS: dict[str, type[m.Topic]] = {
+    "clock": m.Clock,
+    "sim/truth": m.Truth,
+    "sensors/encoders": m.Encoders,
+    "sensors/imu": m.Imu,
+    "sensors/compass": m.Compass,
+    "vps/pose": m.VpsPose,
+    "odom": m.Odom,
+    "pose": m.Pose,
+    "cmd_vel": m.CmdVel,
+    "motors/wheels": m.Wheels,
+    "nav/state": m.NavState,
+    "localizer/fixes": m.Fix,
+    **{f"diag/{s}": m.Diag for s in SERVICES},
+}
+
+# Query suffix -> (request type, reply type).
+QUERIES: dict[str, tuple[type[m.Request], type[m.Reply]]] = {
+    "nav/move_to_point": (m.MoveToPoint, m.GoalReply),
+    "nav/turn_to_heading": (m.TurnToHeading, m.GoalReply),
+    "nav/turn_to_point": (m.TurnToPoint, m.GoalReply),
+    "nav/move_straight": (m.MoveStraight, m.GoalReply),
+    "nav/follow_path": (m.FollowPath, m.GoalReply),
+    "nav/stop": (m.Empty, m.StopReply),
+    "nav/status": (m.Empty, m.StatusReply),
+    "localizer/pose": (m.Empty, m.LocalizerPoseReply),
+    "localizer/set_pose": (m.SetPose, m.PoseStamped),
+    "sim/reset": (m.SimReset, m.PoseStamped),
+}
+
+
+def check_robot_id(robot: str) -> str:
+    """Return `robot` if it is a valid robot id, else raise ValueError."""
+    if not _ROBOT_ID.match(robot):
+        raise ValueError(f"robot id {robot!r} must match {m.ROBOT_ID_PATTERN}")
+    return robot
+
+
+def prefix(robot: str) -> str:
+    """The key prefix of one robot: `zenav/<robot>`."""
+    return f"zenav/{check_robot_id(robot)}"
+
+
+def key(robot: str, suffix: str) -> str:
+    """The full key expression of a contract suffix for one robot."""
+    return f"{prefix(robot)}/{suffix}"
+
+
+def alive(robot: str, service: str) -> str:
+    """The liveliness token key of a service."""
+    return key(robot, f"alive/{service}")

@@ -1,0 +1,211 @@
+"""The localizer's config and the interface every mode implements (seed 004's Localizer).
+
+A mode is fed odometry samples (`on_odom`) and VPS fixes (`on_fix`, with their
+arrival time), answers `get_pose` for the newest odom sample, and can be reset with
+`set_pose` / `set_position` / `set_heading`. The checks every mode shares (stale
+odometry, jumps, fixes from before a reset or from the future) live here.
+"""
+from __future__ import annotations
+
+import math
+import statistics
+from collections import deque
+from dataclasses import dataclass
+from typing import Annotated, Literal, Optional
+
+import numpy as np
+from msgspec import Meta, Struct
+
+from zenav.common import messages as m
+from zenav.common.config import Robot
+from zenav.common.geometry import Pose2, wrap_angle
+
+Pos = Annotated[float, Meta(gt=0.0, le=1e3)]
+MIN_FIX_VAR = 1e-6  # [m^2] and [rad^2] floor of a fix's variances (1 mm, 1 mrad)
+MODES = ("ekf", "ekf_no_delay", "dead_reckoning", "overwrite", "weighted", "weighted_latency", "multisensor")
+
+
+class LocalizerConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """The [localizer] section."""
+
+    mode: Literal[MODES] = "ekf"  # fusion rule (see README): ekf is the best measured
+    history: Annotated[float, Meta(ge=0.1, le=60.0)] = 1.5  # [s] odometry kept to apply late fixes at capture time
+    future_tolerance: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.05  # [s] a fix this far past the newest odom applies to it
+    max_odom_step: Pos = 0.2  # [m] a larger odom increment is a jump (odometry restart), not motion
+    gate: Pos = 16.3  # squared Mahalanobis distance above which a fix is an outlier (chi2, 3 dof, 99.9 %)
+    recover_after: Annotated[int, Meta(ge=1, le=1000)] = 5  # consecutive rejected fixes before re-acquiring
+    wheel_noise: Pos = 1e-6  # [m^2/m] variance of each wheel's travel (slip) per metre it travels
+    calib_noise: Annotated[float, Meta(ge=0.0, le=1.0)] = 1e-8  # [1/m] random walk variance of each calibration error per metre
+    calib_sigma: Annotated[float, Meta(ge=0.0, le=0.5)] = 0.05  # 1-sigma prior of each relative calibration error
+    gyro_noise: Pos = 1e-3  # [rad/sqrt(s)] angle random walk of the integrated gyro (when sensors/imu is there)
+    gyro_bias_noise: Annotated[float, Meta(ge=0.0, le=1.0)] = 1e-5  # [rad/s/sqrt(s)] random walk of the gyro bias
+    gyro_bias_sigma: Pos = 0.05  # [rad/s] 1-sigma prior of the gyro bias
+    gyro_max_gap: Pos = 0.1  # [s] a longer silence of the gyro restarts its integral
+    multisensor_gyro_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.8  # multisensor: weight of the gyro's heading change
+    multisensor_compass_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.02  # multisensor: pull towards each compass heading
+    multisensor_fix_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.3  # multisensor: pull towards each fix position
+    fix_sigma_xy: Pos = 0.02  # [m] 1-sigma of a fix that carries no covariance
+    fix_sigma_theta: Pos = 0.035  # [rad] 1-sigma of a fix heading that carries no covariance
+    unknown_sigma_xy: Pos = 10.0  # [m] 1-sigma of the position before the first fix or set_pose
+    set_pose_sigma_xy: Pos = 0.005  # [m] 1-sigma of a position given by set_pose
+    set_pose_sigma_theta: Pos = 0.01  # [rad] 1-sigma of a heading given by set_pose
+    drift_per_m: Pos = 0.05  # [m/m] and [rad/m] growth of the reported sigma of the simple modes per metre driven
+    stale_fix: Pos = 3.0  # [s] without an accepted fix, diag is degraded
+    expected_latency: Annotated[float, Meta(ge=0.0, le=60.0)] = 0.3  # [s] VPS latency the deployment expects (only compared)
+    latency_tolerance: Pos = 0.1  # [s] a measured latency further off than this is reported
+    latency_window: Annotated[int, Meta(ge=1, le=10_000)] = 50  # fixes over which the latency median is taken
+
+
+@dataclass(frozen=True)
+class FixResult:
+    """What a mode did with one fix."""
+
+    accepted: bool
+    reason: str
+    innovation: tuple[float, float, float] = (0.0, 0.0, 0.0)  # fix minus prediction at capture
+    mahalanobis_d2: float = 0.0  # 0 where the mode does not gate
+    replay_depth: int = 0  # odom samples re-integrated
+
+
+def fix_cov(fix: m.VpsPose, cfg: LocalizerConfig) -> np.ndarray:
+    """The fix's 3x3 covariance made usable (symmetric, positive), or the configured one when it carries none."""
+    if not any(fix.cov):
+        return np.diag([cfg.fix_sigma_xy**2] * 2 + [cfg.fix_sigma_theta**2])
+    R = np.array(fix.cov).reshape(3, 3)
+    R = (R + R.T) / 2.0
+    np.fill_diagonal(R, np.maximum(np.diag(R), MIN_FIX_VAR))  # a perfect camera still needs a little
+    if np.linalg.eigvalsh(R)[0] <= 0.0:
+        R = np.diag(np.diag(R))
+    return R
+
+
+class Mode:
+    """Seed 004's Localizer interface: get_pose / set_pose / set_position / set_heading, fed by on_odom / on_fix."""
+
+    def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
+        self.cfg, self.robot = cfg, robot
+        self.odom: Optional[m.Odom] = None  # newest odometry sample used
+        self.t_set = -math.inf  # [s] fixes captured before the last set_pose are ignored
+        self.t_accepted: Optional[float] = None  # [s] arrival of the last accepted fix
+        self.correction = (0.0, 0.0, 0.0)  # moved by fixes between the previous odom sample and the newest
+        self._pending = [0.0, 0.0, 0.0]  # corrections since the newest odom sample
+        self._preset: Optional[tuple] = None  # a set_pose that came before any odometry
+        self._latencies: deque[float] = deque(maxlen=cfg.latency_window)
+
+    # ------------------------------------------------------------ interface
+    def on_odom(self, odom: m.Odom) -> Optional[str]:
+        """Integrate an odometry sample; returns why it was dropped (None: used)."""
+        prev = self.odom
+        if prev is not None and odom.t <= prev.t:
+            return "stale"
+        self.odom = odom
+        self.correction, self._pending = tuple(self._pending), [0.0, 0.0, 0.0]
+        if prev is None:
+            self._start(Pose2(odom.x, odom.y, wrap_angle(odom.theta)))
+            if self._preset is not None:
+                self._set(*self._preset)
+            return None
+        d = Pose2(prev.x, prev.y, prev.theta).between(Pose2(odom.x, odom.y, odom.theta))
+        ds = math.copysign(math.hypot(d.x, d.y), d.x)  # [m] forward along the chord
+        if abs(ds) > self.cfg.max_odom_step:
+            return "jump"  # restart the chain from this sample
+        self._move(ds, d.theta, prev.t, odom.t)
+        return None
+
+    def on_fix(self, fix: m.VpsPose, t_arrival: float) -> m.Fix:
+        """Use (or reject) a fix; returns its audit record."""
+        latency = t_arrival - fix.t
+        self._latencies.append(latency)
+        if self.odom is None:
+            res = FixResult(False, "no_odom_yet")
+        elif fix.t < self.t_set:
+            res = FixResult(False, "before_set_pose")
+        elif fix.t > self.odom.t + self.cfg.future_tolerance:
+            res = FixResult(False, "future")
+        else:
+            before = self._estimate()[0]
+            res = self._fix(fix, min(fix.t, self.odom.t), t_arrival)
+            after = self._estimate()[0]
+            delta = (after.x - before.x, after.y - before.y, wrap_angle(after.theta - before.theta))
+            self._pending = [a + b for a, b in zip(self._pending, delta)]
+            if res.accepted:
+                self.t_accepted = t_arrival
+        return m.Fix(
+            t=fix.t,
+            t_arrival=t_arrival,
+            latency=latency,
+            replay_depth=res.replay_depth,
+            innovation=res.innovation,
+            mahalanobis_d2=res.mahalanobis_d2,
+            accepted=res.accepted,
+            reason=res.reason,
+        )
+
+    def on_imu(self, imu: m.Imu) -> Optional[str]:
+        """Take a gyro sample (modes that use none ignore it); returns why it was dropped."""
+        return None
+
+    def on_compass(self, compass: m.Compass) -> None:
+        """Take a compass heading (modes that use none ignore it)."""
+
+    def get_pose(self) -> Optional[m.Pose]:
+        """The estimate at the newest odom sample (None before any odometry)."""
+        if self.odom is None:
+            return None
+        p, cov = self._estimate()
+        o = self.odom
+        return m.Pose(
+            t=o.t, x=p.x, y=p.y, theta=p.theta, v=o.v, omega=o.omega,
+            cov=cov, correction=self.correction, calibration=self.calibration(),
+        )
+
+    def set_pose(
+        self, t: float, x: Optional[float] = None, y: Optional[float] = None, theta: Optional[float] = None
+    ) -> Pose2:
+        """Reset any subset of the pose at time t; history cleared, older fixes ignored."""
+        self.t_set = t
+        given = (x, y, None if theta is None else wrap_angle(theta))
+        if self.odom is None:  # keep it for the first odom sample, with any given before
+            old = self._preset or (None, None, None)
+            self._preset = tuple(o if n is None else n for n, o in zip(given, old))
+            return Pose2(*(v or 0.0 for v in self._preset))
+        self._set(*given)
+        return self._estimate()[0]
+
+    def set_position(self, t: float, x: float, y: float) -> Pose2:
+        """Seed 004's setPosition."""
+        return self.set_pose(t, x=x, y=y)
+
+    def set_heading(self, t: float, theta: float) -> Pose2:
+        """Seed 004's setHeading."""
+        return self.set_pose(t, theta=theta)
+
+    @property
+    def latency(self) -> Optional[float]:
+        """[s] the VPS latency measured: median of arrival minus capture over recent fixes."""
+        return statistics.median(self._latencies) if self._latencies else None
+
+    def calibration(self) -> dict[str, float]:
+        """Online estimates of the odometry's errors (empty: the mode has none)."""
+        return {}
+
+    # ------------------------------------------------------------ a mode implements
+    def _start(self, pose: Pose2) -> None:
+        """The first odom sample: map = odom until a fix or set_pose says otherwise."""
+        raise NotImplementedError
+
+    def _move(self, ds: float, dth: float, t0: float, t: float) -> None:
+        """One odom increment from t0 to t [s]: ds [m] forward, dth [rad]."""
+        raise NotImplementedError
+
+    def _fix(self, fix: m.VpsPose, t: float, t_arrival: float) -> FixResult:
+        """Use a fix captured at t (no later than the newest odom sample)."""
+        raise NotImplementedError
+
+    def _set(self, x: Optional[float], y: Optional[float], theta: Optional[float]) -> None:
+        """Replace the given components of the estimate at the newest odom sample."""
+        raise NotImplementedError
+
+    def _estimate(self) -> tuple[Pose2, tuple[float, ...]]:
+        """(pose, row-major 3x3 covariance) at the newest odom sample."""
+        raise NotImplementedError

@@ -1,0 +1,220 @@
+"""The default mode: an EKF with a time-indexed history that applies late fixes at capture time.
+
+Every odom sample appends (t, increment, state, covariance) to the history. A fix
+captured at t_c is compared with the state interpolated at t_c, gated by its
+Mahalanobis distance, inserted there, and the history is re-integrated forward to
+the newest sample. A long run of rejected fixes means the filter, not the camera, is
+wrong: the pose covariance is inflated and a fix that the previous one confirms
+re-acquires. The state carries the odometry's and the gyro's calibration errors,
+which the fixes make observable. Gyro samples that come after their odom sample
+are filled into the history the same way.
+"""
+from __future__ import annotations
+
+import bisect
+import math
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from zenav.common import messages as m
+from zenav.common.config import Robot
+from zenav.common.geometry import Pose2, wrap_angle
+
+from . import model
+from .base import FixResult, LocalizerConfig, Mode, fix_cov
+from .gyro import GyroIntegral
+
+
+@dataclass
+class _Fix:
+    t: float  # [s] capture
+    z: np.ndarray  # (x, y, theta)
+    R: np.ndarray  # 3x3
+    reacquire: bool = False  # forget the pose before applying it
+
+
+@dataclass
+class _Candidate:
+    z: np.ndarray  # an unused fix (x, y, theta)
+    R: np.ndarray
+    s: np.ndarray  # the filter's pose at its capture time
+
+
+@dataclass
+class _Entry:
+    t: float  # [s] odom sample time
+    u: model.Step  # the increment from the previous entry
+    s: np.ndarray  # state after the increment and the fixes captured in (previous t, t]
+    P: np.ndarray
+    fixes: list[_Fix] = field(default_factory=list)  # accepted, by capture time
+
+
+class Ekf(Mode):
+    """Delayed-fix EKF with replay, gating, recovery and online calibration (`delayed=False`: fixes as if current)."""
+
+    def __init__(self, cfg: LocalizerConfig, robot: Robot, delayed: bool = True) -> None:
+        super().__init__(cfg, robot)
+        self.delayed = delayed
+        self.history: list[_Entry] = []  # oldest first; the first entry is at or before the horizon
+        self.rejections = 0  # consecutive rejected fixes
+        self.initialised = False  # a fix or a full set_pose has placed the robot in the map
+        self.candidate: Optional[_Candidate] = None  # the newest unused fix, to confirm the next one
+        self.gyro = GyroIntegral(cfg.history, cfg.gyro_max_gap)
+        self.gyro_used = False
+        tick = 2.0 * math.pi * robot.wheel_radius / (robot.ticks_per_rev or 360)
+        self.noise = model.Noise(
+            robot.track_width, tick, cfg.wheel_noise, cfg.calib_noise, cfg.gyro_noise**2, cfg.gyro_bias_noise**2
+        )
+        self._unknown = np.diag([cfg.unknown_sigma_xy**2] * 2 + [math.pi**2])  # pose covariance when lost
+
+    # ------------------------------------------------------------ filter steps
+    def _apply(self, s: np.ndarray, P: np.ndarray, f: _Fix):
+        if f.reacquire:
+            P = P.copy()
+            P[model.POSE, :] = 0.0
+            P[:, model.POSE] = 0.0
+            P[model.POSE, model.POSE] = self._unknown
+        nu, S, _ = model.innovation(s, P, f.z, f.R)
+        return model.update(s, P, nu, S, f.R)
+
+    def _advance(self, s: np.ndarray, P: np.ndarray, t0: float, e: _Entry, until: float = math.inf):
+        """Integrate entry e's increment from time t0, applying its fixes, up to `until` [s]."""
+        end = min(e.t, until)
+        span = e.t - t0
+        done = 0.0  # fraction of the increment integrated so far
+        for f in e.fixes:
+            if f.t > end:
+                break
+            frac = (f.t - t0) / span
+            s, P = model.predict(s, P, e.u.part(frac - done), self.noise)
+            s, P = self._apply(s, P, f)
+            done = frac
+        frac = (end - t0) / span
+        if frac > done:
+            s, P = model.predict(s, P, e.u.part(frac - done), self.noise)
+        return s, P
+
+    def _replay(self, k: int) -> None:
+        """Recompute entries k.. from entry k-1."""
+        for i in range(k, len(self.history)):
+            prev, e = self.history[i - 1], self.history[i]
+            e.s, e.P = self._advance(prev.s, prev.P, prev.t, e)
+
+    def _agrees(self, a: Optional[_Candidate], b: _Candidate) -> bool:
+        """Whether fix b is where fix a and the odometry since a say the robot is."""
+        if a is None:
+            return False
+        pred = Pose2(*a.z).compose(Pose2(*a.s).between(Pose2(*b.s)))
+        nu = b.z - np.array(pred)
+        nu[2] = wrap_angle(nu[2])
+        return float(nu @ np.linalg.solve(a.R + b.R, nu)) <= self.cfg.gate
+
+    # ------------------------------------------------------------ mode hooks
+    def on_imu(self, imu: m.Imu) -> Optional[str]:
+        if not self.gyro.add(imu.t, imu.gyro_z):
+            return "stale"
+        if not self.history:
+            return None
+        first = None  # fill the increments the gyro now covers, then re-integrate from there
+        for i in range(len(self.history) - 1, 0, -1):
+            e = self.history[i]
+            start = e.t - e.u.dt
+            if e.u.gyro is not None or start < self.gyro.t[0]:
+                break
+            g = self.gyro.between(start, e.t)
+            if g is not None:
+                e.u = model.Step(e.u.ds, e.u.dth, e.u.dt, g)
+                first = i
+        if first is not None:
+            self.gyro_used = True
+            self._replay(first)
+        return None
+
+    def _start(self, pose: Pose2) -> None:
+        P = np.zeros((model.N, model.N))
+        P[model.POSE, model.POSE] = self._unknown
+        for i in (model.ES, model.EW, model.ED, model.SG):
+            P[i, i] = self.cfg.calib_sigma**2
+        P[model.BG, model.BG] = self.cfg.gyro_bias_sigma**2
+        self.history = [_Entry(self.odom.t, model.Step(0.0, 0.0, 0.0), np.array([*pose, 0.0, 0.0, 0.0, 0.0, 0.0]), P)]
+
+    def _move(self, ds: float, dth: float, t0: float, t: float) -> None:
+        last = self.history[-1]
+        g = self.gyro.between(t0, t)
+        self.gyro_used = self.gyro_used or g is not None
+        u = model.Step(ds, dth, t - t0, g)
+        s, P = model.predict(last.s, last.P, u, self.noise)
+        self.history.append(_Entry(t, u, s, P))
+        drop = bisect.bisect_left(self.history, t - self.cfg.history, key=lambda e: e.t)
+        if drop > 1:
+            del self.history[: drop - 1]
+
+    def _fix(self, fix: m.VpsPose, t: float, t_arrival: float) -> FixResult:
+        z = np.array([fix.x, fix.y, fix.theta])
+        R = fix_cov(fix, self.cfg)
+        if self.delayed:
+            if t < self.history[0].t:
+                return FixResult(False, "too_old")
+            k = bisect.bisect_left(self.history, t, key=lambda e: e.t)
+        else:  # as if captured at the newest sample
+            k = len(self.history) - 1
+            t = self.history[k].t
+        e = self.history[k]
+        in_place = k == 0 or not self.delayed  # the fix is at the entry's own time
+        if in_place:
+            s, P = e.s, e.P
+        else:
+            prev = self.history[k - 1]
+            s, P = self._advance(prev.s, prev.P, prev.t, e, t)
+        nu, S, d2 = model.innovation(s, P, z, R)
+        innovation = (float(nu[0]), float(nu[1]), float(nu[2]))
+        reason = "accepted"
+        if not self.initialised or d2 > self.cfg.gate:
+            # Start (again) only from a fix the previous unused one agrees with: never from a lone outlier.
+            candidate, self.candidate = self.candidate, _Candidate(z, R, s[model.POSE].copy())
+            confirmed = self._agrees(candidate, self.candidate)
+            if not self.initialised:
+                if not confirmed:
+                    return FixResult(False, "unconfirmed", innovation, d2)
+                reason = "initialised"
+            else:
+                self.rejections += 1
+                if self.rejections < self.cfg.recover_after or not confirmed:
+                    return FixResult(False, "outlier", innovation, d2)
+                reason = "reacquired"
+        self.rejections, self.candidate, self.initialised = 0, None, True
+        f = _Fix(t, z, R, reacquire=reason == "reacquired")
+        if in_place:
+            e.s, e.P = self._apply(e.s, e.P, f)
+            k += 1
+        else:
+            bisect.insort(e.fixes, f, key=lambda x: x.t)
+        self._replay(k)
+        return FixResult(True, reason, innovation, d2, len(self.history) - k)
+
+    def _set(self, x: Optional[float], y: Optional[float], theta: Optional[float]) -> None:
+        last = self.history[-1]
+        s, P = last.s.copy(), last.P.copy()
+        for i, value, sigma in (
+            (model.X, x, self.cfg.set_pose_sigma_xy),
+            (model.Y, y, self.cfg.set_pose_sigma_xy),
+            (model.TH, theta, self.cfg.set_pose_sigma_theta),
+        ):
+            if value is not None:
+                s[i] = value
+                P[i, :] = 0.0
+                P[:, i] = 0.0
+                P[i, i] = sigma**2
+        self.initialised = self.initialised or None not in (x, y, theta)
+        self.rejections, self.candidate = 0, None
+        self.history = [_Entry(last.t, model.Step(0.0, 0.0, 0.0), s, P)]
+
+    def _estimate(self) -> tuple[Pose2, tuple[float, ...]]:
+        e = self.history[-1]
+        cov = e.P[model.POSE, model.POSE]
+        return Pose2(float(e.s[0]), float(e.s[1]), float(e.s[2])), tuple(float(c) for c in cov.flat)
+
+    def calibration(self) -> dict[str, float]:
+        return model.calibration(self.history[-1].s, self.robot.track_width, self.gyro_used)

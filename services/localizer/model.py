@@ -1,0 +1,181 @@
+"""The EKF's motion and measurement model, as pure functions on numpy arrays.
+
+State (map frame): x [m], y [m], theta [rad]; the odometry's calibration errors
+relative to the nominal geometry: es (distance scale: mean wheel radius), ew (track
+width), ed (half the right-minus-left wheel radius difference); and the gyro's bias
+bg [rad/s] and scale error sg.
+
+Input: one odom increment (ds [m] forward, dth [rad]) computed with the nominal
+geometry, over dt [s], and optionally the gyro's integral over the same span. When
+the gyro is there, the two heading increments are fused by their variances and
+their difference is a measurement of the calibration states (that is how the track
+width is learnt while the gyro steers the heading).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from zenav.common.geometry import wrap_angle
+
+# Squared sigmas: an odometry heading step further than this from the gyro's is not
+# the wheels' doing (an odometry that resets its heading from a compass, a glitch).
+ODOM_GATE = 25.0
+N = 8  # state size
+X, Y, TH, ES, EW, ED, BG, SG = range(N)
+POSE = slice(0, 3)
+H = np.eye(3, N)  # a fix observes x, y, theta
+
+
+@dataclass(frozen=True)
+class Noise:
+    """The filter's noise model."""
+
+    track: float  # [m] nominal track width
+    tick: float  # [m] wheel travel per encoder tick
+    wheel_var: float  # [m^2/m] slip variance of each wheel's travel per metre it travels
+    calib_var: float  # [1/m] random walk of each odometry calibration error per metre driven
+    gyro_var: float  # [rad^2/s] angle random walk of the integrated gyro
+    bias_var: float  # [rad^2/s^3] random walk of the gyro bias
+
+
+@dataclass(frozen=True)
+class Step:
+    """One odom increment, with the gyro's integral over it when known."""
+
+    ds: float  # [m] forward, nominal geometry
+    dth: float  # [rad] nominal geometry
+    dt: float  # [s]
+    gyro: Optional[float] = None  # [rad] raw gyro rate integrated over dt
+
+    def part(self, f: float) -> Step:
+        """The fraction f of this increment."""
+        return Step(self.ds * f, self.dth * f, self.dt * f, None if self.gyro is None else self.gyro * f)
+
+
+def _odom_heading(s: np.ndarray, u: Step, track: float) -> tuple[float, np.ndarray]:
+    """The odometry's heading increment corrected by the calibration, and its derivative."""
+    es, ew, ed = s[ES], s[EW], s[ED]
+    k = 1.0 + ew
+    # Wheels: nominal travel dl, dr = ds -+ track*dth/2; true = nominal*(1 + es -+ ed).
+    dth = (u.dth * (1.0 + es) + 2.0 * ed * u.ds / track) / k
+    J = np.zeros(N)
+    J[ES], J[EW], J[ED] = u.dth / k, -dth / k, 2.0 * u.ds / (track * k)
+    return dth, J
+
+
+def _wheel_vars(u: Step, nz: Noise) -> tuple[float, float, float]:
+    """(slip variance of each wheel [m^2] summed, their difference, and the tick rounding part)."""
+    dl, dr = abs(u.ds - nz.track * u.dth / 2.0), abs(u.ds + nz.track * u.dth / 2.0)
+    var_l, var_r = nz.wheel_var * dl, nz.wheel_var * dr
+    # Rounding to ticks does not accumulate (counts are cumulative): it only matters
+    # when one increment is compared with the gyro's. A wheel may turn less than a
+    # tick in a step and show nothing: the gyro says how far it went.
+    if u.gyro is not None:
+        dl, dr = max(dl, abs(u.ds - nz.track * u.gyro / 2.0)), max(dr, abs(u.ds + nz.track * u.gyro / 2.0))
+    rounding = min(nz.tick * dl, nz.tick**2 / 6.0) + min(nz.tick * dr, nz.tick**2 / 6.0)
+    return var_l + var_r, var_r - var_l, rounding
+
+
+def _gyro_heading(s: np.ndarray, u: Step) -> tuple[float, np.ndarray]:
+    """The gyro's increment corrected by its bias and scale, and its derivative."""
+    k = 1.0 + s[SG]
+    g = (u.gyro - s[BG] * u.dt) / k
+    J = np.zeros(N)
+    J[BG], J[SG] = -u.dt / k, -g / k
+    return g, J
+
+
+def _learn_from_gyro(s: np.ndarray, P: np.ndarray, u: Step, var_odom: float, nz: Noise):
+    """Update (state, covariance) with the odometry's heading increment, predicted from the gyro's.
+
+    The gyro's is the far less noisy one; the other way round, tick rounding in the
+    odometry's increment would bias the scale estimates.
+    """
+    g, Jg = _gyro_heading(s, u)
+    ke, kw = 1.0 + s[ES], 1.0 + s[EW]
+    pred = (g * kw - 2.0 * s[ED] * u.ds / nz.track) / ke  # the odometry's dth if the state is right
+    h = Jg * kw / ke
+    h[ES] -= pred / ke
+    h[EW] += g / ke
+    h[ED] -= 2.0 * u.ds / (nz.track * ke)
+    S = float(h @ P @ h) + var_odom + nz.gyro_var * u.dt
+    nu = u.dth - pred
+    if nu * nu > ODOM_GATE * S:  # not the wheels' doing: the odometry's heading was corrected
+        return s, P
+    K = (P @ h) / S
+    return s + K * nu, P - np.outer(K, h @ P)
+
+
+def predict(s: np.ndarray, P: np.ndarray, u: Step, nz: Noise) -> tuple[np.ndarray, np.ndarray]:
+    """Propagate (state, covariance) through one increment.
+
+    Without the gyro, the calibrated odometry turns the heading; with it, the gyro
+    does, and the odometry's heading increment teaches the calibration.
+    """
+    var_sum, var_diff, rounding = _wheel_vars(u, nz)
+    if u.gyro is None:
+        dth, J = _odom_heading(s, u, nz.track)
+        kb = nz.track * (1.0 + s[EW])
+        var_dth, cov_ds_dth = var_sum / kb**2, var_diff / (2.0 * kb)
+    else:
+        s, P = _learn_from_gyro(s, P, u, (var_sum + rounding) / nz.track**2, nz)
+        dth, J = _gyro_heading(s, u)
+        var_dth, cov_ds_dth = nz.gyro_var * u.dt, 0.0
+    ds_t = u.ds * (1.0 + s[ES]) + s[ED] * nz.track * u.dth / 2.0
+    phi = s[TH] + dth / 2.0
+    c, sn = math.cos(phi), math.sin(phi)
+    out = s.copy()
+    out[X] += ds_t * c
+    out[Y] += ds_t * sn
+    out[TH] = wrap_angle(s[TH] + dth)
+    d_ds = np.zeros(N)  # d(ds_t)/d(state)
+    d_ds[ES], d_ds[ED] = u.ds, nz.track * u.dth / 2.0
+    F = np.eye(N)
+    F[X] += d_ds * c - ds_t * sn * J / 2.0
+    F[Y] += d_ds * sn + ds_t * c * J / 2.0
+    F[TH] += J
+    F[X, TH] -= ds_t * sn
+    F[Y, TH] += ds_t * c
+    G = np.array([[c, -ds_t * sn / 2.0], [sn, ds_t * c / 2.0], [0.0, 1.0]])  # d(x, y, theta)/d(ds, dth)
+    Q = np.zeros((N, N))
+    Q[POSE, POSE] = G @ np.array([[var_sum / 4.0, cov_ds_dth], [cov_ds_dth, var_dth]]) @ G.T
+    Q[ES, ES] = Q[EW, EW] = Q[ED, ED] = nz.calib_var * (abs(u.ds) + nz.track * abs(u.dth) / 2.0)
+    Q[BG, BG] = nz.bias_var * u.dt
+    return out, F @ P @ F.T + Q
+
+
+def innovation(s: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """(innovation, its covariance S, squared Mahalanobis distance) of a pose fix z."""
+    nu = z - s[POSE]
+    nu[2] = wrap_angle(nu[2])
+    S = P[POSE, POSE] + R
+    return nu, S, float(nu @ np.linalg.solve(S, nu))
+
+
+def update(s: np.ndarray, P: np.ndarray, nu: np.ndarray, S: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The EKF update with a pose fix (Joseph form, symmetric result)."""
+    K = np.linalg.solve(S, P[POSE, :]).T  # P H^T S^-1, with S symmetric
+    out = s + K @ nu
+    out[TH] = wrap_angle(out[TH])
+    IKH = np.eye(N) - K @ H
+    P_new = IKH @ P @ IKH.T + K @ R @ K.T
+    return out, (P_new + P_new.T) / 2.0
+
+
+def calibration(s: np.ndarray, track: float, gyro: bool) -> dict[str, float]:
+    """The calibration estimates in user terms (true / nominal); the gyro's once it has been used."""
+    es, ew, ed = float(s[ES]), float(s[EW]), float(s[ED])
+    out = {
+        "distance_scale": 1.0 + es,  # true / nominal mean wheel radius
+        "track_width_scale": 1.0 + ew,  # true / nominal track width
+        "wheel_radius_ratio": (1.0 + es - ed) / (1.0 + es + ed),  # left / right
+        "track_width": track * (1.0 + ew),  # [m]
+    }
+    if gyro:
+        out["gyro_bias"] = float(s[BG])  # [rad/s]
+        out["gyro_scale"] = 1.0 + float(s[SG])  # measured / true rate
+    return out

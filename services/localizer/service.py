@@ -1,0 +1,100 @@
+"""The localizer service: odometry and late VPS fixes in, the pose in the map frame out."""
+from __future__ import annotations
+
+from typing import Optional
+
+from zenav.common import messages as m
+from zenav.common.runtime import QueryError, Service, publish, query, subscribe, timer
+
+from .base import LocalizerConfig
+from .modes import make_mode
+
+
+class Localizer(Service):
+    """Publishes `pose` for every odom sample and an audit record for every fix."""
+
+    name = "localizer"
+    config_type = LocalizerConfig
+    health_period = 0.5  # [s] how often the diag status is re-evaluated
+
+    def __init__(self, *args) -> None:
+        super().__init__(*args)
+        self.mode = make_mode(self.cfg, self.settings.robot)
+
+    def on_clock_reset(self) -> None:
+        """The sim restarted: the world and its odometry start again, and so does the estimate."""
+        self.mode = make_mode(self.cfg, self.settings.robot)
+
+    @subscribe("odom")
+    @publish("pose")
+    def on_odom(self, msg: m.Odom) -> Optional[m.Pose]:
+        """One odom sample: the pose at its t."""
+        dropped = self.mode.on_odom(msg)
+        if dropped == "stale":
+            self.count("dropped_stale")
+            self.warn("odom_stale", f"odom t={msg.t:.3f} is not after the previous sample: dropped")
+            return None
+        if dropped == "jump":
+            self.count("odom_jumps")
+            self.warn("odom_jump", f"odom jumped at t={msg.t:.3f} (odometry restarted?): continuing from it")
+        return self.mode.get_pose()
+
+    @subscribe("sensors/imu")
+    def on_imu(self, msg: m.Imu) -> None:
+        """One gyro sample, for the modes that use it."""
+        if self.mode.on_imu(msg) == "stale":
+            self.count("dropped_stale")
+
+    @subscribe("sensors/compass")
+    def on_compass(self, msg: m.Compass) -> None:
+        """One compass heading, for the modes that use it."""
+        self.mode.on_compass(msg)
+
+    @subscribe("vps/pose")
+    @publish("localizer/fixes")
+    def on_fix(self, msg: m.VpsPose) -> m.Fix:
+        """One VPS fix, arrived now: its audit record."""
+        rec = self.mode.on_fix(msg, self.clock.now())
+        self.count(f"fixes_{rec.reason}")
+        return rec
+
+    @query("localizer/pose")
+    def get_pose(self, req: m.Empty, q) -> m.LocalizerPoseReply:
+        """getPose: the newest estimate, its calibration and the measured VPS latency."""
+        p = self.mode.get_pose()
+        if p is None:
+            raise QueryError("unavailable", "no odometry received yet")
+        return m.LocalizerPoseReply(
+            t=p.t, x=p.x, y=p.y, theta=p.theta, cov=p.cov, calibration=p.calibration, vps_latency=self.mode.latency
+        )
+
+    @query("localizer/set_pose")
+    def set_pose(self, req: m.SetPose, q) -> m.PoseStamped:
+        """setPose / setPosition / setHeading: any subset of x, y, theta, from now on."""
+        now = self.clock.now()
+        p = self.mode.set_pose(now, req.x, req.y, req.theta)
+        self.log.info("set_pose x=%s y=%s theta=%s at t=%.3f", req.x, req.y, req.theta, now)
+        t = self.mode.odom.t if self.mode.odom is not None else now
+        return m.PoseStamped(t=t, x=p.x, y=p.y, theta=p.theta)
+
+    @timer("health_period")
+    def check_health(self, now: float) -> None:
+        """Degraded while no fix has been accepted for a while; report a latency far from the expected one."""
+        notes = []
+        latency = self.mode.latency
+        if latency is not None:
+            notes.append(f"vps latency {latency:.3f} s")
+            expected = self.cfg.expected_latency
+            if abs(latency - expected) > self.cfg.latency_tolerance:
+                notes.append(f"expected {expected:.3f} s")
+                self.warn("latency", f"measured VPS latency {latency:.3f} s, config expects {expected:.3f} s")
+        status = "ok"
+        if self.cfg.mode != "dead_reckoning":
+            last = self.mode.t_accepted
+            if last is None:
+                status = "degraded"
+                notes.insert(0, "no VPS fix accepted yet")
+            elif now - last > self.cfg.stale_fix:
+                status = "degraded"
+                notes.insert(0, f"no VPS fix accepted for {now - last:.1f} s")
+        self.set_status(status, "; ".join(notes))

@@ -1,0 +1,5 @@
+from zenav.common.app import main
+
+from .service import Motor
+
+raise SystemExit(main(Motor))

@@ -1,0 +1,5 @@
+from zenav.common.app import main
+
+from .service import Navigator
+
+raise SystemExit(main(Navigator))

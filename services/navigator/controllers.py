@@ -1,0 +1,130 @@
+"""Point trackers, each `(pose, target, params) -> (v, omega)`, and the wheel limits.
+
+- `RotationPid` (seed 003): a PID on the bearing to the goal, with a forward speed
+  proportional to the distance that falls to zero while the bearing error is large.
+- `polar` (seed 002, Siegwart's rho/alpha/beta): v = k_rho rho, omega = k_alpha alpha +
+  k_beta beta, driving backwards when the goal starts behind.
+- `proportional` (seed 000): forward speed proportional to the distance, weighted by
+  the cosine of the bearing error, and a proportional turn toward the goal.
+"""
+from __future__ import annotations
+
+import math
+from typing import Callable, NamedTuple
+
+from zenav.common.geometry import wrap_angle
+from zenav.services.navigator.params import Params
+
+
+class PoseSample(NamedTuple):
+    """The robot's estimated state at time t (map frame)."""
+
+    t: float  # [s]
+    x: float  # [m]
+    y: float  # [m]
+    theta: float  # [rad]
+    v: float = 0.0  # [m/s] measured forward speed
+    omega: float = 0.0  # [rad/s] measured turn rate
+
+
+class Target(NamedTuple):
+    """A point to reach, the heading to arrive with, and the speed limit."""
+
+    x: float  # [m]
+    y: float  # [m]
+    theta: float  # [rad] approach heading (the direction of travel, reversed when backing)
+    speed: float  # [m/s] forward speed limit of the goal
+    reverse: bool = False  # drive backwards to it (polar, goal behind at the start)
+
+
+class Wheelbase(NamedTuple):
+    """The nominal geometry the wheel speed limit is computed with."""
+
+    track: float  # [m]
+    radius: float  # [m]
+    max_wheel_speed: float  # [rad/s]
+
+
+Controller = Callable[[PoseSample, Target, Params], tuple[float, float]]
+
+
+def make_target(pose: PoseSample, x: float, y: float, speed: float, allow_reverse: bool) -> Target:
+    """The target (x, y) approached from `pose`; backwards if allowed and it lies behind."""
+    bearing = math.atan2(y - pose.y, x - pose.x)
+    reverse = allow_reverse and abs(wrap_angle(bearing - pose.theta)) > math.pi / 2
+    return Target(x, y, wrap_angle(bearing + math.pi) if reverse else bearing, speed, reverse)
+
+
+def check_polar_gains(k_rho: float, k_alpha: float, k_beta: float) -> None:
+    """Raise ValueError unless the gains meet the strong stability condition (Siegwart)."""
+    margin = k_alpha + 5.0 / 3.0 * k_beta - 2.0 / math.pi * k_rho
+    if k_rho <= 0 or k_beta >= 0 or margin <= 0:
+        raise ValueError(
+            f"unstable polar gains k_rho={k_rho}, k_alpha={k_alpha}, k_beta={k_beta}: the strong stability "
+            f"condition needs k_rho > 0, k_beta < 0 and k_alpha + 5/3 k_beta - 2/pi k_rho > 0 (it is {margin:.3g})"
+        )
+
+
+def _bearing_error(pose: PoseSample, target: Target) -> tuple[float, float]:
+    """Distance [m] and bearing error [rad] from the pose to the target point."""
+    dx, dy = target.x - pose.x, target.y - pose.y
+    return math.hypot(dx, dy), wrap_angle(math.atan2(dy, dx) - pose.theta)
+
+
+def _clamp(value: float, low: float, high: float) -> float:
+    return max(low, min(high, value))
+
+
+class RotationPid:
+    """Seed 003: rotation PID toward the goal, proportional forward speed."""
+
+    def __init__(self) -> None:
+        self.integral = 0.0  # [rad * s]
+        self.t: float | None = None  # [s] time of the previous call
+
+    def __call__(self, pose: PoseSample, target: Target, params: Params) -> tuple[float, float]:
+        dist, err = _bearing_error(pose, target)
+        dt = 0.0 if self.t is None else max(pose.t - self.t, 0.0)
+        self.t = pose.t
+        self.integral = _clamp(self.integral + err * dt, -params.pid_i_limit, params.pid_i_limit)
+        omega = params.pid_kp * err + params.pid_ki * self.integral - params.pid_kd * pose.omega
+        v = _clamp(params.pid_speed_gain * dist, params.min_speed, target.speed)
+        return v * max(0.0, 1.0 - abs(err) / params.pid_heading_limit), omega
+
+
+def polar(pose: PoseSample, target: Target, params: Params) -> tuple[float, float]:
+    """Seed 002: rho/alpha/beta tracking, speed scaled down to the limit, keeping the curvature."""
+    rho, alpha = _bearing_error(pose, target)
+    beta = wrap_angle(target.theta - pose.theta - alpha)
+    if target.reverse:  # the back of the robot is its front
+        alpha, beta = wrap_angle(alpha + math.pi), wrap_angle(beta + math.pi)
+    v = params.k_rho * rho
+    omega = params.k_alpha * alpha + params.k_beta * beta
+    if v > target.speed:
+        omega *= target.speed / v
+        v = target.speed
+    v = max(v, params.min_speed)
+    return (-v, omega) if target.reverse else (v, omega)
+
+
+def proportional(pose: PoseSample, target: Target, params: Params) -> tuple[float, float]:
+    """Seed 000: speed proportional to the distance, turn proportional to the bearing error."""
+    dist, err = _bearing_error(pose, target)
+    v = _clamp(params.prop_speed_gain * dist, params.min_speed, target.speed)
+    return v * max(0.0, math.cos(err)), params.prop_heading_gain * err
+
+
+def make(name: str) -> Controller:
+    """A fresh controller by config name (pid keeps state: one per target)."""
+    return {"pid": RotationPid, "polar": lambda: polar, "proportional": lambda: proportional}[name]()
+
+
+def limit(v: float, omega: float, max_turn_speed: float, wheels: Wheelbase) -> tuple[float, float]:
+    """Scale (v, omega) down together, keeping the curvature, to the turn and wheel limits."""
+    scale = 1.0
+    if abs(omega) > max_turn_speed:
+        scale = max_turn_speed / abs(omega)
+    wheel = (abs(v) + abs(omega) * wheels.track / 2.0) / wheels.radius  # [rad/s] the faster wheel
+    if wheel * scale > wheels.max_wheel_speed:
+        scale = wheels.max_wheel_speed / wheel
+    return v * scale, omega * scale

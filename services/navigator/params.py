@@ -1,0 +1,51 @@
+"""The navigator's tunables: the `[navigator]` config section (documented in config/default.toml)."""
+from __future__ import annotations
+
+from typing import Annotated, Literal, get_args
+
+from msgspec import Meta, Struct
+
+Pos = Annotated[float, Meta(gt=0.0, le=1e3)]
+NonNeg = Annotated[float, Meta(ge=0.0, le=1e3)]
+Gain = Annotated[float, Meta(ge=-1e3, le=1e3)]
+
+ControllerName = Literal["pid", "polar", "proportional"]
+CONTROLLERS: tuple[str, ...] = get_args(ControllerName)
+
+
+class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """Speeds, tolerances, checks and controller gains of the navigator."""
+
+    controller: ControllerName = "pid"  # point tracker: pid (seed 003), polar (seed 002), proportional (seed 000)
+    speed: Pos = 0.2  # [m/s] forward speed of a goal that names none
+    max_speed: Pos = 0.3  # [m/s] forward speed limit; faster requests are clamped
+    min_speed: NonNeg = 0.03  # [m/s] slowest forward command while moving (above the motor deadband)
+    decel: Pos = 0.5  # [m/s^2] braking into a goal point or the end of a straight
+    turn_speed: Pos = 2.0  # [rad/s] turn rate of a turn that names none
+    max_turn_speed: Pos = 3.0  # [rad/s] turn rate limit; faster requests are clamped
+    min_turn_speed: NonNeg = 0.4  # [rad/s] slowest turn command while turning (above the motor deadband)
+    turn_decel: Pos = 4.0  # [rad/s^2] braking into a target heading
+    tolerance: Pos = 0.01  # [m] goal position tolerance of a goal that names none
+    heading_tolerance: Pos = 0.0175  # [rad] heading tolerance of a turn that names none (1 deg)
+    stop_lead: NonNeg = 0.06  # [s] arrival is judged on the pose predicted this far ahead (motor lag)
+    settle_time: NonNeg = 0.2  # [s] after arriving, zero is held this long before the goal succeeds
+    progress_timeout: Pos = 5.0  # [s] a goal without progress for this long aborts
+    progress_distance: Pos = 0.01  # [m] the least gain toward a position goal that counts as progress
+    progress_angle: Pos = 0.02  # [rad] the least gain toward a heading that counts as progress
+    stale_after: Pos = 0.5  # [s] a goal aborts when the newest pose is older than this
+    lease_grace: Pos = 0.5  # [s] how long a goal's lease token may take to be seen alive
+    check_period: Pos = 0.05  # [s] period of the stale pose, progress and lease checks
+    state_period: Pos = 0.2  # [s] period of nav/state between changes (5 Hz)
+    pid_kp: Gain = 4.0  # [1/s] PID: heading error -> turn rate
+    pid_ki: Gain = 0.5  # [1/s^2] PID: integral of the heading error -> turn rate
+    pid_kd: Gain = 0.1  # [-] PID: turn rate taken off per unit of measured turn rate (damping)
+    pid_i_limit: NonNeg = 0.2  # [rad * s] PID: anti-windup bound on the integral
+    pid_speed_gain: Pos = 2.0  # [1/s] PID: forward speed per metre to the goal
+    pid_heading_limit: Pos = 1.0  # [rad] PID: forward speed falls linearly to zero at this heading error
+    k_rho: Gain = 3.0  # [1/s] polar: forward speed per metre to the goal (> 0)
+    k_alpha: Gain = 8.0  # [1/s] polar: turn rate per radian of bearing error
+    k_beta: Gain = -1.5  # [1/s] polar: turn rate per radian of approach-heading error (< 0)
+    prop_speed_gain: Pos = 2.0  # [1/s] proportional: forward speed per metre to the goal
+    prop_heading_gain: Pos = 4.0  # [1/s] proportional: turn rate per radian of bearing error
+    straight_heading_gain: Pos = 4.0  # [1/s] move_straight: turn rate per radian off the line heading
+    straight_track_gain: Pos = 10.0  # [1/m] move_straight: heading correction per metre of cross-track error

@@ -1,0 +1,132 @@
+"""The odometry state machine: encoder samples (and heading sensors) in, odom poses out.
+
+Pure: `update(state, params, left, right, t)` returns the new state, the odom message
+of the sample (None when the sample only sets a baseline or is dropped) and what
+happened. The covariance carries a per-wheel noise model (variance of a wheel's
+travel = k * |travel|) and the heading source's noise through the integrator's
+Jacobians.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple, Optional
+
+import numpy as np
+
+from zenav.common import messages as m
+from zenav.common.config import Robot
+from zenav.services.odometry import heading as hd
+from zenav.services.odometry import integrators
+
+# What a sample did (the service counts and logs these).
+OK = "ok"  # an odom pose
+FALLBACK = "fallback"  # an odom pose, but the heading source's sensor is missing
+BASELINE = "baseline"  # the first sample: only sets the tick baseline
+STALE = "stale"  # not newer than the previous sample: dropped
+RESET = "reset"  # an impossible tick jump: the encoders were reset, new baseline
+
+
+class Params(NamedTuple):
+    """Geometry and noise model of the odometry."""
+
+    metres_per_tick: float  # [m] wheel travel per encoder tick (nominal)
+    track: float  # [m] nominal track width
+    max_tick_rate: float  # [ticks/s] a wheel counting faster than this was reset
+    integrator: integrators.Integrator
+    k_left: float  # [m] variance of the left wheel's travel per metre travelled (m^2/m)
+    k_right: float  # [m]
+    heading: hd.HeadingParams
+
+
+def make_params(
+    robot: Robot, integrator: str, k_left: float, k_right: float, reset_factor: float, heading: hd.HeadingParams
+) -> Params:
+    """Params from the nominal robot; reset_factor times the max wheel speed is impossible."""
+    ticks = robot.ticks_per_rev
+    return Params(
+        metres_per_tick=math.pi * robot.wheel_diameter / ticks,
+        track=robot.track_width,
+        max_tick_rate=reset_factor * robot.max_wheel_speed * ticks / (2.0 * math.pi),
+        integrator=integrators.INTEGRATORS[integrator],
+        k_left=k_left,
+        k_right=k_right,
+        heading=heading,
+    )
+
+
+class OdometryState(NamedTuple):
+    """Everything the odometry remembers between samples."""
+
+    t: Optional[float] = None  # [s] newest encoder sample; None: no baseline yet
+    t0: float = 0.0  # [s] first sample: heading sensors count as missing only from t0 + timeout
+    left: int = 0  # [ticks] left count at t
+    right: int = 0  # [ticks]
+    t_moved: float = -math.inf  # [s] newest sample in which a wheel moved (the robot starts at rest)
+    x: float = 0.0  # [m] odom frame
+    y: float = 0.0  # [m]
+    theta: float = 0.0  # [rad] wrapped
+    cov: tuple[float, ...] = m.ZERO_COV  # 3x3 row-major over (x, y, theta)
+    imu: hd.Imu = hd.Imu()
+    compass: hd.Compass = hd.Compass()
+
+
+def tick_delta(new: int, old: int) -> int:
+    """new - old of a signed 32-bit counter that wraps around."""
+    return (new - old + 2**31) % 2**32 - 2**31
+
+
+def _propagate(
+    cov: tuple[float, ...], st: integrators.Step, h: hd.HeadingStep, p: Params, d_left: float, d_right: float
+) -> tuple[float, ...]:
+    """P' = F P F^T + J Q J^T + var g g^T: state, wheels, heading source."""
+    P = np.asarray(cov).reshape(3, 3)
+    F, G = st.F.copy(), st.G
+    # dtheta = (1 - keep) (heading - theta_old) + ...: that share of the old heading drops out
+    F[:, 2] -= (1.0 - h.keep) * G[:, 1]
+    w = h.enc_weight / p.track
+    J = G @ np.array([[0.5, 0.5], [-w, w]])  # d pose / d (d_left, d_right)
+    Q = np.diag([p.k_left * abs(d_left), p.k_right * abs(d_right)])
+    g = G[:, 1:2]
+    P = F @ P @ F.T + J @ Q @ J.T + h.var * (g @ g.T)
+    return tuple((0.5 * (P + P.T)).ravel().tolist())
+
+
+def update(s: OdometryState, p: Params, left: int, right: int, t: float) -> tuple[OdometryState, Optional[m.Odom], str]:
+    """One encoder sample (cumulative ticks, time t [s]): new state, odom or None, event."""
+    if s.t is None:
+        return s._replace(t=t, t0=t, left=left, right=right), None, BASELINE
+    dt = t - s.t
+    if dt <= 0.0:  # duplicate or out of order
+        return s, None, STALE
+    n_left, n_right = tick_delta(left, s.left), tick_delta(right, s.right)
+    limit = p.max_tick_rate * dt + 1.0  # one tick of quantisation always passes
+    if abs(n_left) > limit or abs(n_right) > limit:
+        return s._replace(t=t, left=left, right=right, t_moved=t), None, RESET
+    d_left, d_right = n_left * p.metres_per_tick, n_right * p.metres_per_tick
+    d = (d_left + d_right) / 2.0
+    imu, compass, h = hd.heading_step(
+        s.imu, s.compass, s.theta, s.t0, t, dt, (d_right - d_left) / p.track, d / dt, p.heading
+    )
+    st = integrators.step(s.x, s.y, s.theta, d, h.dtheta, p.integrator)
+    cov = _propagate(s.cov, st, h, p, d_left, d_right)
+    if n_left or n_right:
+        s, imu = s._replace(t_moved=t), hd.moved(imu)
+    state = s._replace(t=t, left=left, right=right, x=st.x, y=st.y, theta=st.theta, cov=cov, imu=imu, compass=compass)
+    odom = m.Odom(t=t, x=st.x, y=st.y, theta=st.theta, v=d / dt, omega=h.omega, cov=cov)
+    return state, odom, FALLBACK if h.fallback else OK
+
+
+def on_imu(s: OdometryState, p: Params, t: float, gyro_z: float, accel_y: float) -> tuple[OdometryState, str]:
+    """One IMU sample: gyro_z [rad/s], accel_y [m/s^2] body frame; event OK or STALE."""
+    if s.imu.t is not None and t <= s.imu.t:
+        return s, STALE
+    still = s.t is not None and t - s.t_moved >= p.heading.still_time
+    return s._replace(imu=hd.imu_sample(s.imu, t, gyro_z, accel_y, still, p.heading)), OK
+
+
+def on_compass(s: OdometryState, t: float, heading: float) -> tuple[OdometryState, str]:
+    """One compass heading [rad, map frame]; event OK or STALE."""
+    if s.compass.t is not None and t <= s.compass.t:
+        return s, STALE
+    at_start = s.t_moved == -math.inf  # no wheel has moved since the first sample
+    return s._replace(compass=hd.compass_sample(s.compass, t, heading, s.theta, at_start)), OK

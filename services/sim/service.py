@@ -1,0 +1,125 @@
+"""The sim service: steps the world at the sensor rate, publishes clock, truth and sensors."""
+from __future__ import annotations
+
+import math
+import time
+from typing import Annotated
+
+import numpy as np
+from msgspec import Meta, Struct
+
+from zenav.common import messages as m
+from zenav.common.bus import Bus, Query
+from zenav.common.clock import Clock, ScaledWallClock
+from zenav.common.config import Settings
+from zenav.common.runtime import Service, on_liveliness, query, subscribe, timer
+from zenav.services.sim import physics, sensors
+
+
+class SimConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """The [sim] section."""
+
+    rtf: Annotated[float, Meta(ge=0.1, le=100.0)] = 1.0  # realtime factor: sim seconds per wall second
+    x0: Annotated[float, Meta(ge=-1e3, le=1e3)] = 0.0  # [m] initial x, map frame
+    y0: Annotated[float, Meta(ge=-1e3, le=1e3)] = 0.0  # [m] initial y, map frame
+    theta0: Annotated[float, Meta(ge=-math.pi, le=math.pi)] = 0.0  # [rad] initial heading
+    command_timeout: Annotated[float, Meta(gt=0.0, le=60.0)] = 0.5  # [s] sim time without motors/wheels before the wheels stop
+    max_burst: Annotated[int, Meta(ge=1, le=10_000)] = 50  # [steps] most steps one tick catches up before resyncing
+    encoder_start: m.Ticks = 0  # [ticks] count both encoders read at start (to exercise the int32 wrap)
+
+
+class Sim(Service):
+    """The simulated world: the robot of the scenario, its sensors, and the stack clock."""
+
+    name = "sim"
+    config_type = SimConfig
+
+    def __init__(self, settings: Settings, bus: Bus, clock: Clock) -> None:
+        super().__init__(settings, bus, clock)
+        self.scen = settings.scenario
+        self.world = physics.world(settings.robot, self.scen)
+        self.rate = self.scen.sensor_rate_hz  # [Hz] physics steps and sensor samples
+        self.step_period = 1.0 / self.rate  # [s] of the scheduling clock, the tick timer's period
+        self.rng = np.random.default_rng(settings.deployment.seed)
+        self.state = physics.teleport(physics.State(), self.cfg.x0, self.cfg.y0, self.cfg.theta0)
+        self.steps = 0  # steps taken: sim time is steps / rate, never read from the wall
+        self.base = 0.0  # [s] scheduling-clock time of step 0 (moves forward on a resync)
+        self.cmd = (0.0, 0.0)  # [rad/s] wheel commands (left, right)
+        self.cmd_t: float | None = None  # [s] sim time the command arrived; None: wheels stopped
+        self.count("overruns", 0)
+        self.count("command_timeouts", 0)
+
+    @classmethod
+    def make_clock(cls, settings: Settings) -> Clock:
+        """The sim owns time: wall time scaled by the realtime factor."""
+        return ScaledWallClock(settings.section(cls.name, SimConfig).rtf)
+
+    def on_start(self) -> None:
+        self.base = self.clock.now()
+
+    @property
+    def t(self) -> float:
+        """Sim time [s] of the newest step."""
+        return self.steps / self.rate
+
+    @subscribe("motors/wheels")
+    def on_wheels(self, msg: m.Wheels) -> None:
+        self.cmd, self.cmd_t = (msg.left, msg.right), self.t
+
+    @on_liveliness("motor")
+    def motor_presence(self, alive: bool) -> None:
+        """A motor process that dies takes its token with it: stop the wheels at once."""
+        if not alive and self.cmd_t is not None:
+            self.cmd, self.cmd_t = (0.0, 0.0), None
+            self.count("motor_lost_stops")
+            self.warn("motor_lost", "motor service gone: wheels stopped")
+
+    @query("sim/reset")
+    def reset(self, req: m.SimReset, q: Query) -> m.PoseStamped:
+        if req.seed is not None:
+            self.rng = np.random.default_rng(req.seed)
+        self.state = physics.teleport(self.state, req.x, req.y, req.theta)
+        self.cmd, self.cmd_t = (0.0, 0.0), None
+        s = self.state
+        self.log.info("reset to (%.3f, %.3f, %.3f)%s", s.x, s.y, s.theta, f" seed {req.seed}" if req.seed is not None else "")
+        return m.PoseStamped(t=self.t, x=s.x, y=s.y, theta=s.theta)
+
+    @timer("step_period")
+    def tick(self, now: float) -> None:
+        """Take every step owed up to `now` of the scheduling clock, at most max_burst."""
+        owed = math.floor((now - self.base) * self.rate + 1e-6) - self.steps
+        if owed > self.cfg.max_burst:
+            # Too far behind (host too slow for the rtf, or stalled): drop the lost time.
+            self.count("overruns")
+            self.warn("overrun", f"sim fell {owed} steps behind; running {self.cfg.max_burst} and resyncing")
+            owed = self.cfg.max_burst
+            self.base = now - (self.steps + owed) / self.rate
+        for _ in range(owed):
+            self.advance()
+
+    def advance(self) -> None:
+        """One physics step of 1/rate seconds, then publish what the sensors saw."""
+        t = (self.steps + 1) / self.rate
+        if self.cmd_t is not None and t - self.cmd_t > self.cfg.command_timeout:
+            # Like a real motor board: no command for a while, stop the wheels.
+            self.cmd, self.cmd_t = (0.0, 0.0), None
+            self.count("command_timeouts")
+        self.state = s = physics.step(self.state, self.world, *self.cmd, self.step_period, self.rng)
+        self.steps += 1
+        tpr, start = self.scen.ticks_per_rev, self.cfg.encoder_start
+        gyro_z, accel_x, accel_y = sensors.imu(s, self.scen, self.rng)
+        self.publish("clock", m.Clock(t=t, rtf=self.cfg.rtf, wall=time.time()))
+        self.publish("sim/truth", m.Truth(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega))
+        self.publish(
+            "sensors/encoders",
+            m.Encoders(
+                t=t,
+                left=sensors.encoder_ticks(s.angle_left, tpr, start),
+                right=sensors.encoder_ticks(s.angle_right, tpr, start),
+            ),
+        )
+        self.publish("sensors/imu", m.Imu(t=t, gyro_z=gyro_z, accel_x=accel_x, accel_y=accel_y))
+        # Compass samples fall on the steps where its own schedule crosses a period.
+        ratio = self.scen.compass_rate_hz / self.rate
+        if math.floor(self.steps * ratio + 1e-6) > math.floor((self.steps - 1) * ratio + 1e-6):
+            self.publish("sensors/compass", m.Compass(t=t, heading=sensors.compass(s, self.scen, self.rng)))

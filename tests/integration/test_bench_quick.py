@@ -1,0 +1,36 @@
+"""A small slice of `zenav bench --quick`, end to end: every section measured briefly, the report written."""
+from __future__ import annotations
+
+import dataclasses
+
+from zenav.tools import bench, bench_report
+
+TINY = dataclasses.replace(
+    bench.QUICK,
+    raw_window=1.0, latency_window=2.0, sweep_window=2.0, rates=(100.0,), robots=(1,), speed_rtfs=(3.0,),
+    speed_harnesses=("in-process",),
+    modes=("ekf",), scenarios=("default",), laps=0.25, controllers=(bench.Spec().controller,), kinematic_seeds=1, limit=None,
+)
+
+
+def test_a_tiny_bench_writes_the_report_with_its_sections(tmp_path):
+    lines: list[str] = []
+    res = bench.run(TINY, tmp_path, "zenav bench (test slice)", say=lines.append)
+    path = bench_report.write(res, tmp_path)
+    text = path.read_text()
+    headings = [line.split(" (")[0] for line in text.splitlines() if line.startswith("#")]
+    assert headings == [
+        "# zenav benchmark", "## Targets", "## Latency", "## Cost", "### Sensor rate", "### Robots on one router",
+        "## Speed of simulation", "## Localization accuracy", "### default", "## Navigation",
+    ]
+    for png in ("latency.png", "run_ekf.png"):
+        assert (tmp_path / png).stat().st_size > 10_000
+    # the measurements are real: chains went through all five services, the robot drove and was localized
+    assert len(res.base.chain["end to end"]) > 50 and res.base.sim["r1"] > 1.0
+    assert res.robots[0].cpu_per_robot > 0.0
+    ekf = res.modes["ekf"]
+    assert ekf.goals == 1 and ekf.pose.n > 100 and ekf.pose.rmse < 0.10
+    assert set(ekf.replay) >= {"ekf", "dead_reckoning", "overwrite", "weighted", "weighted_latency"}
+    assert res.paths[TINY.controllers[0]][0].goals == 7  # the path, then six turns
+    assert [(r.harness, r.goals) for r in res.speed] == [("in-process", 7)]
+    assert any("speed" in line for line in lines)

@@ -1,0 +1,408 @@
+"""The navigator service on the in-memory bus with a manual clock, driving a kinematic robot."""
+import math
+
+import msgpack
+import pytest
+
+from zenav.common import codec, keys
+from zenav.common import messages as m
+from zenav.common.app import main
+from zenav.common.bus import MemoryBus
+from zenav.common.clock import ManualClock, SimClock
+from zenav.common.config import ConfigError, Settings
+from zenav.services.navigator.service import Navigator
+
+DT = 0.01  # [s] pose period
+LAG = 0.05  # [s] motor time constant (the default scenario's)
+
+
+class Rig:
+    """A navigator and a kinematic robot that follows its cmd_vel with a first-order lag."""
+
+    def __init__(self, **cfg):
+        self.bus, self.clock = MemoryBus(), ManualClock(100.0)
+        self.nav = Navigator(Settings.load(None, navigator=cfg), self.bus, self.clock)
+        self.nav.start()
+        self.x = self.y = self.theta = 0.0
+        self.cmd = (0.0, 0.0)  # last cmd_vel (v, omega)
+        self.vel = (0.0, 0.0)  # actual (v, omega)
+        self.moving = True  # False: the wheels are stuck, the commands do nothing
+        self.bus.subscribe("zenav/r1/cmd_vel", self._on_cmd)
+
+    def _on_cmd(self, key, data):
+        msg = codec.decode(data, m.CmdVel)
+        self.cmd = (msg.v, msg.omega)
+
+    def pose(self):
+        v, w = self.vel
+        msg = m.Pose(t=self.clock.now(), x=self.x, y=self.y, theta=self.theta, v=v, omega=w)
+        self.bus.publish("zenav/r1/pose", codec.encode(msg))
+        self.nav.drain()
+
+    def step(self, n=1, poses=True):
+        for _ in range(n):
+            if self.moving:
+                gain = 1.0 - math.exp(-DT / LAG)
+                self.vel = tuple(a + (c - a) * gain for a, c in zip(self.vel, self.cmd))
+                v, w = self.vel
+                self.x += v * math.cos(self.theta + w * DT / 2) * DT
+                self.y += v * math.sin(self.theta + w * DT / 2) * DT
+                self.theta = math.remainder(self.theta + w * DT, 2 * math.pi)
+            self.clock.advance(DT)
+            if poses:
+                self.pose()
+            else:
+                self.nav.drain()
+
+    def query(self, suffix, payload=None, params=None):
+        q = self.bus.query(keys.key("r1", suffix), codec.encode(payload) if payload is not None else b"", params)
+        self.nav.drain()
+        return q
+
+    def run_until(self, q, max_s=60.0):
+        """Step until the query has its reply (bounded)."""
+        for _ in range(round(max_s / DT)):
+            if q.replies:
+                break
+            self.step()
+        return reply(q)
+
+    def published(self, suffix):
+        return [codec.decode(d, keys.TOPICS[suffix]) for k, d in self.bus.published if k == keys.key("r1", suffix)]
+
+
+def reply(q, typ=m.GoalReply):
+    [(ok, data)] = q.replies
+    assert q.finished
+    return codec.decode(data, typ if ok else m.ErrorReply)
+
+
+@pytest.fixture
+def rig():
+    r = Rig()
+    r.pose()
+    yield r
+    r.nav.close()
+
+
+def test_move_to_point_waits_and_arrives_stopped(rig):
+    q = rig.query("nav/move_to_point", {"x": 0.5, "y": 0.2, "wait": True})
+    assert q.replies == []
+    rep = rig.run_until(q)
+    assert rep.result == "succeeded" and rep.goal_id == 1 and rep.speed == pytest.approx(0.2)
+    assert math.hypot(rig.x - 0.5, rig.y - 0.2) < 0.01
+    assert math.hypot(rep.pose.x - 0.5, rep.pose.y - 0.2) < 0.01
+    assert rig.cmd == (0.0, 0.0)
+    cmds = rig.published("cmd_vel")
+    assert all(c.t > 0 for c in cmds) and max(c.v for c in cmds) == pytest.approx(0.2, abs=1e-3)
+    states = [s.state for s in rig.published("nav/state")]
+    assert [a for a, b in zip(states, [None] + states) if a != b] == ["STOPPED", "MOVING_TO_POINT", "STOPPED"]
+    assert rig.published("nav/state")[-1].result == "succeeded"
+
+
+def test_cmd_vel_carries_the_pose_t(rig):
+    rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0})
+    rig.step(3)
+    assert rig.published("cmd_vel")[-1].t == pytest.approx(rig.clock.now())
+
+
+def test_turn_to_heading_turns_without_overshoot(rig):
+    q = rig.query("nav/turn_to_heading", {"heading": 1.5, "wait": True})
+    seen = []
+    for _ in range(500):
+        if q.replies:
+            break
+        rig.step()
+        seen.append(rig.theta)
+    assert reply(q).result == "succeeded"
+    assert abs(rig.theta - 1.5) < 0.0175 and max(seen) < 1.5 + 0.0175
+    assert math.hypot(rig.x, rig.y) < 1e-9
+
+
+def test_turn_to_point_faces_it(rig):
+    rep = rig.run_until(rig.query("nav/turn_to_point", {"x": -1.0, "y": -1.0, "wait": True}))
+    assert rep.result == "succeeded"
+    assert abs(math.remainder(rig.theta - math.atan2(-1, -1), 2 * math.pi)) < 0.0175
+
+
+def test_turn_to_point_where_the_robot_is_is_refused(rig):
+    err = reply(rig.query("nav/turn_to_point", {"x": 0.0, "y": 0.0}))
+    assert err.error == "invalid_argument" and "x, y" in err.message
+
+
+def test_move_straight_holds_the_line_and_stops_at_the_distance(rig):
+    rig.theta = 0.3
+    rig.pose()
+    q = rig.query("nav/move_straight", {"speed": 0.15, "distance": 0.4, "wait": True})
+    rig.step(20)
+    rig.y += 0.02  # a shove to the left of the line
+    for _ in range(2000):
+        if rig.nav.machine.result:
+            break
+        rig.step()
+    assert rig.nav.machine.result == "succeeded" and reply(q).result == "succeeded"
+    along = rig.x * math.cos(0.3) + rig.y * math.sin(0.3)
+    lateral = -rig.x * math.sin(0.3) + rig.y * math.cos(0.3)
+    assert along == pytest.approx(0.4, abs=0.005) and abs(lateral) < 0.005
+
+
+def test_move_straight_backwards_without_distance_runs_until_stop(rig):
+    rep = reply(rig.query("nav/move_straight", {"speed": -0.1}))
+    assert rep.state == "MOVING_STRAIGHT"
+    rig.step(100)
+    assert rig.x == pytest.approx(-0.1, abs=0.01) and abs(rig.y) < 1e-3
+    stop = reply(rig.query("nav/stop"), m.StopReply)
+    assert stop.state == "STOPPED" and rig.cmd == (0.0, 0.0)
+    assert rig.published("cmd_vel")[-1].t == 0.0  # "now": not computed from a pose
+    assert rig.nav.machine.result == "cancelled"
+
+
+def test_follow_path_in_order_with_feedback(rig):
+    q = rig.query("nav/follow_path", {"points": [[0.3, 0.0], [0.3, 0.3], [0.0, 0.3]], "wait": True})
+    next_points = set()
+    for _ in range(6000):
+        if q.replies:
+            break
+        rig.step()
+        next_points.add(rig.published("nav/state")[-1].next_point)
+    rep = reply(q)
+    assert rep.result == "succeeded" and math.hypot(rig.x, rig.y - 0.3) < 0.01
+    assert {0, 1, 2} <= next_points
+
+
+def test_nav_state_at_5_hz_with_feedback(rig):
+    rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0})
+    n0 = len(rig.published("nav/state"))
+    rig.step(100)
+    states = rig.published("nav/state")[n0:]
+    assert len(states) == 5
+    s = states[-1]
+    assert s.state == "MOVING_TO_POINT" and s.result is None and s.goal["type"] == "move_to_point"
+    assert s.distance_remaining == pytest.approx(1.0 - rig.x, abs=0.01)
+    assert s.eta == pytest.approx(s.distance_remaining / 0.2) and s.elapsed == pytest.approx(1.0, abs=0.02)
+    assert abs(s.heading_error) < 0.01 and abs(s.cross_track_error) < 1e-6
+
+
+def test_status(rig):
+    rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "speed": 0.1})
+    rig.step(10)
+    st = reply(rig.query("nav/status"), m.StatusReply)
+    assert st.state == "MOVING_TO_POINT" and st.is_moving and st.goal_id == 1 and st.result is None
+    assert st.goal["speed"] == pytest.approx(0.1) and st.pose.x == pytest.approx(rig.x)
+    assert st.distance_remaining == pytest.approx(1.0 - rig.x, abs=0.002)
+
+
+def test_preemption_answers_the_old_waiter_cancelled_without_a_stop(rig):
+    q1 = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "wait": True})
+    rig.step(50)
+    n = len(rig.published("cmd_vel"))
+    q2 = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.5})
+    old = reply(q1)
+    assert old.result == "cancelled" and "preempted" in old.message and old.goal_id == 1
+    assert reply(q2).goal_id == 2
+    rig.step()
+    assert all(c.v > 0 for c in rig.published("cmd_vel")[n:])  # a handover: no zero in between
+
+
+def test_stop_answers_the_waiter_and_commands_zero_at_once(rig):
+    q = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "wait": True})
+    rig.step(50)
+    reply(rig.query("nav/stop"), m.StopReply)
+    assert reply(q).result == "cancelled" and rig.cmd == (0.0, 0.0)
+
+
+def test_stale_pose_aborts_and_stops(rig):
+    q = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "wait": True})
+    rig.step(20)
+    for _ in range(100):
+        if q.replies:
+            break
+        rig.step(poses=False)
+    rep = reply(q)
+    assert rep.result == "aborted" and "stale" in rep.message and rig.cmd == (0.0, 0.0)
+    assert 0.5 < rig.clock.now() - rig.nav.machine.pose.t <= 0.56  # found within a check period
+
+
+def test_no_progress_aborts(rig):
+    rig.moving = False
+    q = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "wait": True})
+    for _ in range(700):
+        if q.replies:
+            break
+        rig.step()
+    rep = reply(q)
+    assert rep.result == "aborted" and "no progress" in rep.message and rig.cmd == (0.0, 0.0)
+    assert 5.0 <= rig.clock.now() - 100.0 <= 5.2
+
+
+def test_lease_lost_cancels_the_goal_and_stops(rig):
+    token = rig.bus.token("zenav/r1/lease/me")
+    q = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "wait": True, "lease": "zenav/r1/lease/me"})
+    rig.step(20)
+    assert rig.nav.machine.state == "MOVING_TO_POINT"
+    token.undeclare()
+    rig.step()
+    rep = reply(q)
+    assert rep.result == "aborted" and rep.message == "lease lost: zenav/r1/lease/me" and rig.cmd == (0.0, 0.0)
+
+
+def test_lease_seen_later_starts_the_goal(rig):
+    q = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "lease": "zenav/r1/lease/late"})
+    rig.step(10)
+    assert q.replies == [] and rig.nav.machine.state == "STOPPED"
+    rig.bus.token("zenav/r1/lease/late")
+    rig.step()
+    assert reply(q).state == "MOVING_TO_POINT"
+
+
+def test_a_newer_goal_supersedes_one_waiting_for_its_lease(rig):
+    q1 = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "lease": "zenav/r1/lease/slow"})
+    q2 = rig.query("nav/move_to_point", {"x": 0.0, "y": 1.0})
+    assert reply(q1).error == "unavailable" and reply(q2).goal_id == 1
+    rig.bus.token("zenav/r1/lease/slow")
+    rig.step()
+    assert rig.nav.machine.goal_id == 1 and rig.nav.machine.goal.points == ((0.0, 1.0),)
+
+
+def test_lease_never_seen_is_unavailable(rig):
+    q = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "lease": "zenav/r1/lease/nobody"})
+    rig.step(60)
+    err = reply(q)
+    assert err.error == "unavailable" and "zenav/r1/lease/nobody" in err.message
+    assert rig.nav.machine.state == "STOPPED" and rig.cmd == (0.0, 0.0)
+
+
+def test_wildcard_lease_is_refused(rig):
+    err = reply(rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "lease": "zenav/**"}))
+    assert err.error == "invalid_argument" and "lease" in err.message
+
+
+@pytest.mark.parametrize("service", ["motor", "localizer", "odometry"])
+def test_a_needed_service_going_aborts_the_goal(rig, service):
+    token = rig.bus.token(f"zenav/r1/alive/{service}")
+    q = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "wait": True})
+    rig.step(10)
+    token.undeclare()
+    rig.nav.drain()
+    rep = reply(q)
+    assert rep.result == "aborted" and rep.message == f"{service} service gone" and rig.cmd == (0.0, 0.0)
+    rig.bus.token(f"zenav/r1/alive/{service}")
+    rig.step(10)
+    assert rig.nav.machine.state == "STOPPED" and rig.cmd == (0.0, 0.0)  # back: no goal resumes
+
+
+def test_goal_without_pose_is_unavailable():
+    r = Rig()
+    err = reply(r.query("nav/move_to_point", {"x": 1.0, "y": 0.0}))
+    assert err.error == "unavailable" and "no pose" in err.message
+    r.nav.close()
+
+
+def test_goal_on_a_stale_pose_is_unavailable(rig):
+    rig.clock.advance(1.0)
+    err = reply(rig.query("nav/turn_to_heading", {"heading": 1.0}))
+    assert err.error == "unavailable" and "stale" in err.message
+
+
+@pytest.mark.parametrize(
+    "suffix, payload, field",
+    [
+        ("nav/move_to_point", {"y": 1.0}, "x"),
+        ("nav/move_to_point", {"x": "one", "y": 1.0}, "x"),
+        ("nav/move_to_point", {"x": math.nan, "y": 1.0}, "x"),
+        ("nav/move_to_point", {"x": 1.0, "y": 1.0, "tolerance": -0.1}, "tolerance"),
+        ("nav/move_to_point", {"x": 1.0, "y": 1.0, "tolerence": 0.1}, "tolerence"),
+        ("nav/turn_to_heading", {"heading": math.inf}, "heading"),
+        ("nav/follow_path", {"points": []}, "points"),
+        ("nav/follow_path", {"points": [[1.0]]}, "points"),
+        ("nav/move_straight", {"speed": 0.0}, "speed"),
+        ("nav/move_straight", {"speed": 0.1, "distance": -1.0}, "distance"),
+        ("nav/stop", {"now": True}, "now"),
+    ],
+)
+def test_bad_payloads_name_the_field(rig, suffix, payload, field):
+    err = reply(rig.query(suffix, payload))
+    assert err.error == "invalid_argument" and field in err.message
+
+
+@pytest.mark.parametrize(
+    "params, field",
+    [
+        ({"y": "1"}, "x"),
+        ({"x": "one", "y": "1"}, "x"),
+        ({"x": "nan", "y": "0"}, "x"),
+        ({"x": "1", "y": "0", "tolerance": "-1"}, "tolerance"),
+    ],
+)
+def test_bad_selector_parameters_name_the_field(rig, params, field):
+    err = reply(rig.query("nav/move_to_point", params=params))
+    assert err.error == "invalid_argument" and field in err.message
+
+
+def test_selector_parameters_drive_the_robot(rig):
+    rep = reply(rig.query("nav/move_to_point", params={"x": "0.2", "y": "0", "wait": "false"}))
+    assert rep.state == "MOVING_TO_POINT"
+    rep = reply(rig.query("nav/follow_path", params={"points": "[[0.1,0],[0.2,0.1]]"}))
+    assert rep.state == "FOLLOWING_PATH" and rep.goal_id == 2
+
+
+def test_bad_msgpack_is_invalid_argument(rig):
+    q = rig.bus.query("zenav/r1/nav/move_to_point", msgpack.packb([1, 2]))
+    rig.nav.drain()
+    assert reply(q).error == "invalid_argument"
+
+
+def test_speeds_above_the_limits_are_clamped_and_reported(rig):
+    assert reply(rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "speed": 5.0})).speed == pytest.approx(0.3)
+    assert reply(rig.query("nav/turn_to_heading", {"heading": 1.0, "speed": 50.0})).speed == pytest.approx(3.0)
+    assert reply(rig.query("nav/move_straight", {"speed": -9.0})).speed == pytest.approx(-0.3)
+    rig.step(10)
+    assert max(abs(c.v) for c in rig.published("cmd_vel")) <= 0.3 + 1e-9
+
+
+def test_out_of_order_pose_is_dropped(rig):
+    rig.step(2)
+    rig.bus.publish("zenav/r1/pose", codec.encode(m.Pose(t=50.0, x=5.0, y=5.0, theta=0.0, v=0.0, omega=0.0)))
+    rig.nav.drain()
+    assert rig.nav.counters.values["dropped_stale"] == 1 and rig.nav.machine.pose.x == 0.0
+
+
+def test_sim_restart_aborts_the_goal_and_takes_the_new_poses():
+    bus, clock = MemoryBus(), SimClock()
+    nav = Navigator(Settings.load(None), bus, clock)
+    nav.start()
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=50.0)))
+    bus.publish("zenav/r1/pose", codec.encode(m.Pose(t=50.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
+    q = bus.query("zenav/r1/nav/move_to_point", codec.encode({"x": 1.0, "y": 0.0, "wait": True}))
+    nav.drain()
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=0.01)))
+    bus.publish("zenav/r1/pose", codec.encode(m.Pose(t=0.01, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
+    nav.drain()
+    rep = reply(q)
+    assert rep.result == "aborted" and "restarted" in rep.message
+    assert nav.machine.pose.t == 0.01 and nav.counters.values["dropped_stale"] == 0
+    nav.close()
+
+
+def test_shutdown_answers_waiters_and_stops(rig):
+    q = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "wait": True})
+    rig.step(10)
+    rig.nav.close()
+    assert reply(q).result == "aborted" and rig.published("cmd_vel")[-1].v == 0.0
+
+
+def test_liveliness_token():
+    r = Rig()
+    assert "zenav/r1/alive/navigator" in r.bus.alive()
+    r.nav.close()
+
+
+def test_unstable_gains_fail_at_start_naming_them():
+    with pytest.raises(ConfigError, match="k_alpha"):
+        Navigator(Settings.load(None, navigator={"k_alpha": 1.0}), MemoryBus(), ManualClock())
+
+
+def test_help(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(Navigator, ["--help"])
+    assert e.value.code == 0 and "zenav-navigator" in capsys.readouterr().out

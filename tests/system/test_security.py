@@ -1,0 +1,320 @@
+"""The `secure` deployment: a router that requires a login and applies config/secure/router.json5.
+
+The router is a `zenav router --zenoh-config` process on the config that
+docker/make-secrets.sh writes; sessions log in with the client configs the script
+makes, as the services do through ZENOH_CONFIG. Each rule is checked with
+stand-in sessions declaring what the services would (a subscriber on cmd_vel,
+queryables on nav/*), then the six real services run under it as processes, and
+(docker suite) as the compose deployment.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+import zenoh
+
+from tests.system import test_compose as compose
+from zenav.common.bus import ZenohBus, zenoh_config
+from zenav.common.client import Client, ClientError
+from zenav.common.keys import QUERIES, SERVICES, TOPICS
+from zenav.common.stack import free_port
+
+pytestmark = pytest.mark.system
+
+REPO = Path(__file__).resolve().parents[2]
+USERS = (*SERVICES, "operator", "viewer")
+ROBOT = "zenav/r1"
+ROUTER_UP = 30.0  # [s] for the router process to accept a login
+REFUSED_WITHIN = 5.0  # [s] a refused login must fail by then
+QUIET = 0.5  # [s] a denied message must not arrive after the allowed ones did
+STACK_UP = 90.0  # [s] for six service processes to log in and declare their tokens
+GOAL = (0.3, 0.0)  # [m] map frame
+GOAL_TOLERANCE = 0.15  # [m] the navigator's tolerance plus localization error
+
+# Who may publish each topic and serve each query (the contract's tables).
+PUBLISHER = {
+    "clock": "sim", "sim/truth": "sim", "sensors/encoders": "sim", "sensors/imu": "sim",
+    "sensors/compass": "sim", "vps/pose": "vps", "odom": "odometry", "pose": "localizer",
+    "localizer/fixes": "localizer", "cmd_vel": "navigator", "nav/state": "navigator",
+    "motors/wheels": "motor", **{f"diag/{s}": s for s in SERVICES},
+}
+SERVER = {q: "localizer" if q.startswith("localizer/") else "sim" if q == "sim/reset" else "navigator" for q in QUERIES}
+engine = compose.engine  # the Docker engine fixture of the compose test
+
+
+def client_config(endpoint: str, config_file: str | None, timeout: float) -> zenoh.Config:
+    """The services' client config (bus.zenoh_config), failing after `timeout` seconds."""
+    return zenoh_config("client", endpoint, config_file=config_file, connect_timeout=timeout)
+
+
+class Deployment:
+    """The router process and the logins it knows."""
+
+    def __init__(self, endpoint: str, secrets: Path) -> None:
+        self.endpoint, self.secrets = endpoint, secrets
+        self._sessions: list[zenoh.Session] = []
+
+    def login(self, user: str, timeout: float = 2.0) -> zenoh.Session:
+        """A session logged in as `user` with the password the script made."""
+        conf = client_config(self.endpoint, str(self.secrets / f"{user}.json5"), timeout)
+        session = zenoh.open(conf)
+        self._sessions.append(session)
+        return session
+
+    def close(self) -> None:
+        for s in self._sessions:
+            s.close()
+
+
+def stop(proc: subprocess.Popen) -> str:
+    """SIGINT, then SIGKILL if it lingers; its output."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        return proc.communicate(timeout=10)[0]
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        return proc.communicate()[0]
+
+
+@pytest.fixture(scope="module")
+def secure_router(tmp_path_factory):
+    """The router process on a free port; yields (endpoint, secrets directory)."""
+    secrets = tmp_path_factory.mktemp("secrets")
+    subprocess.run(["sh", str(REPO / "docker" / "make-secrets.sh"), "-d", str(secrets)], check=True, capture_output=True, timeout=30)
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    env = {k: v for k, v in os.environ.items() if k != "ZENOH_CONFIG"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "zenav.cli", "router", "--listen", endpoint, "--zenoh-config", str(secrets / "router.json5")],
+        env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )
+    try:
+        Deployment(endpoint, secrets).login("viewer", timeout=ROUTER_UP).close()  # retries until the router is up
+        yield endpoint, secrets
+    finally:
+        print(stop(proc))  # shown when a test fails
+
+
+@pytest.fixture
+def deployment(secure_router):
+    """Logins to the router, all closed after the test."""
+    dep = Deployment(*secure_router)
+    yield dep
+    dep.close()
+
+
+@pytest.fixture
+def services(secure_router):
+    """The six services as processes, each logged in as itself (ZENOH_CONFIG), as compose runs them."""
+    endpoint, secrets = secure_router
+    procs = {
+        name: subprocess.Popen(
+            [sys.executable, "-m", f"zenav.services.{name}", "--connect", endpoint],
+            env={**os.environ, "ZENOH_CONFIG": str(secrets / f"{name}.json5")},
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        )
+        for name in SERVICES
+    }
+    yield procs
+    for name, proc in procs.items():
+        print(f"--- {name}\n{stop(proc)[-2000:]}")  # shown when a test fails
+
+
+class Inbox:
+    """(key, payload) of every sample a subscriber receives."""
+
+    def __init__(self) -> None:
+        self.cond = threading.Condition()
+        self.got: set[tuple[str, str]] = set()
+
+    def on_sample(self, s: zenoh.Sample) -> None:
+        with self.cond:
+            self.got.add((str(s.key_expr), s.payload.to_bytes().decode()))
+            self.cond.notify_all()
+
+    def settle(self, expected: set[tuple[str, str]], timeout: float = 10.0) -> set[tuple[str, str]]:
+        """Wait until `expected` arrived, then QUIET more seconds for anything else."""
+        with self.cond:
+            self.cond.wait_for(lambda: expected <= self.got, timeout)
+            self.cond.wait_for(lambda: False, QUIET)  # a denied sample would be here by now
+            return set(self.got)
+
+
+def wait_matching(entity: zenoh.Publisher | zenoh.Querier, timeout: float = 10.0) -> None:
+    """Block until a publisher (querier) knows a subscriber (queryable) it matches.
+
+    So a sample or query that does not arrive was refused by the router, not
+    filtered out by its sender for want of a receiver.
+    """
+    seen = threading.Event()
+    listener = entity.declare_matching_listener(lambda status: status.matching and seen.set())
+    try:
+        if not (entity.matching_status.matching or seen.wait(timeout)):
+            raise TimeoutError(f"nothing matches {entity.key_expr} after {timeout} s")
+    finally:
+        listener.undeclare()
+
+
+def publish(session: zenoh.Session, key: str, payload: str) -> None:
+    """Put once the sender knows a subscriber of `key`."""
+    pub = session.declare_publisher(key)
+    wait_matching(pub)
+    pub.put(payload)
+    pub.undeclare()
+
+
+def replied(session: zenoh.Session, suffix: str) -> bool:
+    """Whether a query on `suffix` got any reply (an ACL denial gives none)."""
+    querier = session.declare_querier(f"{ROBOT}/{suffix}", timeout=3.0)
+    wait_matching(querier)
+    try:
+        return any(True for _ in querier.get())
+    finally:
+        querier.undeclare()
+
+
+def test_a_client_without_a_login_cannot_open_a_session(deployment):
+    t0 = time.monotonic()
+    with pytest.raises(zenoh.ZError):
+        zenoh.open(client_config(deployment.endpoint, None, 1.0))
+    assert time.monotonic() - t0 < REFUSED_WITHIN
+
+
+@pytest.mark.parametrize("user, password", [("operator", "wrong"), ("intruder", "anything")])
+def test_a_wrong_password_or_an_unknown_user_is_refused(deployment, tmp_path, user, password):
+    conf = tmp_path / "client.json5"
+    conf.write_text(json.dumps({"transport": {"auth": {"usrpwd": {"user": user, "password": password}}}}))
+    t0 = time.monotonic()
+    with pytest.raises(zenoh.ZError):
+        zenoh.open(client_config(deployment.endpoint, str(conf), 1.0))
+    assert time.monotonic() - t0 < REFUSED_WITHIN
+
+
+def test_a_non_operator_can_watch_but_cannot_move_the_robot(deployment):
+    motor, viewer, navigator = deployment.login("motor"), deployment.login("viewer"), deployment.login("navigator")
+    localizer, operator = deployment.login("localizer"), deployment.login("operator")
+    commands, poses = Inbox(), Inbox()
+    motor.declare_subscriber(f"{ROBOT}/cmd_vel", commands.on_sample)
+    viewer.declare_subscriber(f"{ROBOT}/pose", poses.on_sample)
+    goals: list[str] = []
+
+    def serve(q: zenoh.Query) -> None:
+        goals.append(str(q.key_expr))
+        q.reply(q.key_expr, b"accepted")
+
+    navigator.declare_queryable(f"{ROBOT}/nav/move_to_point", serve)
+
+    publish(localizer, f"{ROBOT}/pose", "localizer")
+    assert poses.settle({(f"{ROBOT}/pose", "localizer")}) == {(f"{ROBOT}/pose", "localizer")}
+
+    for user, sender in (("viewer", viewer), ("operator", operator), ("navigator", navigator)):
+        publish(sender, f"{ROBOT}/cmd_vel", user)
+    assert commands.settle({(f"{ROBOT}/cmd_vel", "navigator")}) == {(f"{ROBOT}/cmd_vel", "navigator")}
+
+    assert replied(operator, "nav/move_to_point")
+    assert not replied(viewer, "nav/move_to_point")
+    assert goals == [f"{ROBOT}/nav/move_to_point"]  # the operator's only
+
+
+def test_each_topic_reaches_subscribers_only_from_its_publisher(deployment):
+    inbox = Inbox()
+    deployment.login("viewer").declare_subscriber(f"{ROBOT}/**", inbox.on_sample)
+    for user in USERS:
+        sender = deployment.login(user)
+        for topic in TOPICS:
+            publish(sender, f"{ROBOT}/{topic}", user)
+    expected = {(f"{ROBOT}/{topic}", PUBLISHER[topic]) for topic in TOPICS}
+    assert inbox.settle(expected) == expected
+
+
+def test_only_operators_query_nav_set_pose_and_reset_anyone_reads_the_pose(deployment):
+    for user in set(SERVER.values()):  # stand-ins serving every query of the contract
+        server = deployment.login(user)
+        for suffix in (q for q, owner in SERVER.items() if owner == user):
+            server.declare_queryable(f"{ROBOT}/{suffix}", lambda q: q.reply(q.key_expr, b"{}"))
+    for user in USERS:
+        session = deployment.login(user)
+        answered = {suffix for suffix in QUERIES if replied(session, suffix)}
+        assert answered == (set(QUERIES) if user == "operator" else {"localizer/pose"}), user
+
+
+def test_only_the_navigator_serves_nav_queries(deployment):
+    """A session of any other user cannot answer nav/* (and so hijack the goals)."""
+    for user in USERS:
+        deployment.login(user).declare_queryable(f"{ROBOT}/nav/status", lambda q, u=user: q.reply(q.key_expr, u))
+    querier = deployment.login("operator").declare_querier(
+        f"{ROBOT}/nav/status", target=zenoh.QueryTarget.ALL, consolidation=zenoh.ConsolidationMode.NONE, timeout=3.0
+    )
+    wait_matching(querier)
+    answers = [r.ok.payload.to_bytes().decode() for r in querier.get() if r.ok]
+    assert answers == ["navigator"]
+
+
+def test_only_a_service_declares_its_liveliness_and_only_operators_hold_leases(deployment):
+    # Each user declares every service's token under a robot id of its own name.
+    tokens = []  # a token lives as long as its handle
+    for user in USERS:
+        session = deployment.login(user)
+        for key in (*(f"zenav/{user}/alive/{svc}" for svc in SERVICES), f"zenav/{user}/lease/goal"):
+            tokens.append(session.liveliness().declare_token(key))
+    inbox = Inbox()
+    deployment.login("viewer").liveliness().declare_subscriber("zenav/**", inbox.on_sample, history=True)
+    expected = {*((f"zenav/{s}/alive/{s}", "") for s in SERVICES), ("zenav/operator/lease/goal", "")}
+    assert inbox.settle(expected) == expected
+
+
+def test_the_services_run_under_the_acl_and_only_an_operator_drives(deployment, services):
+    viewer = Client("r1", bus=ZenohBus(deployment.login("viewer")))
+    operator = Client("r1", bus=ZenohBus(deployment.login("operator")))
+    viewer.wait_alive(SERVICES, timeout=STACK_UP)
+    for svc in SERVICES:  # each publishes its own diag
+        viewer.latest(f"diag/{svc}").wait(timeout=STACK_UP)
+    viewer.latest("pose").wait(timeout=STACK_UP)
+    assert viewer.query("localizer/pose").t >= 0.0
+
+    with pytest.raises(ClientError) as refused:
+        viewer.query("nav/move_to_point", {"x": GOAL[0], "y": GOAL[1]})
+    assert refused.value.code == "unavailable"  # no reply: the router dropped the query
+
+    reply = operator.query("nav/move_to_point", {"x": GOAL[0], "y": GOAL[1], "wait": True}, timeout=STACK_UP)
+    assert reply.result == "succeeded", reply
+    truth = viewer.latest("sim/truth").wait(timeout=5.0)
+    assert math.hypot(truth.x - GOAL[0], truth.y - GOAL[1]) < GOAL_TOLERANCE
+
+
+@pytest.mark.docker
+@pytest.mark.timeout(900)
+def test_the_secure_compose_deployment(engine, tmp_path):
+    """docker-compose.yml with docker/secure/compose.yml: the same rules, in containers."""
+    compose_command = compose.compose_command()  # skips without compose
+    compose.build_images(engine)
+    secrets = tmp_path / "secrets"
+    subprocess.run(["sh", str(REPO / "docker" / "make-secrets.sh"), "-d", str(secrets)], check=True, capture_output=True, timeout=30)
+    port = free_port()
+    env = {**os.environ, "ZENAV_IMAGE": compose.IMAGE, "ZENAV_PORT": str(port), "ZENAV_SECRETS": str(secrets)}
+    cmd = [*compose_command, "--project-name", f"zenavsecure{os.getpid()}", "--file", str(REPO / "docker-compose.yml"),
+           "--file", str(REPO / "docker" / "secure" / "compose.yml")]
+    dep = Deployment(f"tcp/127.0.0.1:{port}", secrets)
+    try:
+        compose.run([*cmd, "up", "--detach", "--no-build"], env=env)
+        viewer = Client("r1", bus=ZenohBus(dep.login("viewer", timeout=ROUTER_UP)))
+        operator = Client("r1", bus=ZenohBus(dep.login("operator")))
+        with pytest.raises(zenoh.ZError):
+            zenoh.open(client_config(dep.endpoint, None, 1.0))
+        viewer.wait_alive(SERVICES, timeout=STACK_UP)
+        viewer.latest("pose").wait(timeout=STACK_UP)
+        with pytest.raises(ClientError):
+            viewer.query("nav/move_to_point", {"x": GOAL[0], "y": GOAL[1]})
+        reply = operator.query("nav/move_to_point", {"x": GOAL[0], "y": GOAL[1], "wait": True}, timeout=STACK_UP)
+        assert reply.result == "succeeded", reply
+    finally:
+        dep.close()
+        compose.run([*cmd, "down", "--volumes", "--timeout", "10"], env=env)

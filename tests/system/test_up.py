@@ -1,0 +1,98 @@
+"""`zenav up` as real processes through its router, seen by a zenoh + msgpack client."""
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.system.rawclient import RawClient
+from zenav.common.keys import SERVICES
+from zenav.common.stack import free_port
+
+pytestmark = pytest.mark.system
+
+
+def service_pid(name: str, endpoint: str) -> int:
+    """The pid of the service process started with this router endpoint."""
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                cmd = (d / "cmdline").read_bytes().split(b"\0")
+            except OSError:
+                continue
+            if f"zenav.services.{name}".encode() in cmd and endpoint.encode() in cmd:
+                return int(d.name)
+    raise LookupError(name)
+
+
+@pytest.fixture
+def up(tmp_path):
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "zenav.cli", "up", "--listen", endpoint, "--log-dir", str(tmp_path), "--set", "sim.rtf=2.0", "--duration", "240"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )
+    client = RawClient(endpoint)
+    yield proc, client, endpoint
+    client.close()
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+    try:
+        proc.communicate(timeout=30)  # also closes the pipe
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+    for f in tmp_path.glob("*.log"):  # shown when a test fails
+        print(f"--- {f.name}\n{f.read_text()[-2000:]}")
+
+
+def test_up_serves_the_contract_to_a_plain_client(up):
+    proc, c, endpoint = up
+    c.follow("diag/*")
+    for suffix in ("sim/truth", "odom", "motors/wheels"):
+        c.follow(suffix, keep=True)
+    # every service's token and diag
+    c.wait(lambda latest: all(f"diag/{s}" in latest for s in SERVICES), timeout=90)
+    assert c.alive() == set(SERVICES)
+    for s in SERVICES:
+        d = c.latest[f"diag/{s}"]
+        assert d["service"] == s and {"msgs_in", "msgs_out", "bad_input", "dropped_stale"} <= set(d["counters"])
+    # drive with cmd_vel (t = 0: a client without the stack clock), watch odom follow truth
+    t0 = c.latest["sim/truth"]
+    o0 = c.latest["odom"]
+    deadline = time.monotonic() + 30
+    while math.hypot(c.latest["sim/truth"]["x"] - t0["x"], c.latest["sim/truth"]["y"] - t0["y"]) < 0.3:
+        assert time.monotonic() < deadline, "the robot did not move"
+        c.put("cmd_vel", {"t": 0.0, "v": 0.2, "omega": 0.0})
+        c.wait(lambda latest, n=c.latest["sim/truth"]["t"]: latest["sim/truth"]["t"] >= n + 0.05, timeout=5)
+    c.put("cmd_vel", {"t": 0.0, "v": 0.0, "omega": 0.0})
+    # compare odom with the truth of the same sample t, from where odom started
+    c.wait(lambda latest: latest["odom"]["t"] >= latest["sim/truth"]["t"] - 0.05, timeout=10)
+    with c.lock:
+        truth = {round(m["t"], 6): m for m in c.history["sim/truth"]}
+        odoms = [o for o in c.history["odom"] if o["t"] >= o0["t"] and round(o["t"], 6) in truth]
+    first, last = odoms[0], odoms[-1]
+    ta, tb = truth[round(first["t"], 6)], truth[round(last["t"], 6)]
+    moved_truth = math.hypot(tb["x"] - ta["x"], tb["y"] - ta["y"])
+    moved_odom = math.hypot(last["x"] - first["x"], last["y"] - first["y"])
+    assert moved_truth > 0.25 and abs(moved_odom - moved_truth) < 0.03
+    # a crashed service is restarted, and the launcher says why
+    before = c.wait(lambda latest: latest["diag/odometry"]["uptime"] > 2.0, timeout=20)["diag/odometry"]
+    os.kill(service_pid("odometry", endpoint), signal.SIGKILL)
+    c.wait(lambda latest: latest["diag/odometry"]["uptime"] < before["uptime"] - 0.5, timeout=20)
+    # Ctrl-C stops everything, wheels at zero first
+    proc.send_signal(signal.SIGINT)
+    out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 0, out
+    assert "odometry exit" in out or "odometry killed by SIGKILL" in out, out
+    assert "odometry restarted" in out, out
+    last = c.history["motors/wheels"][-1]
+    assert last["left"] == 0.0 and last["right"] == 0.0
+    with pytest.raises(LookupError):
+        service_pid("sim", endpoint)

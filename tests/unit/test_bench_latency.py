@@ -1,0 +1,72 @@
+"""The latency arithmetic of the bench: stages add up to end to end, percentiles, /proc reading."""
+from __future__ import annotations
+
+import math
+import os
+
+import pytest
+
+from zenav.common import messages as m
+from zenav.tools.bench_latency import CHAIN, END_TO_END, STAGES, ChainRecorder, Stats
+from zenav.tools.bench_proc import read_proc
+
+
+class FakeClient:
+    """Collects subscriptions so the test can deliver messages by hand."""
+
+    def __init__(self) -> None:
+        self.callbacks: dict[str, object] = {}
+
+    def subscribe(self, suffix, callback, typ=None) -> None:
+        self.callbacks[suffix] = callback
+
+
+def test_stages_split_end_to_end_exactly(monkeypatch):
+    client = FakeClient()
+    rec = ChainRecorder(client)
+    rec.recording = True
+    wall = [1000.0]
+    monkeypatch.setattr("zenav.tools.bench_latency.time.time", lambda: wall[0])
+    steps = {"sensors/encoders": 0.001, "odom": 0.002, "pose": 0.0005, "cmd_vel": 0.0007, "motors/wheels": 0.0004}  # [s]
+    for t in (0.01, 0.02, 0.03):
+        client.callbacks["clock"](m.Clock(t=t, wall=wall[0]))
+        for topic in CHAIN:
+            wall[0] += steps[topic]
+            client.callbacks[topic](m.Wheels(t=t, left=0.0, right=0.0))
+        wall[0] += 0.1
+    # t = 0.04 never reaches the wheels: left out; a repeated wheels t keeps the first arrival
+    client.callbacks["clock"](m.Clock(t=0.04, wall=wall[0]))
+    client.callbacks["sensors/encoders"](m.Encoders(t=0.04, left=0, right=0))
+    wall[0] += 5.0
+    client.callbacks["motors/wheels"](m.Wheels(t=0.03, left=0.0, right=0.0))
+    out = rec.stages()
+    assert set(out) == {*STAGES, END_TO_END}
+    assert len(out[END_TO_END]) == 3
+    for stage, topic in zip(STAGES, CHAIN):
+        assert out[stage] == pytest.approx([steps[topic] * 1e3] * 3)
+    assert out[END_TO_END] == pytest.approx([sum(steps.values()) * 1e3] * 3)
+
+
+def test_nothing_is_recorded_outside_the_window():
+    client = FakeClient()
+    rec = ChainRecorder(client)
+    client.callbacks["clock"](m.Clock(t=0.01, wall=1.0))
+    for topic in CHAIN:
+        client.callbacks[topic](m.Wheels(t=0.01, left=0.0, right=0.0))
+    assert rec.stages()[END_TO_END] == []
+
+
+def test_stats_percentiles_and_empty():
+    st = Stats.of([float(i) for i in range(1, 101)])
+    assert (st.n, st.max) == (100, 100.0)
+    assert st.p50 == pytest.approx(50.5) and st.p99 == pytest.approx(99.01)
+    empty = Stats.of([])
+    assert empty.n == 0 and math.isnan(empty.p50)
+
+
+def test_read_proc_sees_this_process_work():
+    before = read_proc(os.getpid())
+    sum(i * i for i in range(2_000_000))  # burn some CPU
+    after = read_proc(os.getpid())
+    assert after.cpu > before.cpu
+    assert 10 * 2**20 < after.rss < 10 * 2**30

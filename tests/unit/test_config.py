@@ -1,0 +1,102 @@
+"""Configuration: defaults in code, documented in config/default.toml, bad values fail fast."""
+import re
+from pathlib import Path
+
+import msgspec
+import pytest
+
+from zenav import services
+from zenav.common.app import parse_sets
+from zenav.common.config import ConfigError, Deployment, Robot, Settings
+from zenav.common.keys import SERVICES
+from zenav.common.scenarios import PRESETS, Scenario
+
+DEFAULT_TOML = Path(__file__).resolve().parents[2] / "config" / "default.toml"
+SECTION_TYPES = {"deployment": Deployment, "robot": Robot, **{n: services.load(n).config_type for n in SERVICES}}
+
+
+def documented_keys(text: str) -> dict[str, set[str]]:
+    """section -> keys that have a `#` comment on their own line or the line above."""
+    out, section, prev = {}, None, ""
+    for line in text.splitlines():
+        s = line.strip()
+        head = re.match(r"^\[([\w.]+)\]", s)
+        if head:
+            section = head.group(1)
+            out.setdefault(section, set())
+        kv = re.match(r"^#?\s*([A-Za-z_]\w*)\s*=", s)  # `# key = v`: an optional key, documented
+        if kv and section and ("#" in s or prev.startswith("#")):
+            out[section].add(kv.group(1))
+        prev = s
+    return out
+
+
+def test_default_toml_documents_every_key_with_the_code_default():
+    text = DEFAULT_TOML.read_text()
+    doc = documented_keys(text)
+    settings = Settings.load(str(DEFAULT_TOML))
+    for section, typ in SECTION_TYPES.items():
+        if typ is None:
+            continue
+        fields = {f.encode_name for f in msgspec.inspect.type_info(typ).fields}
+        assert fields <= doc.get(section, set()), f"[{section}] undocumented: {fields - doc.get(section, set())}"
+        if section not in ("deployment", "robot"):
+            assert settings.section(section, typ) == typ(), f"[{section}] in default.toml differs from the code"
+
+
+def test_default_toml_loads_the_default_scenario():
+    settings = Settings.load(str(DEFAULT_TOML))
+    assert settings.scenario == PRESETS["default"] and settings.robot.ticks_per_rev == 360
+
+
+def test_scenario_presets_and_overrides():
+    s = Settings.load(None, deployment={"scenario": "harsh"}, scenario={"vps_drop": 0.5})
+    assert s.scenario.vps_drop == 0.5 and s.scenario.track_width_err == 0.04
+    assert s.robot.ticks_per_rev == 16  # the stack is configured with the encoders it has
+    assert Settings.load(None, robot={"ticks_per_rev": 1024}).robot.ticks_per_rev == 1024
+
+
+@pytest.mark.parametrize(
+    "overrides, words",
+    [
+        ({"deployment": {"scenario": "stormy"}}, "stormy"),
+        ({"deployment": {"robot": "r/1"}}, "deployment.robot"),
+        ({"robot": {"wheel_diameter": -1.0}}, "robot.wheel_diameter"),
+        ({"robot": {"whee_diameter": 0.1}}, "whee_diameter"),
+        ({"scenario": {"vps_drop": 2.0}}, "vps_drop"),
+    ],
+)
+def test_bad_values_name_the_key(overrides, words):
+    with pytest.raises(ConfigError, match=re.escape(words)):
+        Settings.load(None, **overrides)
+
+
+@pytest.mark.parametrize("name", [n for n in SERVICES if services.load(n).config_type is not None])
+def test_service_sections_refuse_unknown_keys(name):
+    typ = services.load(name).config_type
+    with pytest.raises(ConfigError, match=rf"\[{name}\].*no_such_key"):
+        Settings.load(None, **{name: {"no_such_key": 1}}).section(name, typ)
+
+
+def test_bad_file_is_a_config_error(tmp_path):
+    p = tmp_path / "bad.toml"
+    p.write_text("[sim\nrtf = 1")
+    with pytest.raises(ConfigError, match="bad.toml"):
+        Settings.load(str(p))
+    with pytest.raises(ConfigError, match="missing.toml"):
+        Settings.load(str(tmp_path / "missing.toml"))
+
+
+def test_set_overrides_parse_toml_values():
+    assert parse_sets(["sim.rtf=5", "odometry.integrator=arc", "vps.enabled=false"]) == {
+        "sim": {"rtf": 5},
+        "odometry": {"integrator": "arc"},
+        "vps": {"enabled": False},
+    }
+    with pytest.raises(ConfigError, match="SECTION.KEY=VALUE"):
+        parse_sets(["rtf=5"])
+
+
+def test_scenario_is_typed():
+    with pytest.raises(msgspec.ValidationError):
+        msgspec.convert({"ticks_per_rev": 0}, Scenario)

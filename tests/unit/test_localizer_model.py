@@ -1,0 +1,79 @@
+"""The EKF's pure model functions and the gyro integral."""
+import math
+
+import numpy as np
+import pytest
+
+from zenav.services.localizer import model
+from zenav.services.localizer.gyro import GyroIntegral
+
+TRACK = 0.1156
+QUIET = model.Noise(TRACK, 0.0, 0.0, 0.0, 1e-12, 0.0)  # no process noise
+
+
+def state(theta=0.3, es=0.01, ew=0.02, ed=-0.003, bg=0.0, sg=0.0):
+    return np.array([1.0, 2.0, theta, es, ew, ed, bg, sg])
+
+
+def test_odometry_increment_is_corrected_by_the_calibration():
+    s = state(theta=0.0, es=0.01, ew=0.02, ed=0.0)
+    out, _ = model.predict(s, np.zeros((8, 8)), model.Step(0.1, 0.2, 0.1), QUIET)
+    assert out[model.TH] == pytest.approx(0.2 * 1.01 / 1.02)
+    dth = 0.2 * 1.01 / 1.02
+    assert out[model.X] == pytest.approx(1.0 + 0.101 * math.cos(dth / 2))
+    assert out[model.Y] == pytest.approx(2.0 + 0.101 * math.sin(dth / 2))
+
+
+def test_transition_jacobian_matches_finite_differences():
+    s, u = state(), model.Step(0.05, 0.1, 0.1)
+    eps = 1e-6
+    J = np.zeros((8, 8))
+    zero = np.zeros((8, 8))
+    for i in range(8):
+        d = np.zeros(8)
+        d[i] = eps
+        J[:, i] = (model.predict(s + d, zero, u, QUIET)[0] - model.predict(s - d, zero, u, QUIET)[0]) / (2 * eps)
+    for i in range(8):  # P = e_i e_i^T  ->  F P F^T = F[:, i] F[:, i]^T
+        P = np.zeros((8, 8))
+        P[i, i] = 1.0
+        _, P_new = model.predict(s, P, u, QUIET)
+        assert np.allclose(P_new, np.outer(J[:, i], J[:, i]), atol=1e-6)
+
+
+def test_gyro_steers_the_heading_and_standing_still_reveals_its_bias():
+    nz = model.Noise(TRACK, 2 * math.pi * 0.03365 / 360, 1e-6, 0.0, 1e-6, 0.0)
+    s = np.zeros(8)
+    P = np.diag([0.0, 0.0, 0.0, 0.05**2, 0.05**2, 0.05**2, 0.05**2, 0.05**2])
+    for _ in range(200):  # 2 s still: the wheels show nothing, the gyro reads its bias
+        s, P = model.predict(s, P, model.Step(0.0, 0.0, 0.01, 0.01 * 0.01), nz)
+    assert s[model.BG] == pytest.approx(0.01, rel=0.05)
+    s2, _ = model.predict(s, P, model.Step(0.0, 0.0, 0.01, 0.01 * 0.01), nz)
+    assert abs(s2[model.TH] - s[model.TH]) < 1e-5  # the bias no longer turns the estimate
+
+
+def test_update_pulls_to_the_fix_and_shrinks_the_covariance():
+    s, P = state(theta=3.1), np.eye(8) * 0.01
+    R = np.diag([1e-4, 1e-4, 1e-3])
+    nu, S, d2 = model.innovation(s, P, np.array([1.1, 2.0, -3.1]), R)
+    assert nu[2] == pytest.approx(2 * math.pi - 6.2)  # wrapped, not -6.2
+    assert d2 == pytest.approx(nu @ np.linalg.solve(S, nu))
+    out, P_new = model.update(s, P, nu, S, R)
+    assert 1.0 < out[model.X] < 1.1 and P_new[0, 0] < P[0, 0] and np.allclose(P_new, P_new.T)
+
+
+def test_calibration_in_user_terms():
+    cal = model.calibration(state(es=0.01, ew=0.02, ed=-0.003), TRACK, gyro=False)
+    assert cal["distance_scale"] == pytest.approx(1.01) and cal["track_width_scale"] == pytest.approx(1.02)
+    assert cal["wheel_radius_ratio"] == pytest.approx(1.013 / 1.007) and "gyro_bias" not in cal
+
+
+def test_gyro_integral_between_samples_and_gaps():
+    g = GyroIntegral(keep=1.0, max_gap=0.1)
+    for k in range(11):
+        assert g.add(k / 100, 1.0)
+    assert g.between(0.02, 0.05) == pytest.approx(0.03)
+    assert g.between(0.025, 0.05) == pytest.approx(0.025)  # interpolated inside a sample
+    assert g.between(0.05, 0.2) is None  # not covered yet
+    assert not g.add(0.05, 1.0)  # not newer
+    g.add(0.5, 1.0)  # after a silence: restarts from here
+    assert g.between(0.05, 0.5) is None and g.newest == 0.5

@@ -1,0 +1,132 @@
+"""record, replay and plot on the in-memory bus, and the commands' argument handling."""
+from __future__ import annotations
+
+import argparse
+import threading
+import time
+
+import pytest
+from mcap.writer import Writer
+
+from zenav.cli import plot as plot_cmd
+from zenav.cli import record as record_cmd
+from zenav.cli import replay as replay_cmd
+from zenav.cli import view as view_cmd
+from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_USAGE
+from zenav.common import codec, keys
+from zenav.common import messages as m
+from zenav.common.bus import MemoryBus
+from zenav.tools import mcap_format as fmt
+from zenav.tools.record import Recorder
+from zenav.tools.replay import replay
+
+
+def parse(*argv: str) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="zenav")
+    sub = parser.add_subparsers(dest="command", required=True)
+    for mod in (record_cmd, replay_cmd, view_cmd, plot_cmd):
+        mod.add_arguments(sub)
+    return parser.parse_args(argv)
+
+
+def write_recording(path: str, messages: list[tuple[str, m.Topic, float]]) -> None:
+    """A recording with chosen arrival times: (key, message, log time [s])."""
+    w = Writer(path)
+    w.start()
+    channels: dict[str, int] = {}
+    for key, msg, log_s in messages:
+        if key not in channels:
+            typ = type(msg)
+            schema = w.register_schema(fmt.schema_name(typ), fmt.SCHEMA_ENCODING, fmt.schema_bytes(typ))
+            channels[key] = w.register_channel(fmt.topic_of(key), fmt.MESSAGE_ENCODING, schema)
+        w.add_message(channels[key], log_time=fmt.stamp(log_s), data=fmt.to_json(msg), publish_time=fmt.stamp(msg.t))
+    w.finish()
+
+
+def test_the_commands_parse():
+    args = parse("record", "out.mcap", "--robot", "r2", "--duration", "5")
+    assert (args.out, args.robot, args.duration, args.all) == ("out.mcap", "r2", 5.0, False)
+    args = parse("replay", "in.mcap", "--rate", "4", "--topics", "clock,odom")
+    assert (args.input, args.rate, args.topics, args.from_robot) == ("in.mcap", 4.0, "clock,odom", None)
+    args = parse("view", "--port", "9000")
+    assert (args.host, args.port) == (None, 9000)  # unset: the view's own default (127.0.0.1)
+    args = parse("plot", "in.mcap", "-o", "out.png")
+    assert (args.input, args.out) == ("in.mcap", "out.png")
+
+
+def test_replay_refuses_bad_arguments_before_connecting(tmp_path, capsys):
+    missing = str(tmp_path / "none.mcap")
+    assert replay_cmd.run(parse("replay", missing, "--topics", "odom,odmo")) == EXIT_USAGE
+    assert "odmo" in capsys.readouterr().err
+    assert replay_cmd.run(parse("replay", missing, "--rate", "-1")) == EXIT_USAGE
+    assert replay_cmd.run(parse("replay", missing)) == EXIT_FAILED
+
+
+def test_record_on_the_memory_bus_then_plot(tmp_path, capsys):
+    bus = MemoryBus()
+    path = str(tmp_path / "run.mcap")
+    rec = Recorder(path, bus, "r1").start()
+    for i in range(200):
+        t, x = i * 0.01, i * 0.005
+        bus.publish(keys.key("r1", "sim/truth"), codec.encode(m.Truth(t=t, x=x, y=0.0, theta=0.0, v=0.5, omega=0.0)))
+        bus.publish(keys.key("r1", "odom"), codec.encode(m.Odom(t=t, x=x * 1.1, y=0.0, theta=0.0, v=0.5, omega=0.0)))
+        bus.publish(keys.key("r1", "pose"), codec.encode(m.Pose(t=t, x=x, y=0.01, theta=0.0, v=0.5, omega=0.0)))
+        if i % 10 == 0:
+            bus.publish(keys.key("r1", "vps/pose"), codec.encode(m.VpsPose(t=t, x=x, y=-0.02, theta=0.0)))
+    bus.publish(keys.key("r2", "odom"), codec.encode(m.Odom(t=0.0, x=0, y=0, theta=0, v=0, omega=0)))  # not this robot
+    rec.stop()
+    assert rec.counts == {"zenav/r1/sim/truth": 200, "zenav/r1/odom": 200, "zenav/r1/pose": 200, "zenav/r1/vps/pose": 20}
+    assert rec.dropped == 0 and rec.duration >= 0.0
+
+    out = tmp_path / "run.png"
+    assert plot_cmd.run(parse("plot", path, "-o", str(out))) == EXIT_OK
+    assert out.read_bytes()[:4] == b"\x89PNG"
+    report = capsys.readouterr().out
+    assert "pose   rms   1.00 cm" in report and "fixes  rms   2.00 cm" in report
+
+
+def test_plot_fails_cleanly_without_zenav_topics(tmp_path, capsys):
+    path = str(tmp_path / "empty.mcap")
+    write_recording(path, [])
+    assert plot_cmd.run(parse("plot", path, "-o", str(tmp_path / "x.png"))) == EXIT_FAILED
+    assert "no zenav topics" in capsys.readouterr().err
+    assert plot_cmd.run(parse("plot", str(tmp_path / "none.mcap"), "-o", str(tmp_path / "x.png"))) == EXIT_FAILED
+
+
+def clock_recording(path: str) -> None:
+    write_recording(path, [(keys.key("r1", "clock"), m.Clock(t=i * 1.0, rtf=2.0, wall=5.0), 100.0 + i * 0.2) for i in range(3)])
+
+
+def test_replay_keeps_the_recorded_pace_divided_by_the_rate(tmp_path):
+    path = str(tmp_path / "clock.mcap")
+    clock_recording(path)
+    bus = MemoryBus()
+    start = time.monotonic()
+    assert replay(path, bus, rate=2.0) == 3
+    assert time.monotonic() - start >= 0.2  # 0.4 s recorded, twice as fast
+    clocks = [codec.decode(d, m.Clock) for _, d in bus.published]
+    assert [c.t for c in clocks] == [0.0, 1.0, 2.0]
+    assert all(c.rtf == 4.0 and c.wall > 1e9 for c in clocks)  # rtf times the rate; the replay's wall clock
+
+
+def test_replay_stops_when_told(tmp_path):
+    path = str(tmp_path / "clock.mcap")
+    clock_recording(path)
+    stop = threading.Event()
+    stop.set()
+    assert replay(path, MemoryBus(), rate=1.0, stop=stop) == 0
+    with pytest.raises(ValueError):
+        replay(path, MemoryBus(), rate=-1.0)
+
+
+def test_recording_every_robot(tmp_path):
+    bus = MemoryBus()
+    path = str(tmp_path / "all.mcap")
+    rec = Recorder(path, bus, None).start()
+    for robot in ("r2", "r1"):
+        bus.publish(keys.key(robot, "odom"), codec.encode(m.Odom(t=1.0, x=0, y=0, theta=0, v=0, omega=0)))
+    bus.publish("other/r1/odom", codec.encode(m.Odom(t=1.0, x=0, y=0, theta=0, v=0, omega=0)))
+    rec.stop()
+    assert rec.keyexpr == "zenav/*/**" and set(rec.counts) == {"zenav/r1/odom", "zenav/r2/odom"}
+    assert fmt.robots(path) == ["r2", "r1"]
+    assert [r.key for r in fmt.read(path, robot="r1")] == ["zenav/r1/odom"]

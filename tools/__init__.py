@@ -1,0 +1,1 @@
+"""Tools around a running stack: recording, replay, live view, plots, benchmarks."""

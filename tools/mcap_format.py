@@ -1,0 +1,139 @@
+"""The recording format: MCAP files whose messages are JSON with a JSON Schema per message type.
+
+Foxglove decodes the message encodings json, protobuf, ros1, cdr and flatbuffer, not
+msgpack. So a recording stores each Zenoh sample decoded through its contract type
+(common/keys.py TOPICS) and re-encoded as JSON, on a channel with message encoding
+`json` and a `jsonschema` schema generated from the msgspec struct (`zenav.Odom`, one
+per type, shared by the channels of every robot). Foxglove's panels and the `mcap`
+tools then read the file as it is.
+
+- channel topic: "/" + the Zenoh key (`/zenav/r1/odom`), so that Foxglove message
+  paths read `/zenav/r1/odom.x`;
+- log_time: the recorder's wall clock when the sample arrived [ns since the epoch]
+  (Foxglove's timeline, and the pace of a replay);
+- publish_time: the message's `t` on the stack clock [ns].
+
+Replay decodes the JSON through the same type and encodes msgpack again, so what it
+publishes is exactly what the contract defines.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Any, Iterable, Iterator, Optional
+
+import msgspec
+from mcap.reader import make_reader
+from mcap.well_known import MessageEncoding, SchemaEncoding
+
+from zenav.common import keys
+
+MESSAGE_ENCODING = MessageEncoding.JSON
+SCHEMA_ENCODING = SchemaEncoding.JSONSchema
+NS = 1_000_000_000  # nanoseconds per second
+
+
+def topic_of(key: str) -> str:
+    """The MCAP/Foxglove topic of a Zenoh key: `zenav/r1/odom` -> `/zenav/r1/odom`."""
+    return "/" + key
+
+
+def key_of(topic: str) -> str:
+    """The Zenoh key of an MCAP/Foxglove topic."""
+    return topic.lstrip("/")
+
+
+def split_key(key: str) -> Optional[tuple[str, str]]:
+    """`zenav/<robot>/<suffix>` -> (robot, suffix); None for any other key."""
+    parts = key.split("/", 2)
+    if len(parts) != 3 or parts[0] != "zenav":
+        return None
+    return parts[1], parts[2]
+
+
+def message_type(key: str) -> Optional[type]:
+    """The contract type of the messages on a Zenoh key, or None if it is no contract topic."""
+    split = split_key(key)
+    return keys.TOPICS.get(split[1]) if split else None
+
+
+def schema_name(typ: type) -> str:
+    """The schema name of a message type: `zenav.Odom`."""
+    return f"zenav.{typ.__name__}"
+
+
+def _simplify(node: Any, defs: dict[str, Any]) -> Any:
+    # Inline `$ref`s and turn Optional[X] (anyOf X, null) into X: Foxglove's JSON Schema
+    # reader wants one `type` per field. A null value still reads as null.
+    if isinstance(node, list):
+        return [_simplify(n, defs) for n in node]
+    if not isinstance(node, dict):
+        return node
+    if "$ref" in node:
+        return _simplify(defs[node["$ref"].rsplit("/", 1)[-1]], defs)
+    options = node.get("anyOf")
+    if options is not None:
+        not_null = [o for o in options if o != {"type": "null"}]
+        if len(not_null) == 1:
+            rest = {k: v for k, v in node.items() if k != "anyOf"}
+            return {**_simplify(not_null[0], defs), **rest}
+    return {k: _simplify(v, defs) for k, v in node.items()}
+
+
+def json_schema(typ: type) -> dict[str, Any]:
+    """The JSON Schema of a message type, self-contained (no `$ref`)."""
+    raw = msgspec.json.schema(typ)
+    schema = _simplify(raw, raw.get("$defs", {}))
+    schema.pop("$defs", None)
+    schema["title"] = schema_name(typ)
+    return schema
+
+
+def schema_bytes(typ: type) -> bytes:
+    """json_schema() as the bytes of an MCAP schema record."""
+    return json.dumps(json_schema(typ)).encode()
+
+
+def to_json(msg: msgspec.Struct) -> bytes:
+    """A message as JSON bytes (the recording's message encoding)."""
+    return msgspec.json.encode(msg)
+
+
+def stamp(t: float) -> int:
+    """Seconds -> integer nanoseconds (MCAP times)."""
+    return int(round(t * NS))
+
+
+@dataclass(frozen=True)
+class Record:
+    """One message read back from a recording."""
+
+    key: str  # Zenoh key it was published on
+    msg: Any  # the contract message
+    log_time: int  # [ns] recorder wall clock at arrival
+
+
+def read(path: str, robot: Optional[str] = None, suffixes: Optional[Iterable[str]] = None) -> Iterator[Record]:
+    """The contract messages of a recording in arrival order (optionally one robot, some topics)."""
+    wanted = set(suffixes) if suffixes is not None else None
+    with open(path, "rb") as f:
+        for _, channel, message in make_reader(f).iter_messages(log_time_order=True):
+            key = key_of(channel.topic)
+            split, typ = split_key(key), message_type(key)
+            if typ is None or channel.message_encoding != MESSAGE_ENCODING:
+                continue
+            if (robot is not None and split[0] != robot) or (wanted is not None and split[1] not in wanted):
+                continue
+            yield Record(key, msgspec.json.decode(message.data, type=typ), message.log_time)
+
+
+def robots(path: str) -> list[str]:
+    """The robot ids that have channels in a recording, in first-seen order."""
+    with open(path, "rb") as f:
+        summary = make_reader(f).get_summary()
+    found: list[str] = []
+    for ch in summary.channels.values() if summary else ():
+        split = split_key(key_of(ch.topic))
+        if split and split[0] not in found:
+            found.append(split[0])
+    return found
