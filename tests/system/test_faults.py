@@ -11,6 +11,7 @@ import time
 
 import pytest
 
+from tests.system import goals
 from tests.system.test_up import service_pid
 from zenav.common.client import Client, ClientError
 from zenav.common.keys import SERVICES
@@ -137,7 +138,7 @@ def test_kill_9_mid_goal(stack, name):
     if name == "sim":  # the world restarted at t = 0: the whole stack follows, a goal works again
         stack.client.wait_alive(SERVICES, timeout=30)
         stack.client.latest("pose").wait(lambda p: p.t < 5.0, timeout=20)
-        rep = stack.client.query("nav/move_to_point", {"x": 0.3, "y": 0.0, "wait": True}, timeout=60)
+        rep = goals.move_to_point(stack.client, stack.client, 0.3, 0.0, timeout=60)
         assert rep.result == "succeeded", rep
     try:
         stack.client.query("nav/stop", timeout=5)

@@ -22,6 +22,7 @@ from pathlib import Path
 import pytest
 import zenoh
 
+from tests.system import goals
 from tests.system import test_compose as compose
 from zenav.common.bus import ZenohBus, zenoh_config
 from zenav.common.client import Client, ClientError
@@ -284,7 +285,7 @@ def test_the_services_run_under_the_acl_and_only_an_operator_drives(deployment, 
         viewer.query("nav/move_to_point", {"x": GOAL[0], "y": GOAL[1]})
     assert refused.value.code == "unavailable"  # no reply: the router dropped the query
 
-    reply = operator.query("nav/move_to_point", {"x": GOAL[0], "y": GOAL[1], "wait": True}, timeout=STACK_UP)
+    reply = goals.move_to_point(operator, viewer, *GOAL, timeout=STACK_UP)
     assert reply.result == "succeeded", reply
     truth = viewer.latest("sim/truth").wait(timeout=5.0)
     assert math.hypot(truth.x - GOAL[0], truth.y - GOAL[1]) < GOAL_TOLERANCE
@@ -313,7 +314,7 @@ def test_the_secure_compose_deployment(engine, tmp_path):
         viewer.latest("pose").wait(timeout=STACK_UP)
         with pytest.raises(ClientError):
             viewer.query("nav/move_to_point", {"x": GOAL[0], "y": GOAL[1]})
-        reply = operator.query("nav/move_to_point", {"x": GOAL[0], "y": GOAL[1], "wait": True}, timeout=STACK_UP)
+        reply = goals.move_to_point(operator, viewer, *GOAL, timeout=STACK_UP)
         assert reply.result == "succeeded", reply
     finally:
         dep.close()
