@@ -55,12 +55,12 @@ def child_args(args: argparse.Namespace, endpoint: str) -> list[str]:
 
 
 def navigator_ready(client: Client, done: threading.Event) -> bool:
-    """Wait until the navigator has a pose to take goals with (False if stopped first)."""
+    """Wait until the navigator would take a goal: a fresh, certain pose (False if stopped first)."""
     pose = client.latest("pose")
     while not done.is_set():
         try:
             pose.wait(timeout=1.0)
-            if client.query("nav/status", timeout=2.0).pose is not None:
+            if not client.query("nav/status", timeout=2.0).not_ready:
                 return True
         except (TimeoutError, ClientError):
             pass

@@ -5,6 +5,7 @@ into wall seconds so the runtime knows how long to block before the next timer.
 """
 from __future__ import annotations
 
+import math
 import threading
 import time
 from typing import Optional, Protocol
@@ -13,6 +14,7 @@ from zenav.common.messages import Clock as ClockMsg
 
 
 RESTART_JUMP = 1.0  # [s] a clock tick this far behind the last one means the sim restarted
+FUTURE_LIMIT = 1.0  # [s] a message stamped further than this past now comes from a broken clock
 
 
 class Clock(Protocol):
@@ -26,6 +28,9 @@ class Clock(Protocol):
     def wall_delay(self, dt: float) -> Optional[float]:
         """Wall seconds until `dt` clock seconds pass (None: time only moves when told)."""
 
+    def horizon(self) -> float:
+        """The latest time a message may carry now: a later stamp is dropped as from the future."""
+
 
 class WallClock:
     """Real hardware: the host's wall clock (epoch seconds)."""
@@ -37,6 +42,9 @@ class WallClock:
 
     def wall_delay(self, dt: float) -> Optional[float]:
         return max(dt, 0.0)
+
+    def horizon(self) -> float:
+        return self.now() + FUTURE_LIMIT
 
 
 class ScaledWallClock:
@@ -54,6 +62,9 @@ class ScaledWallClock:
 
     def wall_delay(self, dt: float) -> Optional[float]:
         return max(dt, 0.0) / self.rtf
+
+    def horizon(self) -> float:
+        return self.now() + FUTURE_LIMIT * max(1.0, self.rtf)
 
 
 class SimClock:
@@ -97,6 +108,12 @@ class SimClock:
     def wall_delay(self, dt: float) -> Optional[float]:
         return max(dt, 0.0) / self._rtf
 
+    def horizon(self) -> float:
+        """Before the first tick nothing is known to be from the future."""
+        if not self.ready:
+            return math.inf
+        return self.now() + FUTURE_LIMIT * max(1.0, self._rtf)
+
 
 class ManualClock:
     """A clock that tests set and advance."""
@@ -115,3 +132,7 @@ class ManualClock:
 
     def wall_delay(self, dt: float) -> Optional[float]:
         return None
+
+    def horizon(self) -> float:
+        """Tests set time by hand and may send messages ahead of it."""
+        return math.inf

@@ -94,6 +94,8 @@ class Odom(Topic, kw_only=True):
     omega: Velocity
     cov: Cov9 = ZERO_COV
     frame: str = "odom"
+    unmeasured_left: Finite = 0.0  # [m] travel the left wheel was commanded this step that its silent encoder did not show
+    unmeasured_right: Finite = 0.0  # [m] likewise, right
 
 
 class Pose(Topic, kw_only=True):
@@ -238,6 +240,7 @@ class StatusReply(Reply, kw_only=True):
     result: Optional[str]
     distance_remaining: Optional[float]
     pose: Optional[PoseStamped]
+    not_ready: str = ""  # why a new goal would be refused now ("": one can start)
 
 
 class LocalizerPoseReply(Reply, kw_only=True):

@@ -19,6 +19,9 @@ Bus callbacks only enqueue; one worker runs every handler in arrival order, and
 timers on the service clock in between. A payload that does not decode is counted
 (`bad_input`), logged and dropped; a bad query gets an `invalid_argument` reply. A
 handler that raises is logged and counted (`errors`) and the service keeps going.
+A message stamped more than a second past the stack clock (clock.horizon) is
+counted (`dropped_future`), logged and dropped: one bad stamp must not make every
+later sample look stale.
 """
 from __future__ import annotations
 
@@ -352,6 +355,11 @@ class Service:
         except codec.BadInput as e:
             self.counters.inc("bad_input")
             self.warn(f"bad:{suffix}", f"dropped bad input on {suffix}: {e}")
+            return
+        t = getattr(msg, "t", None)
+        if t is not None and t > self.clock.horizon():
+            self.counters.inc("dropped_future")
+            self.warn(f"future:{suffix}", f"dropped {suffix} stamped t={t:.3f}, {t - self.clock.now():.1f} s ahead of the clock")
             return
         try:
             out = fn(msg)

@@ -2,7 +2,7 @@
 differs from the nominal robot. Presets by name; any field can be overridden."""
 from __future__ import annotations
 
-from typing import Annotated, Optional
+from typing import Annotated, Literal, Optional
 
 import msgspec
 from msgspec import Meta, Struct
@@ -10,6 +10,27 @@ from msgspec import Meta, Struct
 Frac = Annotated[float, Meta(ge=-0.5, le=0.5)]  # a relative error, e.g. 0.003 = +0.3 %
 NonNeg = Annotated[float, Meta(ge=0.0, le=1e3)]
 Prob = Annotated[float, Meta(ge=0.0, le=1.0)]
+
+
+FUTURE_OFFSET = 1000.0  # [s] how far ahead a `future_stamp` fault stamps its samples
+
+
+class Fault(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """A sensor fault the simulated world injects from `start` for `duration` seconds of stack time.
+
+    gyro_dead: no IMU sample; encoder_frozen: the left encoder count holds;
+    duplicate: every encoder and IMU sample and every VPS fix is sent twice;
+    future_stamp: samples and fixes are stamped FUTURE_OFFSET seconds ahead.
+    """
+
+    kind: Literal["gyro_dead", "encoder_frozen", "duplicate", "future_stamp"]
+    start: NonNeg  # [s]
+    duration: Annotated[float, Meta(gt=0.0, le=1e5)]  # [s]
+
+
+def active(faults: tuple[Fault, ...], t: float) -> frozenset[str]:
+    """The kinds of fault under way at time t [s]."""
+    return frozenset(f.kind for f in faults if f.start <= t < f.start + f.duration)
 
 
 class Scenario(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
@@ -46,6 +67,7 @@ class Scenario(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     vps_outage_duration: NonNeg = 0.0  # [s]
     sensor_rate_hz: Annotated[float, Meta(ge=1.0, le=2000.0)] = 100.0  # [Hz] encoders, imu, clock, truth
     compass_rate_hz: Annotated[float, Meta(gt=0.0, le=1000.0)] = 10.0  # [Hz]
+    faults: tuple[Fault, ...] = ()  # scheduled sensor faults, e.g. [{kind = "gyro_dead", start = 10.0, duration = 5.0}]
 
 
 PRESETS: dict[str, Scenario] = {

@@ -21,6 +21,7 @@ from zenav.common.config import Robot
 from zenav.common.geometry import Pose2, wrap_angle
 
 Pos = Annotated[float, Meta(gt=0.0, le=1e3)]
+DUPLICATE_WINDOW = 64  # fixes: one equal to any of this many recent ones is a duplicate
 MIN_FIX_VAR = 1e-6  # [m^2] and [rad^2] floor of a fix's variances (1 mm, 1 mrad)
 MODES = ("ekf", "ekf_no_delay", "dead_reckoning", "overwrite", "weighted", "weighted_latency", "multisensor")
 
@@ -91,6 +92,7 @@ class Mode:
         self._pending = [0.0, 0.0, 0.0]  # corrections since the newest odom sample
         self._preset: Optional[tuple] = None  # a set_pose that came before any odometry
         self._latencies: deque[float] = deque(maxlen=cfg.latency_window)
+        self._recent_fixes: deque[tuple] = deque(maxlen=DUPLICATE_WINDOW)  # (t, x, y, theta) of recent fixes
 
     # ------------------------------------------------------------ interface
     def on_odom(self, odom: m.Odom) -> Optional[str]:
@@ -116,7 +118,12 @@ class Mode:
         """Use (or reject) a fix; returns its audit record."""
         latency = t_arrival - fix.t
         self._latencies.append(latency)
-        if self.odom is None:
+        key = (fix.t, fix.x, fix.y, fix.theta)
+        duplicate = key in self._recent_fixes
+        self._recent_fixes.append(key)
+        if duplicate:  # the same fix twice (a resent message): using it again would double its weight
+            res = FixResult(False, "duplicate")
+        elif self.odom is None:
             res = FixResult(False, "no_odom_yet")
         elif fix.t < self.t_set:
             res = FixResult(False, "before_set_pose")

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Optional
 
 import numpy as np
@@ -125,7 +125,7 @@ class Ekf(Mode):
                 break
             g = self.gyro.between(start, e.t)
             if g is not None:
-                e.u = model.Step(e.u.ds, e.u.dth, e.u.dt, g)
+                e.u = replace(e.u, gyro=g)
                 first = i
         if first is not None:
             self.gyro_used = True
@@ -144,7 +144,7 @@ class Ekf(Mode):
         last = self.history[-1]
         g = self.gyro.between(t0, t)
         self.gyro_used = self.gyro_used or g is not None
-        u = model.Step(ds, dth, t - t0, g)
+        u = model.Step(ds, dth, t - t0, g, (self.odom.unmeasured_left**2, self.odom.unmeasured_right**2))
         s, P = model.predict(last.s, last.P, u, self.noise)
         self.history.append(_Entry(t, u, s, P))
         drop = bisect.bisect_left(self.history, t - self.cfg.history, key=lambda e: e.t)

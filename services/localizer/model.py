@@ -50,10 +50,12 @@ class Step:
     dth: float  # [rad] nominal geometry
     dt: float  # [s]
     gyro: Optional[float] = None  # [rad] raw gyro rate integrated over dt
+    unmeasured: tuple[float, float] = (0.0, 0.0)  # [m^2] variance of each wheel's travel its silent encoder missed
 
     def part(self, f: float) -> Step:
         """The fraction f of this increment."""
-        return Step(self.ds * f, self.dth * f, self.dt * f, None if self.gyro is None else self.gyro * f)
+        gyro = None if self.gyro is None else self.gyro * f
+        return Step(self.ds * f, self.dth * f, self.dt * f, gyro, (self.unmeasured[0] * f, self.unmeasured[1] * f))
 
 
 def _odom_heading(s: np.ndarray, u: Step, track: float) -> tuple[float, np.ndarray]:
@@ -70,7 +72,7 @@ def _odom_heading(s: np.ndarray, u: Step, track: float) -> tuple[float, np.ndarr
 def _wheel_vars(u: Step, nz: Noise) -> tuple[float, float, float]:
     """(slip variance of each wheel [m^2] summed, their difference, and the tick rounding part)."""
     dl, dr = abs(u.ds - nz.track * u.dth / 2.0), abs(u.ds + nz.track * u.dth / 2.0)
-    var_l, var_r = nz.wheel_var * dl, nz.wheel_var * dr
+    var_l, var_r = nz.wheel_var * dl + u.unmeasured[0], nz.wheel_var * dr + u.unmeasured[1]
     # Rounding to ticks does not accumulate (counts are cumulative): it only matters
     # when one increment is compared with the gyro's. A wheel may turn less than a
     # tick in a step and show nothing: the gyro says how far it went.

@@ -10,6 +10,9 @@ from .base import LocalizerConfig
 from .modes import make_mode
 
 
+OUTLIERS_DEGRADED = 3  # fixes rejected in a row that make the status degraded
+
+
 class Localizer(Service):
     """Publishes `pose` for every odom sample and an audit record for every fix."""
 
@@ -20,10 +23,13 @@ class Localizer(Service):
     def __init__(self, *args) -> None:
         super().__init__(*args)
         self.mode = make_mode(self.cfg, self.settings.robot)
+        self.newest_fix: Optional[float] = None  # [s] latest capture time received
+        self.outliers_in_row = 0  # fixes rejected as outliers since the last accepted one
 
     def on_clock_reset(self) -> None:
         """The sim restarted: the world and its odometry start again, and so does the estimate."""
         self.mode = make_mode(self.cfg, self.settings.robot)
+        self.newest_fix, self.outliers_in_row = None, 0
 
     @subscribe("odom")
     @publish("pose")
@@ -54,8 +60,17 @@ class Localizer(Service):
     @publish("localizer/fixes")
     def on_fix(self, msg: m.VpsPose) -> m.Fix:
         """One VPS fix, arrived now: its audit record."""
+        if self.newest_fix is not None and msg.t < self.newest_fix:
+            self.count("fixes_out_of_order")  # applied at its capture time all the same
+        self.newest_fix = msg.t if self.newest_fix is None else max(self.newest_fix, msg.t)
         rec = self.mode.on_fix(msg, self.clock.now())
         self.count(f"fixes_{rec.reason}")
+        if rec.reason == "duplicate":
+            self.warn("duplicate", f"dropped a second VPS fix captured at t={msg.t:.3f}")
+        if rec.accepted:
+            self.outliers_in_row = 0
+        elif rec.reason == "outlier":
+            self.outliers_in_row += 1
         return rec
 
     @query("localizer/pose")
@@ -97,4 +112,7 @@ class Localizer(Service):
             elif now - last > self.cfg.stale_fix:
                 status = "degraded"
                 notes.insert(0, f"no VPS fix accepted for {now - last:.1f} s")
+            if self.outliers_in_row >= OUTLIERS_DEGRADED:
+                status = "degraded"
+                notes.insert(0, f"{self.outliers_in_row} VPS fixes in a row disagree with the odometry")
         self.set_status(status, "; ".join(notes))

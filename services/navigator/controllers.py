@@ -10,7 +10,7 @@
 from __future__ import annotations
 
 import math
-from typing import Callable, NamedTuple
+from typing import Callable, NamedTuple, Sequence
 
 from zenav.common.geometry import wrap_angle
 from zenav.services.navigator.params import Params
@@ -25,6 +25,15 @@ class PoseSample(NamedTuple):
     theta: float  # [rad]
     v: float = 0.0  # [m/s] measured forward speed
     omega: float = 0.0  # [rad/s] measured turn rate
+    sigma_xy: float = 0.0  # [m] 1 sigma of the position along its most uncertain axis
+    sigma_theta: float = 0.0  # [rad] 1 sigma of the heading
+
+
+def sigmas(cov: Sequence[float]) -> tuple[float, float]:
+    """(position sigma along the worst axis [m], heading sigma [rad]) of a row-major 3x3 (x, y, theta) covariance."""
+    a, b, d = cov[0], (cov[1] + cov[3]) / 2.0, cov[4]
+    worst = (a + d) / 2.0 + math.sqrt(((a - d) / 2.0) ** 2 + b * b)  # the larger eigenvalue of the xy block
+    return math.sqrt(max(worst, 0.0)), math.sqrt(max(cov[8], 0.0))
 
 
 class Target(NamedTuple):

@@ -1,7 +1,7 @@
 """The goal state machine: one goal at a time, from start to succeeded, cancelled or aborted.
 
 Pure: poses and the time come in as arguments. `on_pose` returns the command for
-that pose; `check` (called periodically) aborts on a stale pose or no progress.
+that pose; `check` (called periodically) aborts on a stale or too uncertain pose, or no progress.
 Every end but a handover to a new goal asks for zero velocity at once (`End.stop`).
 A position goal arrives when it is within tolerance and no longer ahead (seen from
 the pose predicted `stop_lead` ahead, the point is off the direction of travel by
@@ -111,11 +111,23 @@ class GoalMachine:
         return self._run is not None
 
     def refusal(self, now: float) -> Optional[str]:
-        """Why no goal can start now (no pose, stale pose), or None."""
+        """Why no goal can start now (no pose, stale pose, uncertain pose), or None."""
         if self.pose is None:
             return "no pose yet: is the localizer running?"
         if now - self.pose.t > self.params.stale_after:
             return f"pose stale: the newest is {now - self.pose.t:.2f} s old"
+        doubt = self.uncertain()
+        if doubt is not None:
+            return f"{doubt} (no VPS fix yet or for long: wait for one, or set the pose)"
+        return None
+
+    def uncertain(self) -> Optional[str]:
+        """Why the newest pose is too uncertain to drive on, or None."""
+        p, pose = self.params, self.pose
+        if pose.sigma_xy > p.max_position_sigma:
+            return f"pose too uncertain: position sigma {pose.sigma_xy:.3f} m > {p.max_position_sigma:.3f} m"
+        if pose.sigma_theta > p.max_heading_sigma:
+            return f"pose too uncertain: heading sigma {pose.sigma_theta:.3f} rad > {p.max_heading_sigma:.3f} rad"
         return None
 
     def start(self, goal: Goal, now: float) -> Optional[End]:
@@ -173,6 +185,9 @@ class GoalMachine:
             return None
         if now - self.pose.t > p.stale_after:
             return self.abort(f"pose stale: none for {now - self.pose.t:.2f} s")
+        doubt = self.uncertain()
+        if doubt is not None:
+            return self.abort(doubt)
         step = p.progress_angle if run.goal.state == TURNING_TO_HEADING else p.progress_distance
         if run.settle_from is not None or run.best is None or run.progress >= run.best + step:
             run.best, run.best_t = run.progress, now

@@ -8,6 +8,7 @@ from msgspec import Meta, Struct
 Pos = Annotated[float, Meta(gt=0.0, le=1e3)]
 NonNeg = Annotated[float, Meta(ge=0.0, le=1e3)]
 Gain = Annotated[float, Meta(ge=-1e3, le=1e3)]
+Limit = Annotated[float, Meta(gt=0.0)]  # inf turns the check off
 
 ControllerName = Literal["pid", "polar", "proportional"]
 CONTROLLERS: tuple[str, ...] = get_args(ControllerName)
@@ -33,6 +34,8 @@ class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     progress_distance: Pos = 0.01  # [m] the least gain toward a position goal that counts as progress
     progress_angle: Pos = 0.02  # [rad] the least gain toward a heading that counts as progress
     stale_after: Pos = 0.5  # [s] a goal aborts when the newest pose is older than this
+    max_position_sigma: Limit = 0.5  # [m] a goal aborts (or is refused) while the pose's position sigma is larger
+    max_heading_sigma: Limit = 0.35  # [rad] likewise for the heading sigma (20 deg)
     lease_grace: Pos = 0.5  # [s] how long a goal's lease token may take to be seen alive
     check_period: Pos = 0.05  # [s] period of the stale pose, progress and lease checks
     state_period: Pos = 0.2  # [s] period of nav/state between changes (5 Hz)

@@ -20,7 +20,7 @@ from zenav.common.config import ConfigError, Settings
 from zenav.common.geometry import wrap_angle
 from zenav.common.runtime import QueryError, Service, on_liveliness, publish, query, reply_error, reply_ok, subscribe, timer
 from zenav.services.navigator import goals
-from zenav.services.navigator.controllers import PoseSample, Wheelbase, check_polar_gains
+from zenav.services.navigator.controllers import PoseSample, Wheelbase, check_polar_gains, sigmas
 from zenav.services.navigator.goals import End, Goal, GoalMachine, Refused
 from zenav.services.navigator.params import Params
 
@@ -76,7 +76,8 @@ class Navigator(Service):
             self.warn("pose_order", f"dropped a pose out of order (t {msg.t:.3f} < {last.t:.3f})")
             return None
         self._poll_leases()
-        cmd, end = self.machine.on_pose(PoseSample(msg.t, msg.x, msg.y, wrap_angle(msg.theta), msg.v, msg.omega))
+        sample = PoseSample(msg.t, msg.x, msg.y, wrap_angle(msg.theta), msg.v, msg.omega, *sigmas(msg.cov))
+        cmd, end = self.machine.on_pose(sample)
         if end is not None:
             self._ended(end, zero=False)  # the zero goes out below, with this pose's t
         self._show_changes()
@@ -178,6 +179,7 @@ class Navigator(Service):
             result=self.machine.result,
             distance_remaining=fb.distance_remaining,
             pose=self._stamped(),
+            not_ready=self.machine.refusal(self.clock.now()) or "",
         )
 
     def on_clock_reset(self) -> None:

@@ -76,23 +76,29 @@ def tick_delta(new: int, old: int) -> int:
 
 
 def _propagate(
-    cov: tuple[float, ...], st: integrators.Step, h: hd.HeadingStep, p: Params, d_left: float, d_right: float
+    cov: tuple[float, ...], st: integrators.Step, h: hd.HeadingStep, p: Params, d_left: float, d_right: float,
+    unmeasured: tuple[float, float],
 ) -> tuple[float, ...]:
-    """P' = F P F^T + J Q J^T + var g g^T: state, wheels, heading source."""
+    """P' = F P F^T + J Q J^T + var g g^T: state, wheels (and travel no encoder saw), heading source."""
     P = np.asarray(cov).reshape(3, 3)
     F, G = st.F.copy(), st.G
     # dtheta = (1 - keep) (heading - theta_old) + ...: that share of the old heading drops out
     F[:, 2] -= (1.0 - h.keep) * G[:, 1]
     w = h.enc_weight / p.track
     J = G @ np.array([[0.5, 0.5], [-w, w]])  # d pose / d (d_left, d_right)
-    Q = np.diag([p.k_left * abs(d_left), p.k_right * abs(d_right)])
+    Q = np.diag([p.k_left * abs(d_left) + unmeasured[0] ** 2, p.k_right * abs(d_right) + unmeasured[1] ** 2])
     g = G[:, 1:2]
     P = F @ P @ F.T + J @ Q @ J.T + h.var * (g @ g.T)
     return tuple((0.5 * (P + P.T)).ravel().tolist())
 
 
-def update(s: OdometryState, p: Params, left: int, right: int, t: float) -> tuple[OdometryState, Optional[m.Odom], str]:
-    """One encoder sample (cumulative ticks, time t [s]): new state, odom or None, event."""
+def update(
+    s: OdometryState, p: Params, left: int, right: int, t: float, unmeasured: tuple[float, float] = (0.0, 0.0)
+) -> tuple[OdometryState, Optional[m.Odom], str]:
+    """One encoder sample (cumulative ticks, time t [s]): new state, odom or None, event.
+
+    `unmeasured` [m]: travel each wheel was commanded but its encoder did not show (stall.py).
+    """
     if s.t is None:
         return s._replace(t=t, t0=t, left=left, right=right), None, BASELINE
     dt = t - s.t
@@ -108,11 +114,14 @@ def update(s: OdometryState, p: Params, left: int, right: int, t: float) -> tupl
         s.imu, s.compass, s.theta, s.t0, t, dt, (d_right - d_left) / p.track, d / dt, p.heading
     )
     st = integrators.step(s.x, s.y, s.theta, d, h.dtheta, p.integrator)
-    cov = _propagate(s.cov, st, h, p, d_left, d_right)
+    cov = _propagate(s.cov, st, h, p, d_left, d_right, unmeasured)
     if n_left or n_right:
         s, imu = s._replace(t_moved=t), hd.moved(imu)
     state = s._replace(t=t, left=left, right=right, x=st.x, y=st.y, theta=st.theta, cov=cov, imu=imu, compass=compass)
-    odom = m.Odom(t=t, x=st.x, y=st.y, theta=st.theta, v=d / dt, omega=h.omega, cov=cov)
+    odom = m.Odom(
+        t=t, x=st.x, y=st.y, theta=st.theta, v=d / dt, omega=h.omega, cov=cov,
+        unmeasured_left=unmeasured[0], unmeasured_right=unmeasured[1],
+    )
     return state, odom, FALLBACK if h.fallback else OK
 
 

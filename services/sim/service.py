@@ -9,6 +9,7 @@ import numpy as np
 from msgspec import Meta, Struct
 
 from zenav.common import messages as m
+from zenav.common import scenarios
 from zenav.common.bus import Bus, Query
 from zenav.common.clock import Clock, ScaledWallClock
 from zenav.common.config import Settings
@@ -46,6 +47,7 @@ class Sim(Service):
         self.base = 0.0  # [s] scheduling-clock time of step 0 (moves forward on a resync)
         self.cmd = (0.0, 0.0)  # [rad/s] wheel commands (left, right)
         self.cmd_t: float | None = None  # [s] sim time the command arrived; None: wheels stopped
+        self.frozen_left: int | None = None  # [ticks] what the left encoder reads while an encoder_frozen fault lasts
         self.count("overruns", 0)
         self.count("command_timeouts", 0)
 
@@ -110,16 +112,22 @@ class Sim(Service):
         gyro_z, accel_x, accel_y = sensors.imu(s, self.scen, self.rng)
         self.publish("clock", m.Clock(t=t, rtf=self.cfg.rtf, wall=time.time()))
         self.publish("sim/truth", m.Truth(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega))
-        self.publish(
-            "sensors/encoders",
-            m.Encoders(
-                t=t,
-                left=sensors.encoder_ticks(s.angle_left, tpr, start),
-                right=sensors.encoder_ticks(s.angle_right, tpr, start),
-            ),
-        )
-        self.publish("sensors/imu", m.Imu(t=t, gyro_z=gyro_z, accel_x=accel_x, accel_y=accel_y))
+        faults = scenarios.active(self.scen.faults, t)
+        stamp = t + scenarios.FUTURE_OFFSET if "future_stamp" in faults else t
+        copies = 2 if "duplicate" in faults else 1
+        left = sensors.encoder_ticks(s.angle_left, tpr, start)
+        if "encoder_frozen" in faults:
+            self.frozen_left = left if self.frozen_left is None else self.frozen_left
+            left = self.frozen_left
+        else:
+            self.frozen_left = None
+        encoders = m.Encoders(t=stamp, left=left, right=sensors.encoder_ticks(s.angle_right, tpr, start))
+        imu = m.Imu(t=stamp, gyro_z=gyro_z, accel_x=accel_x, accel_y=accel_y)
+        for _ in range(copies):
+            self.publish("sensors/encoders", encoders)
+            if "gyro_dead" not in faults:
+                self.publish("sensors/imu", imu)
         # Compass samples fall on the steps where its own schedule crosses a period.
         ratio = self.scen.compass_rate_hz / self.rate
         if math.floor(self.steps * ratio + 1e-6) > math.floor((self.steps - 1) * ratio + 1e-6):
-            self.publish("sensors/compass", m.Compass(t=t, heading=sensors.compass(s, self.scen, self.rng)))
+            self.publish("sensors/compass", m.Compass(t=stamp, heading=sensors.compass(s, self.scen, self.rng)))

@@ -3,9 +3,11 @@ from __future__ import annotations
 
 from typing import Annotated
 
+import msgspec
 from msgspec import Meta, Struct
 
 from zenav.common import messages as m
+from zenav.common import scenarios
 from zenav.common.runtime import Service, subscribe, timer
 
 from .camera import Camera, DeliveryQueue, make_rng
@@ -46,4 +48,9 @@ class Vps(Service):
     def deliver(self, now: float) -> None:
         """Publish every fix whose delivery time has come."""
         for d in self.queue.pop_due(now):
-            self.publish("vps/pose", d.fix)
+            fix = d.fix
+            faults = scenarios.active(self.settings.scenario.faults, fix.t)
+            if "future_stamp" in faults:
+                fix = msgspec.structs.replace(fix, t=fix.t + scenarios.FUTURE_OFFSET)
+            for _ in range(2 if "duplicate" in faults else 1):
+                self.publish("vps/pose", fix)

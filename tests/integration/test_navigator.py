@@ -23,6 +23,7 @@ def raw(make_stack, router):
     c.follow("sim/truth")
     c.follow("pose")
     c.wait(lambda latest: "pose" in latest, timeout=30)
+    c.wait_nav_ready()
     yield c
     c.close()
 
@@ -83,6 +84,7 @@ def test_path_trial(make_stack, router, seed):
         c.follow("sim/truth")
         c.follow("pose")
         c.wait(lambda latest: "pose" in latest, timeout=30)
+        c.wait_nav_ready()
         ok, rep = c.query("nav/follow_path", {"points": PATH, "wait": True}, timeout=120)
         assert ok and rep["result"] == "succeeded", rep
         truth = c.wait(lambda latest: abs(latest["sim/truth"]["v"]) < 0.005, timeout=5)["sim/truth"]

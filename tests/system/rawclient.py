@@ -47,6 +47,18 @@ class RawClient:
                 self.lock.wait(left)
             return self.latest
 
+    def wait_nav_ready(self, timeout: float = 30.0) -> None:
+        """Block until nav/status says a goal would start (asking again on each new pose; needs follow("pose"))."""
+        deadline = time.monotonic() + timeout
+        while True:
+            ok, st = self.query("nav/status", timeout=timeout)
+            if ok and not st.get("not_ready"):
+                return
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"navigator not ready after {timeout} s: {st}")
+            t = self.wait(lambda latest: "pose" in latest, timeout)["pose"]["t"]
+            self.wait(lambda latest, t=t: latest["pose"]["t"] > t, max(deadline - time.monotonic(), 0.1))
+
     def alive(self) -> set[str]:
         return {str(r.ok.key_expr).rsplit("/", 1)[-1] for r in self.session.liveliness().get(f"{self.prefix}/alive/*", timeout=2.0) if r.ok}
 

@@ -128,6 +128,7 @@ def test_compose_stack_drives_the_robot_and_survives_a_crash(engine):
         client.follow("sim/truth", keep=True)
         client.follow("pose")
         client.wait(lambda latest: "pose" in latest and "sim/truth" in latest, timeout=30)
+        client.wait_nav_ready(timeout=30)
 
         # a goal through the published port: the reply says succeeded, the truth agrees
         ok, reply = client.query("nav/move_to_point", {"x": GOAL[0], "y": GOAL[1], "wait": True}, timeout=60)

@@ -91,14 +91,14 @@ class TokenEvents:
 
 
 def navigator_has_pose(stack: Stack) -> None:
-    """Block until the navigator reports a pose (asking again on each new pose, bounded)."""
+    """Block until the navigator would take a goal (asking again on each new pose, bounded)."""
     pose = stack.client.latest("pose")
     for _ in range(100):
         p = pose.wait(timeout=30)
-        if stack.client.query("nav/status", timeout=10).pose is not None:
+        if not stack.client.query("nav/status", timeout=10).not_ready:
             return
         pose.wait(lambda q, t=p.t: q.t >= t + 0.1, timeout=10)
-    raise AssertionError("the navigator never reported a pose")
+    raise AssertionError("the navigator never became ready for a goal")
 
 
 def start_goal(stack: Stack) -> int:

@@ -55,7 +55,7 @@ def tracking(t_end: float = 3.0, **cfg) -> Ekf:
     for k in range(6, int(t_end * 100) + 1):
         t = k / 100
         straight(ekf, t, t)
-        if k % 10 == 0:
+        if k % 10 == 5:  # fixes captured at x.x5 s: the tests send their own at x.x0
             ekf.on_fix(fix(t - 0.3, 0.3 * (t - 0.3)), t)
     return ekf
 
@@ -243,3 +243,12 @@ def test_odd_fix_covariances_are_made_usable(cov):
     rec = ekf.on_fix(m.VpsPose(t=2.7, x=0.81, y=0.0, theta=0.0, cov=cov), 3.0)
     p = ekf.get_pose()
     assert rec.accepted and math.isfinite(rec.mahalanobis_d2) and p.cov[8] > 0.0
+
+
+def test_a_fix_sent_twice_is_used_once():
+    ekf = tracking(3.0)
+    first = ekf.on_fix(fix(2.7, 0.81), 3.0)
+    P = ekf.get_pose().cov
+    again = ekf.on_fix(fix(2.7, 0.81), 3.01)
+    assert first.accepted and not again.accepted and again.reason == "duplicate"
+    assert ekf.get_pose().cov == P  # its weight counted once

@@ -4,7 +4,7 @@ import math
 import pytest
 
 from zenav.services.navigator import goals
-from zenav.services.navigator.controllers import PoseSample, Wheelbase
+from zenav.services.navigator.controllers import PoseSample, Wheelbase, sigmas
 from zenav.services.navigator.goals import Goal, GoalMachine, Refused
 from zenav.services.navigator.params import Params
 
@@ -77,6 +77,28 @@ def test_stale_pose_aborts():
     assert mc.check(0.5) is None
     end = mc.check(0.51)
     assert end.result == goals.ABORTED and "stale" in end.message
+
+
+def test_an_uncertain_pose_refuses_a_goal_and_aborts_a_running_one():
+    mc = GoalMachine(Params(max_position_sigma=0.5, max_heading_sigma=0.35), WHEELS)
+    mc.on_pose(PoseSample(0.0, 0.0, 0.0, 0.0, sigma_xy=10.0, sigma_theta=math.pi))  # no fix yet
+    with pytest.raises(Refused, match="position sigma 10.000 m > 0.500 m"):
+        mc.start(to_point(1.0, 0.0), 0.0)
+    mc.on_pose(PoseSample(0.01, 0.0, 0.0, 0.0, sigma_xy=0.02, sigma_theta=0.5))
+    with pytest.raises(Refused, match="heading sigma"):
+        mc.start(to_point(1.0, 0.0), 0.01)
+    mc.on_pose(PoseSample(0.02, 0.0, 0.0, 0.0, sigma_xy=0.02, sigma_theta=0.01))
+    mc.start(to_point(1.0, 0.0), 0.02)
+    assert mc.check(0.03) is None
+    mc.on_pose(PoseSample(0.04, 0.01, 0.0, 0.0, sigma_xy=0.6, sigma_theta=0.01))  # the fixes stopped long ago
+    end = mc.check(0.05)
+    assert end.result == goals.ABORTED and "position sigma 0.600 m" in end.message
+
+
+def test_pose_sigma_is_the_worst_axis_of_the_covariance():
+    assert sigmas((4.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.09)) == pytest.approx((2.0, 0.3))
+    sxy, _ = sigmas((1.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0))  # fully correlated: 2 along the diagonal
+    assert sxy == pytest.approx(math.sqrt(2.0))
 
 
 def test_no_progress_aborts_after_the_timeout():

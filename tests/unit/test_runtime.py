@@ -216,3 +216,19 @@ def test_clock_restart_reschedules_timers_and_calls_the_hook():
     assert s.counters.values["clock_resets"] == 1
     assert all(tm.due is not None and tm.due < 2.0 for tm in s._timers)  # not waiting for t = 500
     s.close()
+
+
+def test_a_message_from_the_future_is_dropped_and_later_ones_still_served():
+    bus, clock = MemoryBus(), SimClock()
+    s = Echo(Settings.load(None), bus, clock)
+    s.start()
+    cmd = "zenav/r1/cmd_vel"
+    bus.publish(cmd, codec.encode(m.CmdVel(t=1e6, v=0.1, omega=0.0)))  # before any tick: nothing to judge by
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=10.0, rtf=1.0)))
+    bus.publish(cmd, codec.encode(m.CmdVel(t=10.5, v=0.1, omega=0.0)))  # within the limit
+    bus.publish(cmd, codec.encode(m.CmdVel(t=1010.0, v=0.1, omega=0.0)))  # a broken stamp
+    bus.publish(cmd, codec.encode(m.CmdVel(t=10.02, v=0.1, omega=0.0)))
+    s.drain()
+    assert [w.t for w in published(bus, "motors/wheels")] == [1e6, 10.5, 10.02]
+    assert s.counters.values["dropped_future"] == 1
+    s.close()

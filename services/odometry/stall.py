@@ -1,0 +1,57 @@
+"""A wheel commanded to turn whose encoder shows nothing: a frozen encoder or a stalled wheel.
+
+Pure: the commanded wheel speeds (motors/wheels) and each encoder step come in as
+arguments. A wheel counts as silent once it should have turned `min_ticks` ticks
+at its commanded speed and `min_time` has passed without one tick; from then on the
+travel it was commanded is reported as unmeasured, so the odometry's covariance (and
+the localizer's) grows by it instead of trusting a count that says "still".
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple, Optional
+
+
+class StallParams(NamedTuple):
+    min_speed: float  # [rad/s] a wheel commanded slower than this may rightly not turn (deadband)
+    min_ticks: float  # ticks the commanded speed must have turned the wheel before silence counts
+    min_time: float  # [s] and the least time of silence
+    ticks_per_rad: float  # encoder ticks per radian of wheel
+    radius: float  # [m] wheel radius
+
+
+class Watch(NamedTuple):
+    """Per wheel (left, right): since when it has been commanded but silent, and how far it was told to turn."""
+
+    cmd: tuple[float, float] = (0.0, 0.0)  # [rad/s] newest command
+    since: tuple[Optional[float], Optional[float]] = (None, None)  # [s]
+    owed: tuple[float, float] = (0.0, 0.0)  # [rad] commanded turn since then
+
+
+def command(w: Watch, left: float, right: float) -> Watch:
+    """A new motors/wheels command [rad/s]."""
+    return w._replace(cmd=(left, right))
+
+
+def step(w: Watch, p: StallParams, t: float, dt: float, ticks: tuple[int, int]) -> tuple[Watch, tuple[float, float], tuple[bool, bool]]:
+    """One encoder step ending at t [s], dt [s] long, with each wheel's tick count change.
+
+    Returns the new watch, each wheel's unmeasured travel this step [m] and whether it is silent.
+    """
+    since, owed, unmeasured, silent = list(w.since), list(w.owed), [0.0, 0.0], [False, False]
+    for i in (0, 1):
+        cmd = w.cmd[i]
+        if ticks[i] != 0 or abs(cmd) < p.min_speed:
+            since[i], owed[i] = None, 0.0
+            continue
+        if since[i] is None:
+            since[i] = t - dt
+        owed[i] += abs(cmd) * dt
+        if owed[i] * p.ticks_per_rad >= p.min_ticks and t - since[i] >= p.min_time:
+            silent[i] = True
+            unmeasured[i] = abs(cmd) * dt * p.radius
+    return Watch(w.cmd, (since[0], since[1]), (owed[0], owed[1])), (unmeasured[0], unmeasured[1]), (silent[0], silent[1])
+
+
+def params(ticks_per_rev: int, radius: float, min_speed: float, min_ticks: float, min_time: float) -> StallParams:
+    return StallParams(min_speed, min_ticks, min_time, ticks_per_rev / (2.0 * math.pi), radius)
