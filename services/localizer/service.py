@@ -11,6 +11,7 @@ from .modes import make_mode
 
 
 OUTLIERS_DEGRADED = 3  # fixes rejected in a row that make the status degraded
+GYRO_SILENT = 0.5  # [s] a gyro that was heard and is silent this long makes the status degraded
 
 
 class Localizer(Service):
@@ -25,11 +26,12 @@ class Localizer(Service):
         self.mode = make_mode(self.cfg, self.settings.robot)
         self.newest_fix: Optional[float] = None  # [s] latest capture time received
         self.outliers_in_row = 0  # fixes rejected as outliers since the last accepted one
+        self.last_imu: Optional[float] = None  # [s] stack time the newest gyro sample arrived
 
     def on_clock_reset(self) -> None:
         """The sim restarted: the world and its odometry start again, and so does the estimate."""
         self.mode = make_mode(self.cfg, self.settings.robot)
-        self.newest_fix, self.outliers_in_row = None, 0
+        self.newest_fix, self.outliers_in_row, self.last_imu = None, 0, None
 
     @subscribe("odom")
     @publish("pose")
@@ -50,6 +52,7 @@ class Localizer(Service):
         """One gyro sample, for the modes that use it."""
         if self.mode.on_imu(msg) == "stale":
             self.count("dropped_stale")
+        self.last_imu = self.clock.now()
 
     @subscribe("sensors/compass")
     def on_compass(self, msg: m.Compass) -> None:
@@ -94,7 +97,7 @@ class Localizer(Service):
 
     @timer("health_period")
     def check_health(self, now: float) -> None:
-        """Degraded while no fix has been accepted for a while; report a latency far from the expected one."""
+        """Degraded while no fix is accepted, the gyro is silent or fixes keep disagreeing; report an odd latency."""
         notes = []
         latency = self.mode.latency
         if latency is not None:
@@ -112,6 +115,9 @@ class Localizer(Service):
             elif now - last > self.cfg.stale_fix:
                 status = "degraded"
                 notes.insert(0, f"no VPS fix accepted for {now - last:.1f} s")
+            if self.last_imu is not None and now - self.last_imu > GYRO_SILENT:
+                status = "degraded"
+                notes.insert(0, f"no gyro sample for {now - self.last_imu:.1f} s: heading from the odometry")
             if self.outliers_in_row >= OUTLIERS_DEGRADED:
                 status = "degraded"
                 notes.insert(0, f"{self.outliers_in_row} VPS fixes in a row disagree with the odometry")
