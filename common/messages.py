@@ -157,6 +157,7 @@ class Diag(Topic, kw_only=True):
     rates: dict[str, Finite]  # topic -> [Hz]
     status: str  # ok, degraded, error
     message: str = ""
+    queue: int = 0  # inputs waiting for the worker when this diag was sent
 
 
 # ---------------------------------------------------------------- queries

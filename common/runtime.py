@@ -435,6 +435,7 @@ class Service:
             rates=rates,
             status=self.status,
             message=self.status_message,
+            queue=self._queue.qsize(),
         )
 
     def _publish_diag(self, now: float) -> None:
