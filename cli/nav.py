@@ -90,6 +90,12 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run, query="nav/follow_path")
     p = sub.add_parser("stop", parents=[common], help="cancel the goal and stop the robot now")
     p.set_defaults(func=run, query="nav/stop")
+    p = sub.add_parser("set-pose", parents=[common], help="tell the localizer where the robot is (map frame; a robot without a camera)")
+    p.add_argument("x", type=finite, help="[m]")
+    p.add_argument("y", type=finite, help="[m]")
+    p.add_argument("theta", type=finite, nargs="?", help="[rad] (degrees with --deg; default: keep the heading)")
+    p.add_argument("--deg", action="store_true", help="theta in degrees")
+    p.set_defaults(func=run, query="localizer/set_pose")
 
 
 def request(args: argparse.Namespace) -> dict[str, Any]:
@@ -104,6 +110,9 @@ def request(args: argparse.Namespace) -> dict[str, Any]:
         fields = {"speed": args.speed, "distance": args.distance}
     elif args.query == "nav/follow_path":
         fields = {"points": args.points}
+    elif args.query == "localizer/set_pose":
+        return {k: v for k, v in {"x": args.x, "y": args.y, "theta": None if args.theta is None else args.theta * scale}.items()
+                if v is not None}
     if args.query not in ("nav/move_straight", "nav/stop"):
         fields["speed"] = None if args.speed is None else args.speed * scale
         fields["tolerance"] = None if args.tolerance is None else args.tolerance * scale
@@ -117,6 +126,10 @@ def run(args: argparse.Namespace, connect: Callable[[argparse.Namespace], Client
             if args.query == "nav/stop":
                 rep = client.query("nav/stop", timeout=args.timeout or QUERY_TIMEOUT)
                 print(f"stopped ({rep.state})")
+                return EXIT_OK
+            if args.query == "localizer/set_pose":
+                p = client.query(args.query, request(args), timeout=args.timeout or QUERY_TIMEOUT)
+                print(f"pose set: x {p.x:+.3f} y {p.y:+.3f} th {math.degrees(p.theta):+.1f} deg")
                 return EXIT_OK
             if args.wait:
                 return wait(client, args, request(args))

@@ -107,6 +107,17 @@ def test_clamped_speed_is_shown(capsys):
     assert code == EXIT_OK and "at 0.30 m/s" in capsys.readouterr().out
 
 
+@pytest.mark.parametrize(
+    "argv, request_",
+    [(["set-pose", "0.5", "-1"], {"x": 0.5, "y": -1.0}), (["set-pose", "0", "0", "90", "--deg"], {"x": 0.0, "y": 0.0, "theta": math.pi / 2})],
+)
+def test_set_pose(argv, request_, capsys):
+    code, client = run(argv, {"localizer/set_pose": m.PoseStamped(t=1.0, x=0.5, y=-1.0, theta=0.0)})
+    [(sent, req, _)] = client.sent
+    assert code == EXIT_OK and sent == "localizer/set_pose" and req == pytest.approx(request_)
+    assert "pose set: x +0.500 y -1.000" in capsys.readouterr().out
+
+
 def test_stop(capsys):
     code, client = run(["stop", "--robot", "r2"], {"nav/stop": m.StopReply(state="STOPPED")})
     assert code == EXIT_OK and client.sent[0][0] == "nav/stop" and "STOPPED" in capsys.readouterr().out
