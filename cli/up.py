@@ -45,10 +45,10 @@ def default_log_dir() -> Path:
 def child_args(args: argparse.Namespace, endpoint: str) -> list[str]:
     """What every service process is started with."""
     out = ["--connect", endpoint]
-    for flag in ("robot", "config", "scenario", "seed"):  # --connect is the endpoint above
+    for flag in ("robot", "zenoh_mode", "config", "scenario", "seed"):  # --connect is the endpoint above
         value = getattr(args, flag)
         if value is not None:
-            out += [f"--{flag}", str(value)]
+            out += [f"--{flag.replace('_', '-')}", str(value)]
     for item in args.set:
         out += ["--set", item]
     return out

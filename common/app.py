@@ -16,11 +16,18 @@ from zenav.common.config import ConfigError, Settings
 from zenav.common.runtime import Service
 
 
+PEER_LISTEN = "tcp/127.0.0.1:0"  # a peer service's own endpoint: loopback, any free port
+
+
 def deployment_args(parser: argparse.ArgumentParser) -> None:
     """The deployment options every zenav process takes (each also from env)."""
     parser.add_argument("--robot", default=os.environ.get("ZENAV_ROBOT"), help="robot id (env ZENAV_ROBOT; default r1)")
     parser.add_argument(
         "--connect", default=os.environ.get("ZENOH_CONNECT"), help="router endpoint(s) (env ZENOH_CONNECT; default tcp/127.0.0.1:7447)"
+    )
+    parser.add_argument(
+        "--zenoh-mode", choices=("client", "peer"), default=os.environ.get("ZENOH_MODE"),
+        help="client: every message through the router; peer: services on this host also link directly (env ZENOH_MODE; default client)",
     )
     parser.add_argument("--config", default=os.environ.get("ZENAV_CONFIG"), help="config file (env ZENAV_CONFIG)")
     parser.add_argument("--scenario", default=os.environ.get("ZENAV_SCENARIO"), help="scenario preset (env ZENAV_SCENARIO)")
@@ -52,7 +59,7 @@ def parse_sets(items: Sequence[str]) -> dict[str, dict]:
 
 def settings_from_args(args: argparse.Namespace, **overrides: dict) -> Settings:
     """Settings from the config file, with the deployment options applied."""
-    dep = {"robot": args.robot, "connect": args.connect, "scenario": args.scenario, "seed": args.seed}
+    dep = {"robot": args.robot, "connect": args.connect, "zenoh_mode": args.zenoh_mode, "scenario": args.scenario, "seed": args.seed}
     dep = {k: (int(v) if k == "seed" and v is not None else v) for k, v in dep.items()}
     sets = parse_sets(args.set)
     sets["deployment"] = {**sets.get("deployment", {}), **{k: v for k, v in dep.items() if v is not None}}
@@ -108,7 +115,8 @@ def main(service_cls: type[Service], argv: Optional[Sequence[str]] = None) -> in
     try:
         settings = settings_from_args(args)
         svc_clock = service_cls.make_clock(settings)
-        bus = ZenohBus.open(settings.deployment.connect)
+        dep = settings.deployment
+        bus = ZenohBus.open(dep.connect, mode=dep.zenoh_mode, listen=PEER_LISTEN if dep.zenoh_mode == "peer" else None)
         svc = service_cls(settings, bus, svc_clock)
     except ConfigError as e:
         print(f"zenav-{service_cls.name}: {e}", file=sys.stderr)

@@ -161,9 +161,10 @@ def zenoh_config(
     config_file: Optional[str] = None,
     connect_timeout: Optional[float] = None,
 ) -> zenoh.Config:
-    """A Zenoh config: client of `connect`, or a router on `listen`.
+    """A Zenoh config: client of `connect`, a router on `listen`, or a peer that
+    connects to `connect`, listens on `listen` and links directly with the other peers.
 
-    A client waits for its router forever (services: the router may come later),
+    A client (or peer) waits for its router forever (services: the router may come later),
     or fails after `connect_timeout` seconds (tools a person is waiting on).
 
     `config_file` (or $ZENOH_CONFIG) is a full Zenoh JSON5 config to start from,
@@ -173,9 +174,10 @@ def zenoh_config(
     conf = zenoh.Config.from_file(path) if path else zenoh.Config()
     conf.insert_json5("mode", json.dumps(mode))
     # Loopback and explicit endpoints only: no multicast discovery of strangers.
-    conf.insert_json5("scouting", json.dumps({"multicast": {"enabled": False}, "gossip": {"enabled": mode == "router"}}))
+    # Routers and peers gossip, so peers learn each other's endpoints through the router and link directly.
+    conf.insert_json5("scouting", json.dumps({"multicast": {"enabled": False}, "gossip": {"enabled": mode != "client"}}))
     endpoints = [e for e in (connect or "").split(",") if e]
-    if mode == "client" or endpoints:
+    if mode != "router" or endpoints:
         endpoints = endpoints or [DEFAULT_CONNECT]
         timeout_ms = -1 if connect_timeout is None else int(connect_timeout * 1000)
         connect_conf = {

@@ -31,6 +31,7 @@ class Deployment(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
 
     robot: Annotated[str, Meta(pattern=m.ROBOT_ID_PATTERN)] = "r1"  # key prefix zenav/<robot>/
     connect: str = DEFAULT_CONNECT  # Zenoh router endpoint(s), comma-separated
+    zenoh_mode: Literal["client", "peer"] = "client"  # client: every message through the router; peer: services also link directly on loopback
     clock: Literal["sim", "wall"] = "sim"  # follow the sim's `clock` topic, or the host clock
     scenario: str = "default"  # scenario preset (default, coarse, harsh)
     seed: Annotated[int, Meta(ge=0)] = 1  # seed of the run's random generators

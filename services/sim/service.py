@@ -110,8 +110,7 @@ class Sim(Service):
         self.steps += 1
         tpr, start = self.scen.ticks_per_rev, self.cfg.encoder_start
         gyro_z, accel_x, accel_y = sensors.imu(s, self.scen, self.rng)
-        self.publish("clock", m.Clock(t=t, rtf=self.cfg.rtf, wall=time.time()))
-        self.publish("sim/truth", m.Truth(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega))
+        wall = time.time()  # the sample's instant on the host: `clock` carries it (latency is measured from it)
         faults = scenarios.active(self.scen.faults, t)
         stamp = t + scenarios.FUTURE_OFFSET if "future_stamp" in faults else t
         copies = 2 if "duplicate" in faults else 1
@@ -127,6 +126,9 @@ class Sim(Service):
             self.publish("sensors/encoders", encoders)
             if "gyro_dead" not in faults:
                 self.publish("sensors/imu", imu)
+        # The control path's sample first; the clock and the truth of the same t after it.
+        self.publish("clock", m.Clock(t=t, rtf=self.cfg.rtf, wall=wall))
+        self.publish("sim/truth", m.Truth(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega))
         # Compass samples fall on the steps where its own schedule crosses a period.
         ratio = self.scen.compass_rate_hz / self.rate
         if math.floor(self.steps * ratio + 1e-6) > math.floor((self.steps - 1) * ratio + 1e-6):

@@ -29,11 +29,11 @@ NEEDED_FOR_MOTION = ("navigator", "motor", "localizer", "odometry")
 class Stack:
     """`zenav up` as a process tree, with a client on its router."""
 
-    def __init__(self, tmp, extra=(), connect=None) -> None:
+    def __init__(self, tmp, extra=(), connect=None, duration: float = 600.0) -> None:
         self.endpoint = connect or f"tcp/127.0.0.1:{free_port()}"
         where = ["--connect", self.endpoint] if connect else ["--listen", self.endpoint]
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "zenav.cli", "up", *where, "--log-dir", str(tmp), "--duration", "600", *extra],
+            [sys.executable, "-m", "zenav.cli", "up", *where, "--log-dir", str(tmp), "--duration", str(duration), *extra],
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
         )
         self.client = Client("r1", self.endpoint)

@@ -35,7 +35,7 @@ def rss_mb(pid: int) -> float:
     [pytest.param(SHORT, id="short"), pytest.param(1800.0, id="30min", marks=[pytest.mark.slow, pytest.mark.timeout(2700)])],
 )
 def test_soak(tmp_path, seconds):
-    stack = Stack(tmp_path, ["--demo"])
+    stack = Stack(tmp_path, ["--demo"], duration=2 * seconds + 300)
     c = stack.client
     ends: list = []
     c.subscribe("nav/state", lambda s: s.result is not None and ends.append((s.goal_id, s.result, s.message)))

@@ -31,11 +31,13 @@ def service_pid(name: str, endpoint: str) -> int:
     raise LookupError(name)
 
 
-@pytest.fixture
-def up(tmp_path):
+@pytest.fixture(params=["client", "peer"])
+def up(tmp_path, request):
+    """`zenav up` with the services as router clients, or as peers that also link directly."""
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "zenav.cli", "up", "--listen", endpoint, "--log-dir", str(tmp_path), "--set", "sim.rtf=2.0", "--duration", "240"],
+        [sys.executable, "-m", "zenav.cli", "up", "--listen", endpoint, "--log-dir", str(tmp_path), "--set", "sim.rtf=2.0",
+         "--duration", "240", "--zenoh-mode", request.param],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )
     client = RawClient(endpoint)
