@@ -83,6 +83,7 @@ class Results:
     duration: float = 0.0  # [s] wall, whole run
     raw_idle: list[float] = field(default_factory=list)  # [ms] bare hop, idle router
     base: Optional[bench_live.Live] = None  # one robot at 100 Hz, realtime
+    peer: Optional[bench_live.Live] = None  # the same with the services as Zenoh peers
     rates: list[bench_cost.Load] = field(default_factory=list)
     robots: list[bench_cost.Load] = field(default_factory=list)
     speed: list[bench_speed.Row] = field(default_factory=list)
@@ -119,6 +120,8 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
         note(f"raw hop, idle router: {len(res.raw_idle)} samples")
         res.base = bench_live.run(1, RATE, 1.0, plan.latency_window, logs / "base")
         note(f"one robot at {RATE:g} Hz, realtime: {len(res.base.raw)} raw, {len(res.base.chain['end to end'])} chains")
+        res.peer = bench_live.run(1, RATE, 1.0, plan.latency_window, logs / "peer", zenoh_mode="peer")
+        note(f"the same, services as peers: {len(res.peer.chain['end to end'])} chains")
     if "cost" in plan.sections:
         base = bench_cost.load(res.base)
         for rate in plan.rates:

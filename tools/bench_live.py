@@ -61,10 +61,15 @@ def _diags(client: Client) -> dict[str, Latest]:
     return {svc: client.latest(f"diag/{svc}") for svc in SERVICES}
 
 
-def run(robots: int, rate: float, rtf: float, window: float, log_dir: Path, scenario: str = "default") -> Live:
-    """Start robots r1..rN at `rate` [Hz] and `rtf`, drive them, measure `window` wall seconds."""
+def run(
+    robots: int, rate: float, rtf: float, window: float, log_dir: Path, scenario: str = "default", zenoh_mode: str = "client"
+) -> Live:
+    """Start robots r1..rN at `rate` [Hz] and `rtf`, drive them, measure `window` wall seconds.
+
+    zenoh_mode: the services' (client: all through the router; peer: also linked directly).
+    """
     ids = tuple(f"r{i + 1}" for i in range(robots))
-    args = ["--scenario", scenario, "--set", f"sim.rtf={rtf}", "--set", f"scenario.sensor_rate_hz={rate}"]
+    args = ["--scenario", scenario, "--set", f"sim.rtf={rtf}", "--set", f"scenario.sensor_rate_hz={rate}", "--zenoh-mode", zenoh_mode]
     stack = ProcStack(ids, SERVICES, log_dir, args).start()
     bus = None
     stop = threading.Event()

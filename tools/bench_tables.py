@@ -68,6 +68,30 @@ def latency(res: Results) -> list[str]:
         f"took {fmt(raw.p50)} ms at p50 during the window and {fmt(idle.p50)} ms on the idle router before it. "
         f"Largest service stage at p50: {biggest}. Machine busy during the window: {base.machine_busy:.0%} of "
         f"{os.cpu_count()} cores (everything running on it, not only the stack).",
+        *_peer_latency(res),
+    ]
+
+
+def _peer_latency(res: Results) -> list[str]:
+    """The same chain with the services as Zenoh peers (`--zenoh-mode peer`), beside the clients' run."""
+    peer = res.peer
+    if peer is None:
+        return []
+    rows = [_stats_row(s, peer.chain[s]) for s in STAGES] + [_stats_row(f"**{END_TO_END}**", peer.chain[END_TO_END])]
+    rows.append(_stats_row("bare Zenoh hop (clients), same run", peer.raw))
+    e2e, client = Stats.of(peer.chain[END_TO_END]), Stats.of(res.base.chain[END_TO_END])
+    return [
+        "",
+        "### Services as Zenoh peers",
+        "",
+        f"The same measurement, the services started with `--zenoh-mode peer`: they still connect to the router (the "
+        f"observer and the CLI reach them through it) and also link to each other directly over loopback. "
+        f"{peer.wall:.0f} s window, machine {peer.machine_busy:.0%} busy. [ms]",
+        "",
+        *table(["stage", "n", "p50", "p90", "p99", "max"], rows),
+        "",
+        f"End to end p50 {fmt(e2e.p50)} ms and p99 {fmt(e2e.p99)} ms as peers, {fmt(client.p50)} / {fmt(client.p99)} ms "
+        f"as clients of the router.",
     ]
 
 
@@ -97,6 +121,13 @@ def cost(res: Results) -> list[str]:
         )
     rss = sum(c.rss_mb for c in services)
     rows.append(["**whole stack**", f"**{fmt(total, 3)}**", f"{total:.1%}", f"{rss:.0f}", "", ""])
+    if res.peer is not None:
+        peers = bench_cost.services(res.peer)
+        cpu = sum(c.cpu_per_sim_s for c in peers)
+        rows.append(["whole stack, services as peers", fmt(cpu, 3), f"{cpu:.1%}", f"{sum(c.rss_mb for c in peers):.0f}", "", ""])
+        router = next((c for c in peers if c.name == "router"), None)
+        if router is not None:
+            rows.append(["router, services as peers", fmt(router.cpu_per_sim_s, 3), f"{router.cpu_per_sim_s:.1%}", f"{router.rss_mb:.0f}", "", ""])
     lines = [
         "## Cost",
         "",

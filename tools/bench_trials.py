@@ -9,6 +9,7 @@ from __future__ import annotations
 import itertools
 import math
 import threading
+import time
 from dataclasses import dataclass, field
 from typing import Any, Optional, Sequence
 
@@ -106,7 +107,12 @@ class Trial:
 def wait_ready(client: Client, services: Sequence[str], rtf: float, timeout: float = 60.0) -> None:
     """Block until every service is alive and the stack clock has passed the warm-up."""
     client.wait_alive(services, timeout=timeout)
-    client.latest("pose").wait(lambda p: p.t >= WARMUP, timeout=timeout + WARMUP / rtf)
+    pose = client.latest("pose")
+    p = pose.wait(lambda p: p.t >= WARMUP, timeout=timeout + WARMUP / rtf)
+    if "navigator" in services:  # and until a goal would start (the first fixes are in)
+        deadline = time.monotonic() + timeout
+        while client.query("nav/status", timeout=timeout).not_ready and time.monotonic() < deadline:
+            p = pose.wait(lambda q, t=p.t: q.t >= t + 0.1, timeout=timeout)
 
 
 def _goal(client: Client, rtf: float, kind: str, query: str, request: dict, target: tuple) -> GoalEnd:

@@ -19,6 +19,9 @@ def results() -> bench.Results:
     base.chain.update({s: [0.5, 0.6, 0.7] for s in STAGES})
     base.chain[END_TO_END][:] = [2.5, 3.0, 9.0]
     res.base, res.raw_idle = base, [0.3, 0.4]
+    res.peer = live()
+    res.peer.chain.update({s: [0.3, 0.4, 0.5] for s in STAGES})
+    res.peer.chain[END_TO_END][:] = [1.5, 2.0, 6.0]
     res.rates = [bench_cost.load(base), bench_cost.load(live(cpu=3.0, speed=0.5))]
     res.robots = [bench_cost.load(base), bench_cost.load(live(robots=2, overruns=3))]
     res.speed = bench_speed.study("processes", (1.0, 3.0), (1,), lambda spec, rtf: summary(spec, rtf, [1.0, 1.2, 0.9]))
@@ -39,12 +42,14 @@ def test_every_section_and_target_is_written(tmp_path):
     text = path.read_text()
     headings = [line for line in text.splitlines() if line.startswith("#")]
     assert [h.split(" (")[0] for h in headings] == [
-        "# zenav benchmark", "## Targets", "## Latency", "## Cost", "### Sensor rate", "### Robots on one router",
+        "# zenav benchmark", "## Targets", "## Latency", "### Services as Zenoh peers", "## Cost", "### Sensor rate", "### Robots on one router",
         "## Speed of simulation", "## Localization accuracy", "### default", "### harsh", "## Navigation",
     ]
     assert "| end to end p50 at 100 Hz | <= 3 ms | 3.00 ms | yes |" in text
     assert "| end to end p99 at 100 Hz | <= 8 ms | 8.88 ms | **no** |" in text
     assert "| whole bench run | < 120 s | 95 s | yes |" in text
+    assert "| end to end p50, services as peers | <= 3 ms | 2.00 ms | yes |" in text
+    assert "| router, services as peers |" in text
     assert "cores" in text and "GiB memory" in text and "eclipse-zenoh" in text and "`zenav bench --quick`" in text
     assert "at 2 it stopped keeping up" in text
     assert "aborted: no progress" in text  # failures are named
