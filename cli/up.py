@@ -43,12 +43,18 @@ def default_log_dir() -> Path:
 
 
 def child_args(args: argparse.Namespace, endpoint: str) -> list[str]:
-    """What every service process is started with."""
-    out = ["--connect", endpoint]
-    for flag in ("robot", "zenoh_mode", "config", "scenario", "seed"):  # --connect is the endpoint above
+    """What every service process is started with.
+
+    With the embedded router everything runs on this host, so the services are Zenoh
+    peers (they also link directly: lower latency and router CPU, see README) unless
+    --zenoh-mode says otherwise; with --connect they stay clients of that router.
+    """
+    mode = args.zenoh_mode or ("client" if args.connect else "peer")
+    out = ["--connect", endpoint, "--zenoh-mode", mode]
+    for flag in ("robot", "config", "scenario", "seed"):  # --connect is the endpoint above
         value = getattr(args, flag)
         if value is not None:
-            out += [f"--{flag.replace('_', '-')}", str(value)]
+            out += [f"--{flag}", str(value)]
     for item in args.set:
         out += ["--set", item]
     return out

@@ -110,7 +110,10 @@ class Mode:
         d = Pose2(prev.x, prev.y, prev.theta).between(Pose2(odom.x, odom.y, odom.theta))
         ds = math.copysign(math.hypot(d.x, d.y), d.x)  # [m] forward along the chord
         if abs(ds) > self.cfg.max_odom_step:
-            return "jump"  # restart the chain from this sample
+            # The odometry restarted: the chain goes on from this sample with no motion
+            # over the jump (the fixes say where the robot went meanwhile).
+            self._move(0.0, 0.0, prev.t, odom.t)
+            return "jump"
         self._move(ds, d.theta, prev.t, odom.t)
         return None
 

@@ -54,7 +54,7 @@ def up(tmp_path, request):
         print(f"--- {f.name}\n{f.read_text()[-2000:]}")
 
 
-def test_up_serves_the_contract_to_a_plain_client(up):
+def test_up_serves_the_contract_to_a_plain_client(up, tmp_path):
     proc, c, endpoint = up
     c.follow("diag/*")
     for suffix in ("sim/truth", "odom", "motors/wheels"):
@@ -98,3 +98,5 @@ def test_up_serves_the_contract_to_a_plain_client(up):
     assert last["left"] == 0.0 and last["right"] == 0.0
     with pytest.raises(LookupError):
         service_pid("sim", endpoint)
+    failed = [f.name for f in tmp_path.glob("*.log") if "Traceback" in f.read_text()]
+    assert not failed, f"a handler failed (its traceback is in {failed})"

@@ -252,3 +252,12 @@ def test_a_fix_sent_twice_is_used_once():
     again = ekf.on_fix(fix(2.7, 0.81), 3.01)
     assert first.accepted and not again.accepted and again.reason == "duplicate"
     assert ekf.get_pose().cov == P  # its weight counted once
+
+
+def test_a_fix_after_the_odometry_restarted_is_used():
+    ekf = tracking(3.0)
+    x = ekf.get_pose().x
+    assert ekf.on_odom(m.Odom(t=4.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)) == "jump"  # a new odom frame, 1 s on
+    assert ekf.get_pose().x == pytest.approx(x) and ekf.get_pose().t == 4.0
+    rec = ekf.on_fix(fix(3.7, x), 4.0)  # captured during the gap
+    assert rec.accepted, rec
