@@ -46,18 +46,25 @@ class Spec:
     laps: float = 3.0  # square laps (a fraction: that many of its four goals)
     harness: str = "processes"  # processes, or in-process (one Zenoh session per service, one interpreter)
 
+    def navigator(self) -> dict:
+        """The navigator's settings. Dead reckoning never learns where the map is, so its pose
+        stays "unknown" in the covariance; the run drives on it as a robot without a camera
+        that starts at the map's origin would, with the uncertainty checks off."""
+        ungated = {"max_position_sigma": math.inf, "max_heading_sigma": math.inf} if self.mode == "dead_reckoning" else {}
+        return {"controller": self.controller, **ungated}
+
     def settings(self, rtf: float) -> Settings:
         return Settings.load(
             None,
             deployment={"scenario": self.scenario, "seed": self.seed},
             sim={"rtf": rtf},
             localizer={"mode": self.mode},
-            navigator={"controller": self.controller},
+            navigator=self.navigator(),
         )
 
     def args(self, rtf: float) -> list[str]:
         """The same settings as service command-line options."""
-        sets = {"sim.rtf": rtf, "localizer.mode": self.mode, "navigator.controller": self.controller}
+        sets = {"sim.rtf": rtf, "localizer.mode": self.mode, **{f"navigator.{k}": v for k, v in self.navigator().items()}}
         options = [a for k, v in sets.items() for a in ("--set", f"{k}={v}")]
         return ["--scenario", self.scenario, "--seed", str(self.seed), *options]
 
