@@ -60,14 +60,21 @@ def child_args(args: argparse.Namespace, endpoint: str) -> list[str]:
     return out
 
 
-def navigator_ready(client: Client, done: threading.Event) -> bool:
-    """Wait until the navigator would take a goal: a fresh, certain pose (False if stopped first)."""
-    pose = client.latest("pose")
+def navigator_ready(client: Client, done: threading.Event, say=lambda line: None) -> bool:
+    """Wait until the navigator would take a goal: a fresh, certain pose (False if stopped first).
+
+    Says why it waits whenever the reason changes (no pose yet, too uncertain...).
+    """
+    pose, why = client.latest("pose"), ""
     while not done.is_set():
         try:
             pose.wait(timeout=1.0)
-            if not client.query("nav/status", timeout=2.0).not_ready:
+            not_ready = client.query("nav/status", timeout=2.0).not_ready
+            if not not_ready:
                 return True
+            if not_ready.split(":")[0] != why.split(":")[0]:
+                say(f"demo: waiting for the navigator: {not_ready}")
+            why = not_ready
         except (TimeoutError, ClientError):
             pass
         done.wait(0.2)  # poses flow at 100 Hz: ask again shortly
@@ -76,7 +83,7 @@ def navigator_ready(client: Client, done: threading.Event) -> bool:
 
 def demo_loop(client: Client, done: threading.Event, say) -> None:
     """Drive the square corner by corner until `done`; each goal waits for its end."""
-    if not navigator_ready(client, done):
+    if not navigator_ready(client, done, say):
         return
     say("demo: driving a 1 m square, corner by corner")
     i = 0

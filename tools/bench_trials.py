@@ -109,9 +109,14 @@ def wait_ready(client: Client, services: Sequence[str], rtf: float, timeout: flo
     client.wait_alive(services, timeout=timeout)
     pose = client.latest("pose")
     p = pose.wait(lambda p: p.t >= WARMUP, timeout=timeout + WARMUP / rtf)
-    if "navigator" in services:  # and until a goal would start (the first fixes are in)
+    if "navigator" in services:  # and until a goal would start (the first fixes are in), asking on new poses
         deadline = time.monotonic() + timeout
-        while client.query("nav/status", timeout=timeout).not_ready and time.monotonic() < deadline:
+        while time.monotonic() < deadline:
+            try:
+                if not client.query("nav/status", timeout=5.0).not_ready:
+                    return
+            except ClientError:
+                pass  # a loaded navigator that does not answer in time: ask again; the goals say the rest
             p = pose.wait(lambda q, t=p.t: q.t >= t + 0.1, timeout=timeout)
 
 
