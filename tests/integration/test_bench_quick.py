@@ -20,13 +20,15 @@ def test_a_tiny_bench_writes_the_report_with_its_sections(tmp_path):
     text = path.read_text()
     headings = [line.split(" (")[0] for line in text.splitlines() if line.startswith("#")]
     assert headings == [
-        "# zenav benchmark", "## Targets", "## Latency", "## Cost", "### Sensor rate", "### Robots on one router",
+        "# zenav benchmark", "## Targets", "## Latency", "### Services as Zenoh peers", "## Cost", "### Sensor rate",
+        "### Robots on one router",
         "## Speed of simulation", "## Localization accuracy", "### default", "## Navigation",
     ]
     for png in ("latency.png", "run_ekf.png"):
         assert (tmp_path / png).stat().st_size > 10_000
     # the measurements are real: chains went through all five services, the robot drove and was localized
     assert len(res.base.chain["end to end"]) > 50 and res.base.sim["r1"] > 1.0
+    assert len(res.peer.chain["end to end"]) > 50  # and again with the services as peers
     assert res.robots[0].cpu_per_robot > 0.0
     ekf = res.modes["ekf"]
     assert ekf.goals == 1 and ekf.pose.n > 100 and ekf.pose.rmse < 0.10
