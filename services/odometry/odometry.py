@@ -16,7 +16,7 @@ import numpy as np
 from zenav.common import messages as m
 from zenav.common.config import Robot
 from zenav.services.odometry import heading as hd
-from zenav.services.odometry import integrators
+from zenav.services.odometry import integrators, stall
 
 # What a sample did (the service counts and logs these).
 OK = "ok"  # an odom pose
@@ -36,12 +36,15 @@ class Params(NamedTuple):
     k_left: float  # [m] variance of the left wheel's travel per metre travelled (m^2/m)
     k_right: float  # [m]
     heading: hd.HeadingParams
+    stall: stall.StallParams  # when a commanded wheel's silent encoder counts as silent
 
 
 def make_params(
-    robot: Robot, integrator: str, k_left: float, k_right: float, reset_factor: float, heading: hd.HeadingParams
+    robot: Robot, integrator: str, k_left: float, k_right: float, reset_factor: float, heading: hd.HeadingParams,
+    stall_limits: tuple[float, float, float],
 ) -> Params:
-    """Params from the nominal robot; reset_factor times the max wheel speed is impossible."""
+    """Params from the nominal robot; reset_factor times the max wheel speed is impossible;
+    stall_limits: (min_speed [rad/s], min_ticks, min_time [s]) of a silent encoder (stall.py)."""
     ticks = robot.ticks_per_rev
     return Params(
         metres_per_tick=math.pi * robot.wheel_diameter / ticks,
@@ -51,6 +54,7 @@ def make_params(
         k_left=k_left,
         k_right=k_right,
         heading=heading,
+        stall=stall.params(ticks, robot.wheel_radius, *stall_limits),
     )
 
 
@@ -68,6 +72,7 @@ class OdometryState(NamedTuple):
     cov: tuple[float, ...] = m.ZERO_COV  # 3x3 row-major over (x, y, theta)
     imu: hd.Imu = hd.Imu()
     compass: hd.Compass = hd.Compass()
+    watch: stall.Watch = stall.Watch()  # the wheel commands and each encoder's silence
 
 
 def tick_delta(new: int, old: int) -> int:
@@ -92,12 +97,16 @@ def _propagate(
     return tuple((0.5 * (P + P.T)).ravel().tolist())
 
 
-def update(
-    s: OdometryState, p: Params, left: int, right: int, t: float, unmeasured: tuple[float, float] = (0.0, 0.0)
-) -> tuple[OdometryState, Optional[m.Odom], str]:
+def command(s: OdometryState, left: float, right: float) -> OdometryState:
+    """The wheel speeds commanded [rad/s] (motors/wheels): an encoder silent meanwhile is watched for."""
+    return s._replace(watch=stall.command(s.watch, left, right))
+
+
+def update(s: OdometryState, p: Params, left: int, right: int, t: float) -> tuple[OdometryState, Optional[m.Odom], str]:
     """One encoder sample (cumulative ticks, time t [s]): new state, odom or None, event.
 
-    `unmeasured` [m]: travel each wheel was commanded but its encoder did not show (stall.py).
+    A wheel commanded to turn whose encoder shows nothing (s.watch.silent) adds the
+    travel it was commanded to the covariance, as unmeasured (stall.py).
     """
     if s.t is None:
         return s._replace(t=t, t0=t, left=left, right=right), None, BASELINE
@@ -105,6 +114,8 @@ def update(
     if dt <= 0.0:  # duplicate or out of order
         return s, None, STALE
     n_left, n_right = tick_delta(left, s.left), tick_delta(right, s.right)
+    watch, unmeasured, _ = stall.step(s.watch, p.stall, t, dt, (n_left, n_right))
+    s = s._replace(watch=watch)
     limit = p.max_tick_rate * dt + 1.0  # one tick of quantisation always passes
     if abs(n_left) > limit or abs(n_right) > limit:
         return s._replace(t=t, left=left, right=right, t_moved=t), None, RESET

@@ -13,7 +13,6 @@ from zenav.common.config import Robot, Settings
 from zenav.common.runtime import Service, publish, subscribe
 from zenav.services.odometry import heading as hd
 from zenav.services.odometry import odometry as od
-from zenav.services.odometry import stall
 
 NonNeg = Annotated[float, Meta(ge=0.0, le=1e3)]
 Positive = Annotated[float, Meta(gt=0.0, le=1e3)]
@@ -64,7 +63,8 @@ def params(robot: Robot, c: OdometryConfig) -> od.Params:
         imu_timeout=c.imu_timeout,
         compass_timeout=c.compass_timeout,
     )
-    return od.make_params(robot, c.integrator, c.noise_k_left, c.noise_k_right, c.reset_factor, heading)
+    stall_limits = (c.stall_speed, c.stall_ticks, c.stall_time)
+    return od.make_params(robot, c.integrator, c.noise_k_left, c.noise_k_right, c.reset_factor, heading, stall_limits)
 
 
 class Odometry(Service):
@@ -77,10 +77,6 @@ class Odometry(Service):
         super().__init__(settings, bus, clock)
         self.params = params(settings.robot, self.cfg)
         self.state = od.OdometryState()
-        c, r = self.cfg, settings.robot
-        self.stall_params = stall.params(r.ticks_per_rev, r.wheel_radius, c.stall_speed, c.stall_ticks, c.stall_time)
-        self.watch = stall.Watch()
-        self.silent = (False, False)  # each wheel's encoder silent while commanded
 
     def on_start(self) -> None:
         # Heading sensors are subscribed only when the configured source reads them.
@@ -91,24 +87,19 @@ class Odometry(Service):
     def on_clock_reset(self) -> None:
         # The sim restarted: its time and encoders start again, and so does the odom frame.
         self.state = od.OdometryState()
-        self.watch, self.silent = stall.Watch(), (False, False)
 
     @subscribe("motors/wheels")
     def on_wheels(self, msg: m.Wheels) -> None:
         """The wheel speeds commanded: an encoder that shows nothing meanwhile is silent."""
-        self.watch = stall.command(self.watch, msg.left, msg.right)
+        self.state = od.command(self.state, msg.left, msg.right)
 
     @subscribe("sensors/encoders")
     @publish("odom")
     def on_encoders(self, msg: m.Encoders) -> Optional[m.Odom]:
         """One encoder sample: an odom pose, or None (baseline, dropped, reset)."""
-        unmeasured = (0.0, 0.0)
-        s = self.state
-        if s.t is not None and msg.t > s.t:
-            ticks = (od.tick_delta(msg.left, s.left), od.tick_delta(msg.right, s.right))
-            self.watch, unmeasured, silent = stall.step(self.watch, self.stall_params, msg.t, msg.t - s.t, ticks)
-            self._silence(silent, msg.t)
-        self.state, odom, event = od.update(self.state, self.params, msg.left, msg.right, msg.t, unmeasured)
+        was = self.state.watch.silent
+        self.state, odom, event = od.update(self.state, self.params, msg.left, msg.right, msg.t)
+        self._silence(was, msg.t)
         if event == od.STALE:
             self.count("dropped_stale")
         elif event == od.RESET:
@@ -117,17 +108,18 @@ class Odometry(Service):
         elif event == od.FALLBACK:
             self.count("heading_fallback")
             self.set_status("degraded", f"no {self.cfg.heading_source} data: heading from the encoders")
-        elif event == od.OK and not any(self.silent):
+        elif event == od.OK and not any(self.state.watch.silent):
             self.set_status("ok")
         return odom
 
-    def _silence(self, silent: tuple[bool, bool], t: float) -> None:
-        """Count, log and report each wheel whose encoder went silent while commanded."""
-        for name, was, now, cmd in zip(("left", "right"), self.silent, silent, self.watch.cmd):
-            if now and not was:
+    def _silence(self, was: tuple[bool, bool], t: float) -> None:
+        """Count, log and report each wheel whose encoder went silent while commanded (`was`: before this sample)."""
+        watch = self.state.watch
+        silent = watch.silent
+        for name, before, now, cmd in zip(("left", "right"), was, silent, watch.cmd):
+            if now and not before:
                 self.count("encoder_silent")
                 self.warn(f"silent_{name}", f"{name} encoder shows no motion at t={t:.2f} while commanded {cmd:.1f} rad/s")
-        self.silent = silent
         if any(silent):
             wheels = " and ".join(n for n, s in zip(("left", "right"), silent) if s)
             self.set_status("degraded", f"{wheels} encoder silent while commanded: frozen encoder or stalled wheel")

@@ -26,6 +26,7 @@ class Watch(NamedTuple):
     cmd: tuple[float, float] = (0.0, 0.0)  # [rad/s] newest command
     since: tuple[Optional[float], Optional[float]] = (None, None)  # [s]
     owed: tuple[float, float] = (0.0, 0.0)  # [rad] commanded turn since then
+    silent: tuple[bool, bool] = (False, False)  # each encoder silent at the newest step
 
 
 def command(w: Watch, left: float, right: float) -> Watch:
@@ -50,7 +51,8 @@ def step(w: Watch, p: StallParams, t: float, dt: float, ticks: tuple[int, int]) 
         if owed[i] * p.ticks_per_rad >= p.min_ticks and t - since[i] >= p.min_time:
             silent[i] = True
             unmeasured[i] = abs(cmd) * dt * p.radius
-    return Watch(w.cmd, (since[0], since[1]), (owed[0], owed[1])), (unmeasured[0], unmeasured[1]), (silent[0], silent[1])
+    flags = (silent[0], silent[1])
+    return Watch(w.cmd, (since[0], since[1]), (owed[0], owed[1]), flags), (unmeasured[0], unmeasured[1]), flags
 
 
 def params(ticks_per_rev: int, radius: float, min_speed: float, min_ticks: float, min_time: float) -> StallParams:

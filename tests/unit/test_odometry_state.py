@@ -20,7 +20,7 @@ def params(source="encoders", integrator="arc", weights=(1.0, 1.0, 0.0), k=1e-4,
         compass_gain=compass_gain,
         still_time=0.5, still_rate=0.02, bias_time=5.0, accel_min_speed=0.05, imu_timeout=0.1, compass_timeout=0.5,
     )
-    return od.make_params(robot, integrator, k, k, 3.0, heading)
+    return od.make_params(robot, integrator, k, k, 3.0, heading, (2.0, 5.0, 0.3))
 
 
 def ticks(angle, tpr=TPR, start=0):
