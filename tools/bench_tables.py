@@ -44,10 +44,15 @@ def _failures(labelled) -> list[str]:
 
 
 # ------------------------------------------------------------------ latency
+def _chain_rows(chain: dict[str, list[float]]) -> list[list[str]]:
+    """A row per stage of the sensor-to-wheel chain, then end to end."""
+    return [_stats_row(s, chain[s]) for s in STAGES] + [_stats_row(f"**{END_TO_END}**", chain[END_TO_END])]
+
+
 def latency(res: Results) -> list[str]:
     base = res.base
     e2e, raw, idle = Stats.of(base.chain[END_TO_END]), Stats.of(base.raw), Stats.of(res.raw_idle)
-    rows = [_stats_row(s, base.chain[s]) for s in STAGES] + [_stats_row(f"**{END_TO_END}**", base.chain[END_TO_END])]
+    rows = _chain_rows(base.chain)
     rows += [_stats_row("bare Zenoh hop, same run", base.raw), _stats_row("bare Zenoh hop, idle router", res.raw_idle)]
     biggest = max(STAGES[1:], key=lambda s: Stats.of(base.chain[s]).p50)
     return [
@@ -77,7 +82,7 @@ def _peer_latency(res: Results) -> list[str]:
     peer = res.peer
     if peer is None:
         return []
-    rows = [_stats_row(s, peer.chain[s]) for s in STAGES] + [_stats_row(f"**{END_TO_END}**", peer.chain[END_TO_END])]
+    rows = _chain_rows(peer.chain)
     rows.append(_stats_row("bare Zenoh hop (clients), same run", peer.raw))
     e2e, client = Stats.of(peer.chain[END_TO_END]), Stats.of(res.base.chain[END_TO_END])
     return [

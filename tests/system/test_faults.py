@@ -90,20 +90,9 @@ class TokenEvents:
         self.handle.undeclare()
 
 
-def navigator_has_pose(stack: Stack) -> None:
-    """Block until the navigator would take a goal (asking again on each new pose, bounded)."""
-    pose = stack.client.latest("pose")
-    for _ in range(100):
-        p = pose.wait(timeout=30)
-        if not stack.client.query("nav/status", timeout=10).not_ready:
-            return
-        pose.wait(lambda q, t=p.t: q.t >= t + 0.1, timeout=10)
-    raise AssertionError("the navigator never became ready for a goal")
-
-
 def start_goal(stack: Stack) -> int:
     """A long goal away from where the robot is; returns its id once the robot moves."""
-    navigator_has_pose(stack)
+    goals.wait_ready(stack.client, stack.client, timeout=30)
     tr = stack.truth.wait(timeout=10)
     x = -1.5 if tr.x > 0 else 1.5
     rep = stack.client.query("nav/move_to_point", {"x": x, "y": tr.y}, timeout=10)
