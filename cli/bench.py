@@ -1,4 +1,5 @@
 """`zenav bench`: measure accuracy, latency, cost and simulation speed; write the report."""
+
 from __future__ import annotations
 
 import argparse
@@ -9,16 +10,16 @@ from pathlib import Path
 
 from zenav.cli.main import EXIT_OK
 
-
-# The bench's sections (tools/bench.py SECTIONS; a test keeps them equal): named here so
+# The bench's sections (bench/plan.py SECTIONS; a test keeps them equal): named here so
 # that building the parser imports none of the bench's optional packages.
-SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation")
+SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "profile", "fleet")
+DEFAULT_OUT = Path("bench-report")  # a scratch directory: the committed report is written with --out docs/bench
 
 
 def add_arguments(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="measure accuracy, latency, cost and simulation speed; write a markdown report with plots")
     p.add_argument("--quick", action="store_true", help="a short run for CI (under 2 minutes): fewer seeds, modes and windows")
-    p.add_argument("--out", type=Path, default=Path("docs/bench"), help="report directory (default docs/bench)")
+    p.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"report directory (default {DEFAULT_OUT}/)")
     p.add_argument("--only", action="append", choices=SECTIONS, help="measure only this section (repeatable)")
     p.add_argument("--rtf", type=float, help="most the accuracy runs may use (default 5; the speed study may lower it)")
     p.add_argument("-v", "--verbose", action="store_true", help="show the in-process services' warnings")
@@ -33,16 +34,17 @@ def command_line(args: argparse.Namespace) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from zenav.tools import bench, bench_report
+    from zenav.bench import plan, report
+    from zenav.bench.run import run as measure
 
     logging.basicConfig(level=logging.WARNING, format="%(name)s %(levelname)s %(message)s", stream=sys.stderr)
     if not args.verbose:  # the stacks run in this process for accuracy: their warnings would flood the terminal
         logging.getLogger("zenav").setLevel(logging.ERROR)
-    plan = bench.only(bench.QUICK if args.quick else bench.FULL, args.only)
+    chosen = plan.only(plan.QUICK if args.quick else plan.FULL, args.only)
     if args.rtf is not None:
-        plan = dataclasses.replace(plan, rtf=args.rtf)
+        chosen = dataclasses.replace(chosen, rtf=args.rtf)
     args.out.mkdir(parents=True, exist_ok=True)
-    res = bench.run(plan, args.out, command_line(args))
-    path = bench_report.write(res, args.out)
+    res = measure(chosen, args.out, command_line(args))
+    path = report.write(res, args.out)
     print(f"{path} written; the run took {res.duration:.0f} s")
     return EXIT_OK

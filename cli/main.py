@@ -1,33 +1,74 @@
 """The `zenav` command: one subcommand per module of zenav.cli."""
+
 from __future__ import annotations
 
 import argparse
 import importlib
 import sys
-from typing import Optional, Sequence
+from collections.abc import Sequence
+
+from zenav import __version__
 
 # Subcommand modules; each defines add_arguments(subparsers) and sets `func` on its parsers.
-MODULES = ("up", "router", "status", "nav", "watch", "record", "replay", "view", "plot", "bench")
+MODULES = (
+    "up",
+    "router",
+    "status",
+    "nav",
+    "watch",
+    "record",
+    "replay",
+    "view",
+    "plot",
+    "bench",
+    "calibrate",
+    "camera",
+    "introspect",
+    "teleop",
+    "completion",
+    "ros2",
+)
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_UNAVAILABLE = 0, 1, 2, 3
+ENVIRONMENT = """environment:
+  ZENAV_ROBOT     robot id (--robot; default r1)
+  ZENOH_CONNECT   router endpoint(s) (--connect; default tcp/127.0.0.1:7447)
+  ZENOH_MODE      client or peer (--zenoh-mode; default client)
+  ZENOH_CONFIG    a full Zenoh JSON5 config to start from (auth, access control)
+  ZENAV_CONFIG    config file of `zenav up` and the services (--config);
+                  ZENAV_SCENARIO and ZENAV_SEED likewise (--scenario, --seed)
+  ZENAV_LOG       log level of the service processes: DEBUG, INFO (default), WARNING, ERROR;
+                  `zenav up` passes it on to every service it starts
+
+exit codes: 0 done, 1 failed (goal aborted or cancelled...), 2 bad arguments or config, 3 no router or service unavailable"""
+
+
+EXTRAS = {"serial": "robot", "rosbags": "ros2"}  # optional package -> the extra that installs it
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="zenav", description="Localization and navigation for a differential-drive robot over Zenoh.")
+    parser = argparse.ArgumentParser(
+        prog="zenav",
+        description="Localization and navigation for a differential-drive robot over Zenoh.",
+        epilog=ENVIRONMENT,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"zenav {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in MODULES:
         importlib.import_module(f"zenav.cli.{name}").add_arguments(sub)
     return parser
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
         return 130
-    except ImportError as e:  # recording, view, plots and bench need the `tools` extra
-        print(f"zenav {args.command}: needs the optional package {e.name!r}: pip install 'zenav[tools]'", file=sys.stderr)
+    except ImportError as e:  # an optional package: recording, view, plots and bench need the `tools` extra
+        extra = EXTRAS.get((e.name or "").split(".")[0], "tools")
+        print(f"zenav {args.command}: needs the optional package {e.name!r}: pip install 'zenav[{extra}]'", file=sys.stderr)
         return EXIT_USAGE
 
 

@@ -1,35 +1,54 @@
-"""`zenav goto | turn | face | straight | path | stop`: drive the robot through the navigator.
+"""`zenav goto | turn | face | straight | path | stop | set-pose`: drive the robot through the navigator.
 
 Without --wait a command returns once the navigator accepts the goal. With --wait it
 shows a progress line until the goal ends, and holds a liveliness token as the goal's
 lease, so Ctrl-C (or a lost connection) cancels the goal and stops the robot.
-Exit codes: 0 accepted or succeeded, 1 cancelled or aborted, 2 bad arguments,
-3 no router, navigator down or unavailable (e.g. no pose yet).
+Exit codes: 0 accepted or succeeded, 1 cancelled or aborted, 2 bad arguments
+(checked before connecting: a heading beyond 2 pi without --deg is one),
+3 no router, navigator down or unavailable (e.g. no pose yet), or the goal
+not ended within --wait's --timeout.
 """
+
 from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
-import threading
 import time
-import uuid
-from typing import Any, Callable, Optional, TextIO
+from collections.abc import Callable, Iterator
+from contextlib import AbstractContextManager, contextmanager
+from typing import Any, TextIO
 
+from zenav.cli.checks import Failed, fail
 from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_UNAVAILABLE, EXIT_USAGE
-from zenav.common.app import deployment_args
-from zenav.common.client import Client, ClientError
+from zenav.cli.session import CONNECT_TIMEOUT, open_bus, positive, robot_id
+from zenav.common.app import connection_args
+from zenav.common.client import Client
+from zenav.robot import Goal, Robot, ZenavError
 
-CONNECT_TIMEOUT = 3.0  # [s] how long to look for the router before giving up
-QUERY_TIMEOUT = 5.0  # [s] a goal without --wait is answered at once
-WAIT_TIMEOUT = 3600.0  # [s] default --timeout: the navigator ends stuck goals itself
+QUERY_TIMEOUT = 5.0  # [s] a goal is answered when it starts
+WAIT_TIMEOUT = 3600.0  # [s] default --timeout with --wait: the navigator ends stuck goals itself
+MAX_RADIANS = 2 * math.pi  # [rad] a larger angle without --deg is taken for degrees given by mistake
 EXIT_CODES = {"invalid_argument": EXIT_USAGE, "unavailable": EXIT_UNAVAILABLE}  # other errors: EXIT_FAILED
 
 
 def open_client(args: argparse.Namespace) -> Client:
-    """A client of the robot's stack; ClientError `unavailable` if no router answers."""
+    """A client of the robot's stack (for `zenav watch`); Unavailable if no router answers."""
     return Client(args.robot or "r1", args.connect, connect_timeout=CONNECT_TIMEOUT)
+
+
+@contextmanager
+def open_robot(args: argparse.Namespace) -> Iterator[Robot]:
+    """The robot, holding a lease only with --wait (a goal without it outlives the command); Failed if no router answers."""
+    wait = getattr(args, "wait", False)
+    timeout = QUERY_TIMEOUT if wait else args.timeout or QUERY_TIMEOUT
+    robot = robot_id(args)
+    bus = open_bus(args)
+    try:
+        with Robot(robot, mode=args.zenoh_mode, lease=wait, timeout=timeout, bus=bus) as bot:
+            yield bot
+    finally:
+        bus.close()
 
 
 def point(text: str) -> list[float]:
@@ -54,12 +73,24 @@ def finite(text: str) -> float:
     return value
 
 
+def check_angle(name: str, value: float | None, deg: bool) -> str | None:
+    """Why an angle in radians (no --deg) looks like degrees: outside [-2 pi, 2 pi]; None if it does not."""
+    if value is None or deg or abs(value) <= MAX_RADIANS:
+        return None
+    return f"{name} {value:g} rad is outside [-2 pi, 2 pi]: for degrees add --deg"
+
+
 def add_arguments(sub: argparse._SubParsersAction) -> None:
     common = argparse.ArgumentParser(add_help=False)
-    deployment_args(common)
-    common.add_argument("--wait", action="store_true", help="wait for the goal to end, with a progress line; Ctrl-C stops the robot")
-    common.add_argument(
-        "--timeout", type=finite, help=f"seconds to wait for the reply (default {QUERY_TIMEOUT:g}; with --wait {WAIT_TIMEOUT:g})"
+    connection_args(common)
+    common.add_argument("--timeout", type=positive, help=f"seconds to wait for the reply (default {QUERY_TIMEOUT:g})")
+    goal = argparse.ArgumentParser(add_help=False)
+    connection_args(goal)
+    goal.add_argument("--wait", action="store_true", help="wait for the goal to end, with a progress line; Ctrl-C stops the robot")
+    goal.add_argument(
+        "--timeout",
+        type=positive,
+        help=f"seconds to wait for the reply (default {QUERY_TIMEOUT:g}); with --wait, for the goal's end ({WAIT_TIMEOUT:g})",
     )
     move = argparse.ArgumentParser(add_help=False)
     move.add_argument("--speed", type=finite, help="forward speed limit [m/s] (default and limit: navigator config)")
@@ -69,23 +100,23 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     turn.add_argument("--tolerance", type=finite, help="heading tolerance [rad, deg with --deg]")
     turn.add_argument("--deg", action="store_true", help="angles in degrees instead of radians")
 
-    p = sub.add_parser("goto", parents=[common, move], help="move to a point (map frame, metres)")
+    p = sub.add_parser("goto", parents=[goal, move], help="move to a point (map frame, metres)")
     p.add_argument("x", type=finite, help="[m]")
     p.add_argument("y", type=finite, help="[m]")
     p.set_defaults(func=run, query="nav/move_to_point")
-    p = sub.add_parser("turn", parents=[common, turn], help="turn in place to a heading (radians, CCW from +x; --deg for degrees)")
-    p.add_argument("heading", type=finite, help="[rad] (degrees with --deg)")
+    p = sub.add_parser("turn", parents=[goal, turn], help="turn in place to a heading (radians, CCW from +x; --deg for degrees)")
+    p.add_argument("heading", type=finite, help="[rad] in [-2 pi, 2 pi] (degrees with --deg)")
     p.set_defaults(func=run, query="nav/turn_to_heading")
-    p = sub.add_parser("face", parents=[common, turn], help="turn in place to face a point (map frame, metres)")
+    p = sub.add_parser("face", parents=[goal, turn], help="turn in place to face a point (map frame, metres)")
     p.add_argument("x", type=finite, help="[m]")
     p.add_argument("y", type=finite, help="[m]")
     p.set_defaults(func=run, query="nav/turn_to_point")
-    p = sub.add_parser("straight", parents=[common], help="drive straight on the current heading, holding the line")
+    p = sub.add_parser("straight", parents=[goal], help="drive straight on the current heading, holding the line")
     p.add_argument("speed", type=finite, help="[m/s], negative to reverse")
     p.add_argument("--distance", type=finite, help="stop after this far [m] (default: until `zenav stop`)")
     p.set_defaults(func=run, query="nav/move_straight")
     path_help = "follow points in order: zenav path 1,0 1,1 (put -- before a first point with a negative x)"
-    p = sub.add_parser("path", parents=[common, move], help=path_help)
+    p = sub.add_parser("path", parents=[goal, move], help=path_help)
     p.add_argument("points", type=point, nargs="+", metavar="X,Y", help="[m]")
     p.set_defaults(func=run, query="nav/follow_path")
     p = sub.add_parser("stop", parents=[common], help="cancel the goal and stop the robot now")
@@ -93,89 +124,76 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("set-pose", parents=[common], help="tell the localizer where the robot is (map frame; a robot without a camera)")
     p.add_argument("x", type=finite, help="[m]")
     p.add_argument("y", type=finite, help="[m]")
-    p.add_argument("theta", type=finite, nargs="?", help="[rad] (degrees with --deg; default: keep the heading)")
+    p.add_argument("theta", type=finite, nargs="?", help="[rad] in [-2 pi, 2 pi] (degrees with --deg; default: keep the heading)")
     p.add_argument("--deg", action="store_true", help="theta in degrees")
     p.set_defaults(func=run, query="localizer/set_pose")
 
 
-def request(args: argparse.Namespace) -> dict[str, Any]:
-    """The query payload of a parsed command (contract units: metres, radians)."""
+def send(bot: Robot, args: argparse.Namespace) -> Goal:
+    """Send the goal of a parsed command (contract units: metres, radians)."""
     scale = math.radians(1.0) if getattr(args, "deg", False) else 1.0
-    fields: dict[str, Any] = {}
-    if args.query in ("nav/move_to_point", "nav/turn_to_point"):
-        fields = {"x": args.x, "y": args.y}
-    elif args.query == "nav/turn_to_heading":
-        fields = {"heading": args.heading * scale}
-    elif args.query == "nav/move_straight":
-        fields = {"speed": args.speed, "distance": args.distance}
-    elif args.query == "nav/follow_path":
-        fields = {"points": args.points}
-    elif args.query == "localizer/set_pose":
-        return {k: v for k, v in {"x": args.x, "y": args.y, "theta": None if args.theta is None else args.theta * scale}.items()
-                if v is not None}
-    if args.query not in ("nav/move_straight", "nav/stop"):
-        fields["speed"] = None if args.speed is None else args.speed * scale
-        fields["tolerance"] = None if args.tolerance is None else args.tolerance * scale
-    return {k: v for k, v in fields.items() if v is not None}
+    if args.query == "nav/move_straight":
+        return bot.move_straight(args.speed, distance=args.distance)
+    speed = None if args.speed is None else args.speed * scale
+    tolerance = None if args.tolerance is None else args.tolerance * scale
+    if args.query == "nav/move_to_point":
+        return bot.move_to_point(args.x, args.y, speed=speed, tolerance=tolerance)
+    if args.query == "nav/turn_to_point":
+        return bot.turn_to_point(args.x, args.y, speed=speed, tolerance=tolerance)
+    if args.query == "nav/turn_to_heading":
+        return bot.turn_to_heading(args.heading * scale, speed=speed, tolerance=tolerance)
+    return bot.follow_path(args.points, speed=speed, tolerance=tolerance)
 
 
-def run(args: argparse.Namespace, connect: Callable[[argparse.Namespace], Client] = open_client) -> int:
+def run(args: argparse.Namespace, connect: Callable[[argparse.Namespace], AbstractContextManager[Robot]] = open_robot) -> int:
     """Send the command; the exit code says how it went."""
+    deg = getattr(args, "deg", False)
+    wrong = check_angle("heading", getattr(args, "heading", None), deg) or check_angle("theta", getattr(args, "theta", None), deg)
+    if wrong:
+        print(f"zenav {args.command}: {wrong}", file=sys.stderr)
+        return EXIT_USAGE
     try:
-        with connect(args) as client:
+        with connect(args) as bot:
             if args.query == "nav/stop":
-                rep = client.query("nav/stop", timeout=args.timeout or QUERY_TIMEOUT)
-                print(f"stopped ({rep.state})")
+                print(f"stopped ({bot.stop()})")
                 return EXIT_OK
             if args.query == "localizer/set_pose":
-                p = client.query(args.query, request(args), timeout=args.timeout or QUERY_TIMEOUT)
+                theta = None if args.theta is None else args.theta * (math.radians(1.0) if args.deg else 1.0)
+                p = bot.set_pose(args.x, args.y, theta)
                 print(f"pose set: x {p.x:+.3f} y {p.y:+.3f} th {math.degrees(p.theta):+.1f} deg")
                 return EXIT_OK
-            if args.wait:
-                return wait(client, args, request(args))
-            rep = client.query(args.query, request(args), timeout=args.timeout or QUERY_TIMEOUT)
-            print(f"goal {rep.goal_id} {rep.state}{speed_text(args, rep.speed)}")
-            return EXIT_OK
-    except ClientError as e:
+            goal = send(bot, args)
+            if not args.wait:
+                print(f"goal {goal.id} {goal.reply.state}{speed_text(args, goal.reply.speed)}")
+                return EXIT_OK
+            return wait(goal, args.timeout or WAIT_TIMEOUT)
+    except Failed as e:
+        return fail(args.command, e)
+    except ZenavError as e:
         print(f"zenav {args.command}: {e}", file=sys.stderr)
         return EXIT_CODES.get(e.code, EXIT_FAILED)
+    except TimeoutError as e:  # the robot stops: its lease goes with the session
+        print(f"zenav {args.command}: {e}", file=sys.stderr)
+        return EXIT_UNAVAILABLE
 
 
-def wait(client: Client, args: argparse.Namespace, req: dict[str, Any], out: TextIO = sys.stderr) -> int:
-    """Send the goal with wait and a lease, show progress until its reply, map the result."""
-    lease = client.key(f"lease/cli-{os.getpid()}-{uuid.uuid4().hex[:8]}")
-    token = client.bus.token(lease)  # withdrawn when this process or its session ends
-    state = client.latest("nav/state")
-    done: dict[str, Any] = {}
-
-    def ask() -> None:
-        try:
-            done["reply"] = client.query(args.query, {**req, "wait": True, "lease": lease}, timeout=args.timeout or WAIT_TIMEOUT)
-        except ClientError as e:
-            done["error"] = e
-
-    asker = threading.Thread(target=ask, name="zenav-goal", daemon=True)
-    asker.start()
+def wait(goal: Goal, timeout: float, out: TextIO | None = None) -> int:
+    """Show progress (on stderr) until the goal ends (TimeoutError after `timeout` s), then its result."""
+    out = out or sys.stderr
     tty, shown = out.isatty(), 0.0
-    while asker.is_alive():
-        asker.join(0.2)
+    for st in goal.updates(timeout):
         now = time.monotonic()
-        if state.msg is not None and (tty or now - shown >= 1.0):
-            print(progress(state.msg), end="\r" if tty else "\n", file=out, flush=True)
+        if tty or now - shown >= 1.0:
+            print(progress(st), end="\r" if tty else "\n", file=out, flush=True)
             shown = now
     if tty and shown:
         print(file=out)
-    token.undeclare()
-    if "error" in done:
-        raise done["error"]
-    rep = done["reply"]
-    pose = rep.pose
-    where = f" at x {pose.x:+.3f} y {pose.y:+.3f} th {math.degrees(pose.theta):+.1f} deg" if pose else ""
-    print(f"goal {rep.goal_id} {rep.result}{': ' + rep.message if rep.message else ''}{where}")
-    return EXIT_OK if rep.result == "succeeded" else EXIT_FAILED
+    res = goal.wait(0.0)
+    print(res)
+    return EXIT_OK if res.succeeded else EXIT_FAILED
 
 
-def speed_text(args: argparse.Namespace, speed: Optional[float]) -> str:
+def speed_text(args: argparse.Namespace, speed: float | None) -> str:
     """The speed the navigator used, in the command's units."""
     if speed is None:
         return ""

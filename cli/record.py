@@ -1,31 +1,62 @@
-"""`zenav record OUT.mcap`: every zenav topic of a robot (or of all robots) to an MCAP file."""
+"""`zenav record OUT.mcap`: every zenav topic of a robot (or of all robots) to an MCAP file.
+
+The file is written as OUT.mcap.part and renamed to OUT.mcap when the recording
+stops cleanly (Ctrl-C, SIGTERM, SIGHUP, --duration). If the process dies instead,
+OUT.mcap.part stays, readable by `zenav plot` and `zenav replay` up to about a
+second before the end. Exit codes: 0 recorded, 1 the file could not be written,
+2 bad arguments or config, 3 no router.
+"""
+
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
 
-from zenav.cli.main import EXIT_FAILED, EXIT_OK
+from zenav.cli.checks import Failed, deployment, fail
+from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_USAGE
+from zenav.cli.session import open_bus
 from zenav.common.app import deployment_args, stop_on_signals
-from zenav.common.bus import ZenohBus
 
 
 def add_arguments(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("record", help="record a robot's topics to MCAP (Foxglove, mcap tools) until Ctrl-C")
-    p.add_argument("out", metavar="OUT.mcap", help="file to write (replaced if it exists)")
+    p.add_argument("out", metavar="OUT.mcap", help="file to write (replaced if it exists), as OUT.mcap.part until finished")
     deployment_args(p)
     p.add_argument("--all", action="store_true", help="record every robot on the network (zenav/*/**)")
     p.add_argument("--duration", type=float, help="stop by itself after this many wall seconds")
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> int:
-    from zenav.tools.record import Recorder  # optional dependencies: imported when used
+def check_out(out: str, part: str) -> None:
+    """Failed(EXIT_USAGE) unless `out` can be a new file, written as `part`, which no crashed recording holds."""
+    folder = os.path.dirname(os.path.abspath(out))
+    if os.path.isdir(out) or not os.path.isdir(folder):
+        raise Failed(EXIT_USAGE, f"{out}: not a file in an existing directory")
+    if not os.access(folder, os.W_OK):
+        raise Failed(EXIT_USAGE, f"{out}: directory {folder} is not writable")
+    if os.path.exists(part):
+        raise Failed(EXIT_USAGE, f"{part} exists (a recording not closed cleanly): move it away first")
 
-    bus = ZenohBus.open(args.connect)
-    done = stop_on_signals()
+
+def run(args: argparse.Namespace) -> int:
+    from zenav.tools.mcap_format import PART  # optional dependencies: imported when used
+    from zenav.tools.record import Recorder
+
     try:
-        rec = Recorder(args.out, bus, None if args.all else (args.robot or "r1")).start()
-        print(f"recording {rec.keyexpr} to {args.out}; Ctrl-C to stop", file=sys.stderr, flush=True)
+        if args.duration is not None and not args.duration > 0:
+            raise Failed(EXIT_USAGE, "--duration must be > 0")
+        check_out(args.out, args.out + PART)
+        dep = deployment(args)
+        bus = open_bus(args)
+    except Failed as e:
+        return fail("record", e)
+    done = stop_on_signals()
+    signal.signal(signal.SIGHUP, lambda signum, frame: done.set())  # a closed terminal finishes the file too
+    try:
+        rec = Recorder(args.out, bus, None if args.all else dep.robot).start()
+        print(f"recording {rec.keyexpr} to {rec.part}; Ctrl-C to stop", file=sys.stderr, flush=True)
         done.wait(args.duration)
         rec.stop()
     except OSError as e:

@@ -1,19 +1,24 @@
-"""`zenav replay IN.mcap`: publish a recording back onto Zenoh, at its own pace or faster."""
+"""`zenav replay IN.mcap`: publish a recording back onto Zenoh, at its own pace or faster.
+
+IN may be a finished recording or the OUT.mcap.part of a recorder that died.
+Exit codes: 0 replayed, 2 bad arguments, config or input file, 3 no router.
+"""
+
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
-from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_USAGE
+from zenav.cli.checks import Failed, check_recording, check_robot, deployment, fail, note_unfinished
+from zenav.cli.main import EXIT_OK, EXIT_USAGE
+from zenav.cli.session import open_bus
 from zenav.common import keys
 from zenav.common.app import deployment_args, stop_on_signals
-from zenav.common.bus import ZenohBus
 
 
 def add_arguments(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("replay", help="publish an MCAP recording back onto Zenoh (re-run services on recorded input)")
-    p.add_argument("input", metavar="IN.mcap", help="a recording made by `zenav record`")
+    p.add_argument("input", metavar="IN.mcap", help="a recording made by `zenav record` (or its .part if the recorder died)")
     deployment_args(p)
     p.add_argument("--from-robot", help="replay only this recorded robot (default: every robot in the file)")
     p.add_argument("--rate", type=float, default=1.0, help="speed-up over the recorded pace; 0 = as fast as possible (default 1)")
@@ -28,19 +33,23 @@ def run(args: argparse.Namespace) -> int:
     from zenav.tools.replay import replay  # optional dependencies: imported when used
 
     suffixes = [s.strip() for s in args.topics.split(",") if s.strip()] if args.topics else None
-    unknown = sorted(set(suffixes or ()) - set(keys.TOPICS))
-    if unknown:
-        print(f"zenav replay: unknown topics: {', '.join(unknown)}", file=sys.stderr)
-        return EXIT_USAGE
-    if args.rate < 0:
-        print("zenav replay: --rate must be >= 0", file=sys.stderr)
-        return EXIT_USAGE
-    if not os.path.isfile(args.input):
-        print(f"zenav replay: no such file: {args.input}", file=sys.stderr)
-        return EXIT_FAILED
-    bus = ZenohBus.open(args.connect)
+    try:
+        unknown = sorted(set(suffixes or ()) - set(keys.TOPICS))
+        if unknown:
+            raise Failed(EXIT_USAGE, f"unknown topics: {', '.join(unknown)}")
+        if not args.rate >= 0:
+            raise Failed(EXIT_USAGE, "--rate must be >= 0")
+        check_robot(args.from_robot, "--from-robot")
+        deployment(args)  # --config, --set: valid, although replay needs only --robot and --connect
+        finished = check_recording(args.input)
+        bus = open_bus(args)
+    except Failed as e:
+        return fail("replay", e)
+    if not finished:
+        note_unfinished("replay", args.input)
     stop = stop_on_signals()
     try:
+        # Published as the recorded robots, unless --robot (or ZENAV_ROBOT) names one.
         sent = replay(args.input, bus, args.rate, robot=args.from_robot, as_robot=args.robot, suffixes=suffixes, stop=stop)
     finally:
         bus.close()

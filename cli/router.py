@@ -1,15 +1,13 @@
 """`zenav router`: a Zenoh router (a Python process in router mode)."""
+
 from __future__ import annotations
 
 import argparse
+import ipaddress
+import os
 import sys
 
-import zenoh
-
-from zenav.common.app import stop_on_signals
-from zenav.common.bus import zenoh_config
-
-DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
+from zenav.stack.router import DEFAULT_LISTEN, serve
 
 
 def add_arguments(sub: argparse._SubParsersAction) -> None:
@@ -19,18 +17,27 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def open_router(listen: str, config_file: str | None = None) -> zenoh.Session:
-    """Open a router session; SystemExit with a clear message if the port is taken."""
-    try:
-        return zenoh.open(zenoh_config("router", listen=listen, config_file=config_file))
-    except zenoh.ZError as e:
-        raise SystemExit(f"zenav: cannot listen on {listen} ({e}); is another router running there?") from None
+def exposed(listen: str) -> list[str]:
+    """The endpoints of `listen` that other hosts can reach (not loopback)."""
+    out = []
+    for ep in (e.strip() for e in listen.split(",") if e.strip()):
+        host = ep.split("/", 1)[-1].rsplit(":", 1)[0].strip("[]")
+        try:
+            loopback = ipaddress.ip_address(host).is_loopback
+        except ValueError:
+            loopback = host == "localhost"
+        if not loopback:
+            out.append(ep)
+    return out
 
 
 def run(args: argparse.Namespace) -> int:
-    session = open_router(args.listen, args.zenoh_config)
-    print(f"zenav router listening on {args.listen}", file=sys.stderr, flush=True)
-    done = stop_on_signals()
-    done.wait()
-    session.close()
+    open_to = exposed(args.listen)
+    if open_to and not (args.zenoh_config or os.environ.get("ZENOH_CONFIG")):
+        print(
+            f"zenav router: warning: {', '.join(open_to)} is open to other hosts with no login or access control "
+            "(anyone there can drive the robot); see docs/running.md for the secure deployment",
+            file=sys.stderr,
+        )
+    serve(args.listen, args.zenoh_config, ready=lambda: print(f"zenav router listening on {args.listen}", file=sys.stderr, flush=True))
     return 0

@@ -1,8 +1,10 @@
 """The one-screen status of `zenav up` and `zenav status` (pure text formatting)."""
+
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Optional, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 from zenav.common.geometry import wrap_angle
 
@@ -25,7 +27,7 @@ def pose_line(label: str, msg: Any, truth: Any) -> str:
     return line
 
 
-def service_rows(names: Sequence[str], diags: Mapping[str, Any], alive: set[str], sup: Optional[Any] = None) -> list[str]:
+def service_rows(names: Sequence[str], diags: Mapping[str, Any], alive: set[str], sup: Any | None = None) -> list[str]:
     rows = [f"{'service':<10} {'alive':<5} {'status':<9} {'restarts':>8}  {'in/out':>13} {'bad':>4}  rates [Hz]"]
     for n in names:
         d = diags.get(n)
@@ -42,7 +44,16 @@ def service_rows(names: Sequence[str], diags: Mapping[str, Any], alive: set[str]
     return rows
 
 
-def render(robot: str, endpoint: str, scenario: str, sup: Any, topics: Mapping[str, Any], diags: Mapping[str, Any], alive: set[str], events: Sequence[str]) -> str:
+def render(
+    robot: str,
+    endpoint: str,
+    scenario: str,
+    sup: Any,
+    topics: Mapping[str, Any],
+    diags: Mapping[str, Any],
+    alive: set[str],
+    events: Sequence[str],
+) -> str:
     """The whole screen of `zenav up`."""
     truth = topics["sim/truth"].msg
     nav = topics["nav/state"].msg

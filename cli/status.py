@@ -1,51 +1,65 @@
 """`zenav status`: services, rates, counters and the navigator's state, from any terminal."""
+
 from __future__ import annotations
 
 import argparse
 import sys
+import time
 
+from zenav import services
+from zenav.cli.checks import Failed, fail
 from zenav.cli.main import EXIT_OK, EXIT_UNAVAILABLE
 from zenav.cli.screen import pose_line, service_rows
-from zenav.common.app import deployment_args
-from zenav.common.client import Client, ClientError
-from zenav.common.keys import SERVICES
+from zenav.cli.session import open_bus, positive, robot_id
+from zenav.common.app import connection_args
+from zenav.common.client import Client, ZenavError
 
 
 def add_arguments(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("status", help="services, rates, counters and navigation state of a running stack")
-    deployment_args(p)
-    p.add_argument("--timeout", type=float, default=2.0, help="seconds to collect diag (default 2; diag is 1 Hz)")
+    connection_args(p)
+    p.add_argument("--timeout", type=positive, default=2.0, help="seconds to collect diag (default 2; diag is 1 Hz)")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     try:
-        client = Client(args.robot or "r1", args.connect, connect_timeout=3.0)
-    except ClientError as e:
-        print(f"zenav status: {e.message}", file=sys.stderr)
-        return EXIT_UNAVAILABLE
+        robot = robot_id(args)
+        bus = open_bus(args)
+    except Failed as e:
+        return fail("status", e)
+    try:
+        return report(Client(robot, bus=bus), args.timeout)
+    finally:
+        bus.close()
+
+
+def report(client: Client, timeout: float) -> int:
+    """Print the stack's state; EXIT_UNAVAILABLE if a service is missing."""
     with client:
-        diags = {n: client.latest(f"diag/{n}") for n in SERVICES}
+        diags = {n: client.latest(f"diag/{n}") for n in services.ALL}
         truth, pose = client.latest("sim/truth"), client.latest("pose")
         alive = client.alive(timeout=1.0)
+        names = services.running(alive)  # the sim's or the real robot's
         # diag comes once a second: wait until every live service has sent one, or the timeout.
-        for n in SERVICES:
+        deadline = time.monotonic() + timeout
+        for n in names:
             if n in alive:
                 try:
-                    diags[n].wait(timeout=max(args.timeout, 0.1))
+                    diags[n].wait(timeout=max(deadline - time.monotonic(), 0.0))
                 except TimeoutError:
                     pass
-        print(f"robot {client.robot}: {len(alive)}/{len(SERVICES)} services alive")
-        print("\n".join(service_rows(SERVICES, {n: d.msg for n, d in diags.items()}, alive)))
+        print(f"robot {client.robot}: {len(alive)}/{len(names)} services alive")
+        print("\n".join(service_rows(names, {n: diags[n].msg for n in names}, alive)))
         print(pose_line("truth", truth.msg, None))
         print(pose_line("pose", pose.msg, truth.msg))
         try:
             st = client.query("nav/status", timeout=2.0)
             dist = f"{st.distance_remaining:.3f} m" if st.distance_remaining is not None else "-"
             print(f"nav    {st.state}  moving {st.is_moving}  goal {st.goal_id}  remaining {dist}  result {st.result or '-'}")
-        except ClientError as e:
+        except ZenavError as e:
             print(f"nav    {e}")
-    if alive != set(SERVICES):
-        print(f"missing: {', '.join(s for s in SERVICES if s not in alive)}", file=sys.stderr)
+    if not set(names) <= alive:
+        print(f"missing: {', '.join(s for s in names if s not in alive)}", file=sys.stderr)
         return EXIT_UNAVAILABLE
     return EXIT_OK

@@ -1,4 +1,5 @@
 """`zenav up`: a router and every service as its own process, with a live status screen."""
+
 from __future__ import annotations
 
 import argparse
@@ -6,35 +7,75 @@ import os
 import sys
 import threading
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import zenoh
 
 from zenav import services
-from zenav.cli.router import DEFAULT_LISTEN, open_router
 from zenav.cli.screen import render
-from zenav.cli.supervisor import Supervisor
 from zenav.common import messages as m
 from zenav.common.app import deployment_args, settings_from_args, stop_on_signals
 from zenav.common.bus import ZenohBus, zenoh_config
-from zenav.common.client import Client, ClientError
-from zenav.common.config import ConfigError
-from zenav.common.keys import SERVICES
+from zenav.common.client import Client, Latest, ZenavError
+from zenav.common.config import ConfigError, Settings
+from zenav.common.scenarios import SQUARE
+from zenav.robot import Goal, Result, Robot
+from zenav.services.sim.service import SimConfig
+from zenav.stack.launcher import CRASH_WINDOW, MAX_CRASHES, Launcher, service_argv
+from zenav.stack.logs import LOG_BYTES, LOG_FILES
+from zenav.stack.router import DEFAULT_LISTEN, open_router
 
-STOP_ORDER = ("navigator", "localizer", "vps", "odometry", "motor", "sim")  # wheels stop before the world
-DEMO_SQUARE = ((1.0, 0.0), (1.0, 1.0), (0.0, 1.0), (0.0, 0.0))  # [m] map frame
+READY_STEP = 2.0  # [s] the demo asks whether the navigator is ready, saying why not, this often
+DEMO_QUIET = 5.0  # [s] wall after someone else's goal ended before the demo drives again
+HANG_AFTER = 3.0  # [s] wall without a service's diag (at rtf >= 1) before it is restarted as hung
+ESSENTIAL = ("driver", "motor", "navigator")  # if one cannot run, the robot stops: zero command, whole stack stopped
+GAVE_UP_ESSENTIAL = 3  # exit status of `zenav up` that stopped because an essential service could not run
 
 
 def add_arguments(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("up", help="start a router and every service, show live status; Ctrl-C stops all")
     deployment_args(p)
     p.add_argument("--listen", default=DEFAULT_LISTEN, help=f"endpoint of the embedded router (default {DEFAULT_LISTEN})")
-    p.add_argument("--services", default=",".join(SERVICES), help="comma-separated subset to run (default: all)")
+    p.add_argument(
+        "--profile",
+        choices=sorted(services.PROFILES),
+        default=services.DEFAULT_PROFILE,
+        help=f"sim: the simulated robot; robot: a real one through the driver, on the wall clock (default {services.DEFAULT_PROFILE})",
+    )
+    p.add_argument("--services", help="comma-separated services to run (default: the profile's)")
+    p.add_argument("--compose", default="", help="comma-separated services to run together in one process (small computers)")
     p.add_argument("--demo", action="store_true", help="drive a 1 m square in a loop through the navigator")
     p.add_argument("--duration", type=float, help="stop by itself after this many wall seconds")
     p.add_argument("--log-dir", type=Path, help="service logs (default: $XDG_STATE_HOME/zenav/logs)")
     p.add_argument("--wait-timeout", type=float, default=60.0, help="seconds to wait for every service (default 60)")
+    p.add_argument(
+        "--max-crashes",
+        type=int,
+        default=MAX_CRASHES,
+        help=f"give up on a service that exits more often than this within --crash-window (default {MAX_CRASHES})",
+    )
+    p.add_argument(
+        "--crash-window", type=float, default=CRASH_WINDOW, help=f"seconds over which --max-crashes counts exits (default {CRASH_WINDOW:g})"
+    )
+    p.add_argument(
+        "--hang-after",
+        type=float,
+        default=HANG_AFTER,
+        help=f"restart a service whose diag stopped this many seconds, more at rtf < 1; 0: never (default {HANG_AFTER:g})",
+    )
+    p.add_argument(
+        "--log-size", type=float, default=LOG_BYTES / 2**20, help=f"MB of a log file before it is rotated (default {LOG_BYTES / 2**20:g})"
+    )
+    p.add_argument("--log-files", type=int, default=LOG_FILES, help=f"files kept per log, the current one included (default {LOG_FILES})")
     p.set_defaults(func=run)
+
+
+def hang_after(seconds: float, settings: Settings) -> float:
+    """The diag silence [s wall] that makes a service hung: `seconds`, longer when the sim runs
+    slower than real time (diag is once a second of the stack clock, so 1/rtf wall seconds)."""
+    rtf = settings.section("sim", SimConfig).rtf
+    return seconds / min(rtf, 1.0)
 
 
 def default_log_dir() -> Path:
@@ -46,7 +87,7 @@ def child_args(args: argparse.Namespace, endpoint: str) -> list[str]:
     """What every service process is started with.
 
     With the embedded router everything runs on this host, so the services are Zenoh
-    peers (they also link directly: lower latency and router CPU, see README) unless
+    peers (they also link directly: lower latency and router CPU, see docs/running.md) unless
     --zenoh-mode says otherwise; with --connect they stay clients of that router.
     """
     mode = args.zenoh_mode or ("client" if args.connect else "peer")
@@ -60,60 +101,123 @@ def child_args(args: argparse.Namespace, endpoint: str) -> list[str]:
     return out
 
 
-def navigator_ready(client: Client, done: threading.Event, say=lambda line: None) -> bool:
-    """Wait until the navigator would take a goal: a fresh, certain pose (False if stopped first).
-
-    Says why it waits whenever the reason changes (no pose yet, too uncertain...).
-    """
-    pose, why = client.latest("pose"), ""
+def navigator_ready(bot: Robot, done: threading.Event, say=lambda line: None) -> bool:
+    """Wait until the navigator would take a goal (False if stopped first); says why it
+    waits whenever the reason changes (services not alive, no pose yet, too uncertain...)."""
+    why = ""
     while not done.is_set():
         try:
-            pose.wait(timeout=1.0)
-            not_ready = client.query("nav/status", timeout=2.0).not_ready
-            if not not_ready:
-                return True
-            if not_ready.split(":")[0] != why.split(":")[0]:
-                say(f"demo: waiting for the navigator: {not_ready}")
-            why = not_ready
-        except (TimeoutError, ClientError):
-            pass
-        done.wait(0.2)  # poses flow at 100 Hz: ask again shortly
+            bot.wait_ready(timeout=READY_STEP)
+            return True
+        except TimeoutError as e:
+            reason = str(e).split(": ", 1)[-1]
+            if reason.split(":")[0] != why.split(":")[0]:
+                say(f"demo: waiting for the navigator: {reason}")
+            why = reason
+        except ZenavError as e:
+            say(f"demo: {e}")
+            done.wait(1.0)
     return False
 
 
-def demo_loop(client: Client, done: threading.Event, say) -> None:
-    """Drive the square corner by corner until `done`; each goal waits for its end."""
-    if not navigator_ready(client, done, say):
+class DemoGate:
+    """Whether the demo may send its next goal: not while a goal it did not send runs,
+    nor until DEMO_QUIET after it (or after one of the demo's goals was cancelled) ended."""
+
+    def __init__(self, quiet: float = DEMO_QUIET) -> None:
+        self.quiet = quiet  # [s]
+        self.mine: set[int] = set()  # goal ids the demo sent
+        self.other: int | None = None  # id of the newest goal seen that the demo did not send
+        self.busy_at: float | None = None  # [s] when someone else was last seen driving
+
+    def interrupted(self, now: float) -> None:
+        """One of the demo's goals was cancelled: someone else acted."""
+        self.busy_at = now
+
+    def update(self, nav: m.NavState | None, now: float) -> bool:
+        """Take the newest nav/state; True if the demo may drive now."""
+        if nav is not None and nav.goal_id and nav.goal_id not in self.mine:
+            if nav.result is None or nav.goal_id != self.other:  # running, or ended before it was ever seen
+                self.busy_at = now
+            self.other = nav.goal_id
+        return self.busy_at is None or now - self.busy_at >= self.quiet
+
+
+def demo_loop(bot: Robot, done: threading.Event, say, now=time.monotonic) -> None:
+    """Drive the square corner by corner until `done`, each goal to its end; while someone
+    else drives (a goal the demo did not send), pause, and resume DEMO_QUIET after it ended."""
+    if not navigator_ready(bot, done, say):
         return
     say("demo: driving a 1 m square, corner by corner")
+    gate, state = DemoGate(), bot.client.latest("nav/state")
     i = 0
     while not done.is_set():
-        x, y = DEMO_SQUARE[i % len(DEMO_SQUARE)]
+        if not gate.update(state.msg, now()):
+            _pause(gate, state, done, say, now)
+            continue
+        x, y = SQUARE[i % len(SQUARE)]
         try:
-            rep = client.query("nav/move_to_point", {"x": x, "y": y, "wait": True}, timeout=60.0)
-            if rep.result != "succeeded":
-                say(f"demo goal ({x}, {y}) {rep.result}: {rep.message}")
-                done.wait(1.0)
-        except ClientError as e:
+            goal = bot.move_to_point(x, y)
+            gate.mine.add(goal.id)
+            end = _wait(goal, done)
+        except ZenavError as e:
             say(f"demo: {e}")
+            done.wait(1.0)
+            end = None
+        if end is not None and end.result == "cancelled":
+            gate.interrupted(now())
+            continue  # the same corner again, once the other goal is done
+        if end is not None and not end.succeeded:
+            say(f"demo goal ({x}, {y}) {end.result}: {end.message}")
             done.wait(1.0)
         i += 1
 
 
+def _wait(goal: Goal, done: threading.Event) -> Result | None:
+    """The goal's end, or None if `done` came first."""
+    while not done.is_set():
+        try:
+            return goal.wait(timeout=1.0)
+        except TimeoutError:
+            pass
+    return None
+
+
+def _pause(gate: DemoGate, state: Latest, done: threading.Event, say, now) -> None:
+    """Wait until the gate lets the demo drive again, saying so."""
+    goal = f" (goal {gate.other})" if gate.other is not None else ""
+    say(f"demo: paused: someone else is driving{goal}; the square resumes {gate.quiet:g} s after their goal ends")
+    while not done.is_set() and not gate.update(state.msg, now()):
+        done.wait(0.2)
+    if not done.is_set():
+        say("demo: resuming the square")
+
+
 def run(args: argparse.Namespace) -> int:
-    names = [n.strip() for n in args.services.split(",") if n.strip()]
-    unknown = set(names) - set(SERVICES)
+    profile = services.PROFILES[args.profile]
+    names = [n.strip() for n in args.services.split(",") if n.strip()] if args.services else list(profile.services)
+    unknown = set(names) - set(services.ALL)
     if unknown:
         print(f"zenav up: unknown service(s): {', '.join(sorted(unknown))}", file=sys.stderr)
         return 2
+    if args.demo and not profile.demo:
+        print(
+            f"zenav up: --demo drives the sim's square; on the {args.profile} profile drive with `zenav goto` or a program", file=sys.stderr
+        )
+        return 2
+    args.set = [*profile.sets(), *args.set]  # the profile's config, under the user's --set (children get both)
     try:
         settings = settings_from_args(args)  # fail fast here rather than in six children
         for name in names:
             cls = services.load(name)
             if cls.config_type is not None:
                 settings.section(name, cls.config_type)
+        hang = hang_after(args.hang_after, settings) if args.hang_after > 0 else None
     except ConfigError as e:
         print(f"zenav up: {e}", file=sys.stderr)
+        return 2
+    except ImportError as e:  # pyserial, for the driver
+        print(f"zenav up: {name} needs the optional package {e.name!r}: pip install 'zenav[robot]'", file=sys.stderr)
         return 2
     robot = settings.robot_id
     # --connect: join a router that runs elsewhere; otherwise embed one.
@@ -123,19 +227,40 @@ def run(args: argparse.Namespace) -> int:
     events: list[str] = []
     tty = sys.stdout.isatty()
 
-    def say(line: str) -> None:
+    def show(line: str) -> None:
         stamped = f"{time.strftime('%H:%M:%S')} {line}"
         events.append(stamped)
         del events[:-5]
         if not tty:
             print(stamped, flush=True)
 
-    sup = Supervisor.for_services(names, child_args(args, endpoint), log_dir, events=say)
-    client = Client(robot, bus=ZenohBus(session))
+    sup = Launcher(
+        log_dir,
+        events=show,
+        max_crashes=args.max_crashes,
+        crash_window=args.crash_window,
+        hang_after=hang,
+        log_bytes=int(args.log_size * 2**20),
+        log_files=args.log_files,
+    )
+    say = sup.say  # on the screen and in launcher.log
+    composed = [n for n in names if n in {c.strip() for c in args.compose.split(",")}]
+    child_of = {n: "composed" if n in composed else n for n in names}  # service -> the child process running it
+    for name in names:
+        if name not in composed:
+            sup.add(name, service_argv(name, child_args(args, endpoint)))
+    if composed:
+        argv = [sys.executable, "-m", "zenav.stack.composed", "--services", ",".join(composed), *child_args(args, endpoint)]
+        sup.add("composed", argv)
+    bot = Robot(robot, bus=ZenohBus(session))  # closes the session when it closes
+    client = bot.client
+    for name in names:
+        client.subscribe(f"diag/{name}", _beater(sup, child_of[name]))
     done = stop_on_signals()
     say(f"{'router at' if args.connect else 'router on'} {endpoint}; starting {', '.join(names)} (logs in {log_dir})")
     t0 = time.monotonic()
     sup.start_all()
+    status = 0
     try:
         if _wait_alive(client, sup, names, args.wait_timeout, done) is None:
             return 1
@@ -145,13 +270,22 @@ def run(args: argparse.Namespace) -> int:
         topics = {s: client.latest(s) for s in ("sim/truth", "odom", "pose", "nav/state")}
         diags = {n: client.latest(f"diag/{n}") for n in names}
         if args.demo:
-            threading.Thread(target=demo_loop, args=(client, done, say), daemon=True).start()
+            threading.Thread(target=demo_loop, args=(bot, done, say), daemon=True).start()
         deadline = None if args.duration is None else time.monotonic() + args.duration
         last_line = last_screen = 0.0
         while not done.is_set() and (deadline is None or time.monotonic() < deadline):
-            sup.poll()
+            lost = sup.poll()
+            essential = [c for c in lost if any(child_of.get(n) == c for n in ESSENTIAL)]
+            if essential:
+                client.publish("cmd_vel", m.CmdVel(t=0.0, v=0.0, omega=0.0))
+                say(f"{', '.join(essential)} cannot run: stopping the robot (zero command) and every service")
+                status = GAVE_UP_ESSENTIAL
+                break
+            if lost:
+                say(f"running degraded without {', '.join(lost)}")
             if tty and time.monotonic() - last_screen >= 0.5:
                 screen = render(robot, endpoint, settings.deployment.scenario, sup, topics, diags, set(alive), events)
+                screen += "".join(f"\nDEGRADED: {c.name} gave up: {c.gave_up}" for c in sup.children.values() if c.gave_up)
                 sys.stdout.write("\x1b[H\x1b[2J" + screen + "\n")
                 sys.stdout.flush()
                 last_screen = time.monotonic()
@@ -161,20 +295,28 @@ def run(args: argparse.Namespace) -> int:
             done.wait(0.2)
     finally:
         done.set()
-        _shutdown(client, sup, say)
-        session.close()
-    return 0
+        _shutdown(client, sup, say, composed)
+        sup.close()
+        bot.close()
+    return status
 
 
-def _wait_alive(client: Client, sup: Supervisor, names: list[str], timeout: float, done: threading.Event):
+def _beater(sup: Launcher, child: str) -> Callable[[m.Diag], None]:
+    """A diag callback: a heartbeat of `child`."""
+    return lambda msg: sup.beat(child)
+
+
+def _wait_alive(client: Client, sup: Launcher, names: list[str], timeout: float, done: threading.Event):
     deadline = time.monotonic() + timeout
     while not done.is_set():
-        sup.poll()
+        if sup.poll():
+            print(f"zenav up: a service could not start; see the logs in {sup.log_dir}", file=sys.stderr)
+            return None
         try:
             return client.wait_alive(names, timeout=min(1.0, max(deadline - time.monotonic(), 0.01)))
         except TimeoutError as e:
             if time.monotonic() >= deadline:
-                print(f"zenav up: {e}; see the logs in {sup.children[names[0]].log.parent}", file=sys.stderr)
+                print(f"zenav up: {e}; see the logs in {sup.log_dir}", file=sys.stderr)
                 return None
     return None
 
@@ -191,13 +333,17 @@ def _summary(topics: dict) -> str:
     return "  ".join(parts) or "waiting for data"
 
 
-def _shutdown(client: Client, sup: Supervisor, say) -> None:
-    """Navigator first, then a zero command, then the motor (zero wheels), the world last."""
-    say("stopping: wheels to zero first")
+def _shutdown(client: Client, sup: Launcher, say, composed: Sequence[str] = ()) -> None:
+    """Navigator first, then a zero command, then the motor (zero wheels), the world last.
 
-    def after(name: str) -> None:
-        if name == "navigator":
+    The composed process stops at the place of its first service (it stops its own in order)."""
+    say("stopping: wheels to zero first")
+    child = {name: "composed" if name in composed else name for name in [*composed, *sup.children] if name != "composed"}
+    order = list(dict.fromkeys(child[name] for name in services.stop_order(child)))
+
+    def after(group: Sequence[str]) -> None:
+        if "navigator" in group or ("composed" in group and "navigator" in composed):
             client.publish("cmd_vel", m.CmdVel(t=0.0, v=0.0, omega=0.0))
 
-    sup.stop(STOP_ORDER, between=after)
+    sup.stop([[name] for name in order], between=after)
     say("all services stopped")

@@ -1,21 +1,26 @@
 """`zenav watch`: a live text view of the navigator, the pose against the truth, the latest
 VPS fix and every service's rates, refreshed in place until Ctrl-C."""
+
 from __future__ import annotations
 
 import argparse
-import bisect
 import math
 import sys
 import threading
 from collections import deque
-from typing import Any, Callable, Optional
+from collections.abc import Callable
+from typing import Any
 
+import msgspec
+
+from zenav import services
 from zenav.cli.main import EXIT_OK, EXIT_UNAVAILABLE
 from zenav.cli.nav import open_client, progress
 from zenav.cli.screen import pose_line, service_rows
+from zenav.common import messages as m
 from zenav.common.app import deployment_args
-from zenav.common.client import Client, ClientError
-from zenav.common.keys import SERVICES
+from zenav.common.client import Client, Unavailable
+from zenav.common.track import Track
 
 TRUTH_KEEP = 500  # truth samples kept to match a pose's t (5 s at 100 Hz)
 CLEAR = "\x1b[H\x1b[2J"  # cursor home, clear screen
@@ -34,7 +39,7 @@ class View:
 
     def __init__(self, client: Client) -> None:
         self.robot = client.robot
-        self.latest = {s: client.latest(s) for s in ("nav/state", "pose", "localizer/fixes", *(f"diag/{n}" for n in SERVICES))}
+        self.latest = {s: client.latest(s) for s in ("nav/state", "pose", "localizer/fixes", *(f"diag/{n}" for n in services.ALL))}
         self.truths: deque = deque(maxlen=TRUTH_KEEP)  # in arrival order, which is t order
         self.alive: set[str] = set()
         client.subscribe("sim/truth", self.truths.append)
@@ -46,22 +51,21 @@ class View:
     def text(self) -> str:
         """The whole view now."""
         pose = self.latest["pose"].msg
-        diags = {n: self.latest[f"diag/{n}"].msg for n in SERVICES}
+        diags = {n: self.latest[f"diag/{n}"].msg for n in services.running(self.alive)}
         truths = list(self.truths)
         truth = truth_at(truths, pose.t if pose else None)
         nav, fix = self.latest["nav/state"].msg, self.latest["localizer/fixes"].msg
         return render(self.robot, nav, pose, truth, fix, diags, set(self.alive))
 
 
-def truth_at(truths: list[Any], t: Optional[float]) -> Optional[Any]:
-    """The truth sample nearest in time to t (the newest if t is None)."""
+def truth_at(truths: list[m.Truth], t: float | None) -> m.Truth | None:
+    """The truth interpolated at t (the newest sample's v and omega), or the newest if t is None."""
     if not truths:
         return None
     if t is None:
         return truths[-1]
-    i = bisect.bisect_left([s.t for s in truths], t)
-    near = truths[max(i - 1, 0) : i + 1]
-    return min(near, key=lambda s: abs(s.t - t))
+    x, y, theta = Track((s.t, s.x, s.y, s.theta) for s in truths).at(t)
+    return msgspec.structs.replace(truths[-1], t=t, x=x, y=y, theta=theta)
 
 
 def fix_line(fix: Any) -> str:
@@ -87,7 +91,7 @@ def render(robot: str, nav: Any, pose: Any, truth: Any, fix: Any, diags: dict[st
         heading = math.degrees(nav.heading_error or 0.0)
         lines.append(f"       cross-track {nav.cross_track_error * 100:+.2f} cm  heading error {heading:+.1f} deg")
     lines += ["", pose_line("truth", truth, None), pose_line("pose", pose, truth), fix_line(fix), ""]
-    lines += service_rows(SERVICES, diags, alive)
+    lines += service_rows(list(diags), diags, alive)
     return "\n".join(lines)
 
 
@@ -95,7 +99,7 @@ def run(args: argparse.Namespace, connect: Callable[[argparse.Namespace], Client
     """Refresh the view every period until Ctrl-C (or once)."""
     try:
         client = connect(args)
-    except ClientError as e:
+    except Unavailable as e:
         print(f"zenav watch: {e}", file=sys.stderr)
         return EXIT_UNAVAILABLE
     tick = threading.Event()  # never set: waits pace the refresh

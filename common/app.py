@@ -1,4 +1,5 @@
 """Running one service as a process: args and env -> settings -> session -> run."""
+
 from __future__ import annotations
 
 import argparse
@@ -9,26 +10,37 @@ import sys
 import threading
 import time
 import tomllib
-from typing import Callable, Optional, Sequence
+from collections.abc import Callable, Sequence
+
+import zenoh
 
 from zenav.common.bus import ZenohBus
-from zenav.common.config import ConfigError, Settings
-from zenav.common.runtime import Service
-
+from zenav.common.config import ConfigError, Deployment, Settings
+from zenav.common.runtime import Duplicate, Service
 
 PEER_LISTEN = "tcp/127.0.0.1:0"  # a peer service's own endpoint: loopback, any free port
+LOG_LEVELS = ("DEBUG", "INFO", "WARNING", "ERROR")  # what ZENAV_LOG takes
+CONNECT_STEP = 2.0  # [s] a service waiting for its router says so this often
+LOG_HELP = "env ZENAV_LOG: log level of the service processes (DEBUG, INFO, WARNING, ERROR; default INFO)"
 
 
-def deployment_args(parser: argparse.ArgumentParser) -> None:
-    """The deployment options every zenav process takes (each also from env)."""
+def connection_args(parser: argparse.ArgumentParser) -> None:
+    """The options of every command that talks to a robot: which robot, through which router (each also from env)."""
     parser.add_argument("--robot", default=os.environ.get("ZENAV_ROBOT"), help="robot id (env ZENAV_ROBOT; default r1)")
     parser.add_argument(
         "--connect", default=os.environ.get("ZENOH_CONNECT"), help="router endpoint(s) (env ZENOH_CONNECT; default tcp/127.0.0.1:7447)"
     )
     parser.add_argument(
-        "--zenoh-mode", choices=("client", "peer"), default=os.environ.get("ZENOH_MODE"),
+        "--zenoh-mode",
+        choices=("client", "peer"),
+        default=os.environ.get("ZENOH_MODE"),
         help="client: every message through the router; peer: services on this host also link directly (env ZENOH_MODE; default client)",
     )
+
+
+def deployment_args(parser: argparse.ArgumentParser) -> None:
+    """The options of a process that runs services (a service, `zenav up`): the connection, then the configuration."""
+    connection_args(parser)
     parser.add_argument("--config", default=os.environ.get("ZENAV_CONFIG"), help="config file (env ZENAV_CONFIG)")
     parser.add_argument("--scenario", default=os.environ.get("ZENAV_SCENARIO"), help="scenario preset (env ZENAV_SCENARIO)")
     parser.add_argument("--seed", type=int, default=os.environ.get("ZENAV_SEED"), help="random seed (env ZENAV_SEED)")
@@ -69,14 +81,14 @@ def settings_from_args(args: argparse.Namespace, **overrides: dict) -> Settings:
 
 
 def setup_logging(level: str = "INFO") -> None:
-    logging.basicConfig(
-        level=os.environ.get("ZENAV_LOG", level).upper(),
-        format="%(asctime)s %(name)s %(levelname)s %(message)s",
-        stream=sys.stderr,
-    )
+    """Log to stderr at $ZENAV_LOG (default `level`); ConfigError if it names no level."""
+    name = os.environ.get("ZENAV_LOG", level).strip().upper()
+    if name not in LOG_LEVELS:
+        raise ConfigError(f"ZENAV_LOG={name!r}: expected one of {', '.join(LOG_LEVELS)}")
+    logging.basicConfig(level=name, format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
 
 
-def stop_on_signals(on_stop: Optional[Callable[[], None]] = None) -> threading.Event:
+def stop_on_signals(on_stop: Callable[[], None] | None = None) -> threading.Event:
     """An event set by SIGINT or SIGTERM (Ctrl-C, `docker stop`, `zenav up`); `on_stop` runs too."""
     done = threading.Event()
 
@@ -105,30 +117,57 @@ def watch_parent(stop: Callable[[], None]) -> None:
     threading.Thread(target=loop, name="zenav-parent-watch", daemon=True).start()
 
 
-def main(service_cls: type[Service], argv: Optional[Sequence[str]] = None) -> int:
-    """Run `service_cls` until SIGINT or SIGTERM; exit 2 on bad config."""
-    parser = argparse.ArgumentParser(prog=f"zenav-{service_cls.name}", description=service_cls.__doc__)
+def open_bus(dep: Deployment, done: threading.Event, step: float = CONNECT_STEP) -> ZenohBus | None:
+    """A session to the deployment's router, waiting for it (a log line each `step` [s]
+    without one) until `done` is set (then None): a service under a supervisor may start
+    before its router, and Ctrl-C still stops it within `step`."""
+    listen = PEER_LISTEN if dep.zenoh_mode == "peer" else None
+    tries = 0
+    while not done.is_set():
+        try:
+            return ZenohBus.open(dep.connect, mode=dep.zenoh_mode, listen=listen, connect_timeout=step)
+        except zenoh.ZError:
+            tries += 1
+            logging.getLogger("zenav").warning("no router at %s after %.0f s: still trying", dep.connect, tries * step)
+    return None
+
+
+def main(service_cls: type[Service], argv: Sequence[str] | None = None) -> int:
+    """Run `service_cls` until SIGINT or SIGTERM; exit 2 on bad config (checked before
+    connecting), 3 if it already runs for this robot; waits for its router as long as it takes."""
+    parser = argparse.ArgumentParser(prog=f"zenav-{service_cls.name}", description=service_cls.__doc__, epilog=LOG_HELP)
     deployment_args(parser)
     args = parser.parse_args(argv)
-    setup_logging()
-    bus = None
     try:
+        setup_logging()
         settings = settings_from_args(args)
+        if service_cls.config_type is not None:
+            settings.section(service_cls.name, service_cls.config_type)
         svc_clock = service_cls.make_clock(settings)
-        dep = settings.deployment
-        bus = ZenohBus.open(dep.connect, mode=dep.zenoh_mode, listen=PEER_LISTEN if dep.zenoh_mode == "peer" else None)
-        svc = service_cls(settings, bus, svc_clock)
     except ConfigError as e:
         print(f"zenav-{service_cls.name}: {e}", file=sys.stderr)
-        if bus is not None:
-            bus.close()
+        return 2
+    connecting = stop_on_signals()
+    bus = open_bus(settings.deployment, connecting)
+    if bus is None:
+        return 0
+    try:
+        svc = service_cls(settings, bus, svc_clock)  # checks that need more than one key (e.g. the navigator's gains)
+    except ConfigError as e:
+        print(f"zenav-{service_cls.name}: {e}", file=sys.stderr)
+        bus.close()
         return 2
 
     stop_on_signals(svc.stop)
+    if connecting.is_set():  # stopped while the service was being built
+        svc.stop()
     watch_parent(svc.stop)
     try:
         svc.start()
         svc.run()
+    except Duplicate as e:
+        print(f"zenav-{service_cls.name}: {e}", file=sys.stderr)
+        return 3
     finally:
         svc.close()
         bus.close()

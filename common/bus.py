@@ -2,30 +2,40 @@
 
 Callbacks given to a bus run on the bus's threads (Zenoh's) and must only enqueue.
 """
+
 from __future__ import annotations
 
 import json
 import os
 import threading
-from typing import Callable, Optional, Protocol
+from collections.abc import Callable
+from typing import Any, Protocol, cast
 
 import zenoh
 
-DEFAULT_CONNECT = "tcp/127.0.0.1:7447"
+from zenav.common.keys import DEFAULT_CONNECT
+
+KEEP_ALIVES = 3  # keep-alive messages a session with a short `lease` sends per lease period
 RECONNECT = {"period_init_ms": 250, "period_max_ms": 500, "period_increase_factor": 1.5}
+MSGPACK = "application/msgpack"  # the Zenoh encoding of every sample and reply (zenav's codec)
+JSON = "application/json"  # the encoding of replies to queries that ask `_format=json`
 
 SampleCallback = Callable[[str, bytes], None]  # (key, payload)
 TokenCallback = Callable[[str, bool], None]  # (key, alive)
 
 
 class Query(Protocol):
-    key: str  # the key the query was made on
-    params: dict[str, str]  # selector parameters (`?x=1;y=2`)
+    key: str  # the key expression the query was made on (its selector's, wildcards and all)
     payload: bytes
+    params_size: int  # [bytes] of the selector parameters, known before they are parsed
 
-    def reply(self, data: bytes) -> None: ...
+    @property
+    def params(self) -> dict[str, str]:
+        """Selector parameters (`?x=1;y=2`), parsed on first use."""
 
-    def reply_err(self, data: bytes) -> None: ...
+    def reply(self, data: bytes, encoding: str = MSGPACK) -> None: ...
+
+    def reply_err(self, data: bytes, encoding: str = MSGPACK) -> None: ...
 
     def finish(self) -> None:
         """No more replies: lets the querier's get() return."""
@@ -38,6 +48,16 @@ class Handle(Protocol):
     def undeclare(self) -> None: ...
 
 
+def undeclare_all(handles: list[Handle]) -> None:
+    """Undeclare every handle, newest first, and empty the list (a closed session is no error)."""
+    for handle in reversed(handles):
+        try:
+            handle.undeclare()
+        except Exception:  # the session may be closed already
+            pass
+    handles.clear()
+
+
 class Bus(Protocol):
     def publish(self, key: str, data: bytes) -> None: ...
 
@@ -48,6 +68,9 @@ class Bus(Protocol):
     def token(self, key: str) -> Handle: ...
 
     def watch_tokens(self, key: str, callback: TokenCallback) -> Handle: ...
+
+    def tokens(self, key: str, timeout: float = 2.0) -> list[str]:
+        """Keys of the liveliness tokens matching `key` that are declared now."""
 
     def close(self) -> None: ...
 
@@ -65,16 +88,20 @@ class _MemHandle:
 class MemoryQuery:
     """A query on the in-memory bus; its replies are kept for the test to read."""
 
-    def __init__(self, key: str, payload: bytes = b"", params: Optional[dict[str, str]] = None) -> None:
+    def __init__(self, key: str, payload: bytes = b"", params: dict[str, str] | None = None) -> None:
         self.key, self.payload, self.params = key, payload, dict(params or {})
+        self.params_size = sum(len(k) + len(v) + 2 for k, v in self.params.items())
         self.replies: list[tuple[bool, bytes]] = []  # (ok, payload)
+        self.encodings: list[str] = []  # the Zenoh encoding of each reply
         self.finished = False
 
-    def reply(self, data: bytes) -> None:
+    def reply(self, data: bytes, encoding: str = MSGPACK) -> None:
         self.replies.append((True, data))
+        self.encodings.append(encoding)
 
-    def reply_err(self, data: bytes) -> None:
+    def reply_err(self, data: bytes, encoding: str = MSGPACK) -> None:
         self.replies.append((False, data))
+        self.encodings.append(encoding)
 
     def finish(self) -> None:
         self.finished = True
@@ -107,7 +134,7 @@ class MemoryBus:
         self._queryables.append(entry)
         return _MemHandle(self._queryables, entry)
 
-    def query(self, key: str, payload: bytes = b"", params: Optional[dict[str, str]] = None) -> MemoryQuery:
+    def query(self, key: str, payload: bytes = b"", params: dict[str, str] | None = None) -> MemoryQuery:
         """Send a query; the returned object collects the replies."""
         q = MemoryQuery(key, payload, params)
         ke = zenoh.KeyExpr(key)
@@ -134,6 +161,10 @@ class MemoryBus:
         """Keys of the tokens currently declared."""
         return [k for (k,) in self._tokens]
 
+    def tokens(self, key: str, timeout: float = 2.0) -> list[str]:
+        ke = zenoh.KeyExpr(key)
+        return [k for (k,) in self._tokens if ke.intersects(zenoh.KeyExpr(k))]
+
     def watch_tokens(self, key: str, callback: TokenCallback) -> Handle:
         entry = (zenoh.KeyExpr(key), callback)
         self._watchers.append(entry)
@@ -156,10 +187,11 @@ class MemoryBus:
 # ------------------------------------------------------------------ zenoh
 def zenoh_config(
     mode: str = "client",
-    connect: Optional[str] = None,
-    listen: Optional[str] = None,
-    config_file: Optional[str] = None,
-    connect_timeout: Optional[float] = None,
+    connect: str | None = None,
+    listen: str | None = None,
+    config_file: str | None = None,
+    connect_timeout: float | None = None,
+    lease: float | None = None,
 ) -> zenoh.Config:
     """A Zenoh config: client of `connect`, a router on `listen`, or a peer that
     connects to `connect`, listens on `listen` and links directly with the other peers.
@@ -169,6 +201,12 @@ def zenoh_config(
 
     `config_file` (or $ZENOH_CONFIG) is a full Zenoh JSON5 config to start from,
     for deployments with auth or access control.
+
+    `lease` [s]: the transport lease this session announces (Zenoh's default: 10 s).
+    The router closes the session, and withdraws its liveliness tokens, when it has
+    heard nothing from it for that long: a frozen process (SIGSTOP, a hung laptop, a
+    dropped Wi-Fi link) loses its tokens within `lease`, not 10 s. Keep-alives go
+    out KEEP_ALIVES times per lease.
     """
     path = config_file or os.environ.get("ZENOH_CONFIG")
     conf = zenoh.Config.from_file(path) if path else zenoh.Config()
@@ -189,6 +227,9 @@ def zenoh_config(
             "retry": RECONNECT,
         }
         conf.insert_json5("connect", json.dumps(connect_conf))
+    if lease is not None:
+        conf.insert_json5("transport/link/tx/lease", json.dumps(round(lease * 1000)))
+        conf.insert_json5("transport/link/tx/keep_alive", json.dumps(KEEP_ALIVES))
     if listen:
         conf.insert_json5("listen", json.dumps({"endpoints": [e for e in listen.split(",") if e]}))
     return conf
@@ -202,18 +243,31 @@ def _direct(fn: Callable) -> zenoh.handlers.Callback:
     return zenoh.handlers.Callback(fn, indirect=False)
 
 
+_MSGPACK = zenoh.Encoding(MSGPACK)
+
+
 class _ZQuery:
-    def __init__(self, q: zenoh.Query) -> None:
-        self._q = q
+    """A Zenoh query as the runtime sees it; replies are sent on the queryable's own key."""
+
+    def __init__(self, q: zenoh.Query, own_key: str) -> None:
+        self._q, self._own = q, own_key
         self.key = str(q.key_expr)
-        self.params = dict(q.parameters)
+        self._raw = str(q.parameters)
+        self.params_size = len(self._raw)
+        self._params: dict[str, str] | None = None
         self.payload = q.payload.to_bytes() if q.payload is not None else b""
 
-    def reply(self, data: bytes) -> None:
-        self._q.reply(self._q.key_expr, data)
+    @property
+    def params(self) -> dict[str, str]:
+        if self._params is None:
+            self._params = dict(cast(Any, self._q.parameters))
+        return self._params
 
-    def reply_err(self, data: bytes) -> None:
-        self._q.reply_err(data)
+    def reply(self, data: bytes, encoding: str = MSGPACK) -> None:
+        self._q.reply(self._own, data, encoding=zenoh.Encoding(encoding))
+
+    def reply_err(self, data: bytes, encoding: str = MSGPACK) -> None:
+        self._q.reply_err(data, encoding=zenoh.Encoding(encoding))
 
     def finish(self) -> None:
         self._q.drop()
@@ -230,10 +284,15 @@ class ZenohBus:
 
     @classmethod
     def open(
-        cls, connect: Optional[str] = None, mode: str = "client", listen: Optional[str] = None, connect_timeout: Optional[float] = None
+        cls,
+        connect: str | None = None,
+        mode: str = "client",
+        listen: str | None = None,
+        connect_timeout: float | None = None,
+        lease: float | None = None,
     ) -> ZenohBus:
-        """Open a session (zenoh.ZError if `connect_timeout` passes with no router)."""
-        return cls(zenoh.open(zenoh_config(mode, connect, listen, connect_timeout=connect_timeout)))
+        """Open a session (zenoh.ZError if `connect_timeout` passes with no router); `lease` [s] as in zenoh_config."""
+        return cls(zenoh.open(zenoh_config(mode, connect, listen, connect_timeout=connect_timeout, lease=lease)))
 
     def publish(self, key: str, data: bytes) -> None:
         pub = self._pubs.get(key)
@@ -244,7 +303,7 @@ class ZenohBus:
                     # Small messages at 100 Hz: send at once (express) and never drop
                     # silently under load (BLOCK); a dropped wheel command is a hazard.
                     pub = self.session.declare_publisher(
-                        key, congestion_control=zenoh.CongestionControl.BLOCK, express=True
+                        key, encoding=_MSGPACK, congestion_control=zenoh.CongestionControl.BLOCK, express=True
                     )
                     self._pubs[key] = pub
         pub.put(data)
@@ -258,7 +317,7 @@ class ZenohBus:
         return h
 
     def queryable(self, key: str, callback: QueryCallback) -> Handle:
-        h = self.session.declare_queryable(key, _direct(lambda q: callback(_ZQuery(q))))
+        h = self.session.declare_queryable(key, _direct(lambda q: callback(_ZQuery(q, key))))
         self._handles.append(h)
         return h
 
@@ -275,13 +334,21 @@ class ZenohBus:
         self._handles.append(h)
         return h
 
-    def get(self, selector: str, payload: Optional[bytes] = None, timeout: float = 5.0) -> list[tuple[bool, bytes]]:
-        """Query and collect the replies as (ok, payload) pairs."""
+    def tokens(self, key: str, timeout: float = 2.0) -> list[str]:
+        return [str(r.ok.key_expr) for r in self.session.liveliness().get(key, timeout=timeout) if r.ok is not None]
+
+    def get(self, selector: str, payload: bytes | None = None, timeout: float = 5.0, urgent: bool = False) -> list[tuple[bool, bytes]]:
+        """Query and collect the replies as (ok, payload) pairs.
+
+        An `urgent` query (nav/stop) goes at Zenoh's real-time priority: on every link it
+        overtakes data already queued there (large goals from other clients, say).
+        """
         out = []
-        for rep in self.session.get(selector, payload=payload, timeout=timeout):
+        priority = zenoh.Priority.REAL_TIME if urgent else zenoh.Priority.DEFAULT
+        for rep in self.session.get(selector, payload=payload, timeout=timeout, priority=priority):
             if rep.ok is not None:
                 out.append((True, rep.ok.payload.to_bytes()))
-            else:
+            elif rep.err is not None:
                 out.append((False, rep.err.payload.to_bytes()))
         return out
 

@@ -1,23 +1,74 @@
-"""A client of a running stack: queries, subscriptions and liveliness (CLI, tests, bench)."""
+"""A client of a running stack: queries, subscriptions and liveliness (the robot library, CLI, tests, bench).
+
+Errors are `ZenavError`s carrying the contract's error code (`invalid_argument`,
+`unavailable`, `internal`), one subclass per code.
+"""
+
 from __future__ import annotations
 
 import threading
 import time
-from typing import Any, Callable, Iterable, Optional
+from collections.abc import Callable, Iterable
+from typing import Any, Protocol
+
+import msgspec
+import zenoh
 
 from zenav.common import codec, keys
 from zenav.common import messages as m
-import zenoh
+from zenav.common.bus import Bus, Handle, ZenohBus, undeclare_all, zenoh_config
+from zenav.common.keys import DEFAULT_CONNECT
 
-from zenav.common.bus import DEFAULT_CONNECT, ZenohBus
 
-
-class ClientError(Exception):
-    """An error reply (`code` is the contract's error code) or no reply at all."""
+class ZenavError(Exception):
+    """An error reply of the stack, or no reply at all; `code` is the contract's error code."""
 
     def __init__(self, code: str, message: str) -> None:
         super().__init__(f"{code}: {message}")
         self.code, self.message = code, message
+
+
+class InvalidArgument(ZenavError, ValueError):
+    """A request the stack refuses as bad input (the message names the field)."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__("invalid_argument", message)
+
+
+class Unavailable(ZenavError):
+    """No router, no reply, or the stack cannot do it now (no pose yet, pose stale...)."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__("unavailable", message)
+
+
+class Internal(ZenavError):
+    """The service failed while handling the request."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__("internal", message)
+
+
+_ERRORS: dict[str, type[InvalidArgument | Unavailable | Internal]] = {
+    "invalid_argument": InvalidArgument,
+    "unavailable": Unavailable,
+    "internal": Internal,
+}
+
+
+def error(code: str, message: str) -> ZenavError:
+    """The exception of an error code (an unknown code is a plain ZenavError)."""
+    typ = _ERRORS.get(code)
+    return ZenavError(code, message) if typ is None else typ(message)
+
+
+URGENT = frozenset({"nav/stop"})  # queries that travel ahead of everything else on every Zenoh link
+
+
+class QueryBus(Bus, Protocol):
+    """A bus that can also send queries (ZenohBus; a test's fake)."""
+
+    def get(self, selector: str, payload: bytes | None = None, timeout: float = 5.0, urgent: bool = False) -> list[tuple[bool, bytes]]: ...
 
 
 class Latest:
@@ -29,6 +80,7 @@ class Latest:
         self.count = 0
 
     def put(self, msg: Any) -> None:
+        """Keep `msg` as the newest, and wake the waiters."""
         with self._cond:
             self.msg, self.count = msg, self.count + 1
             self._cond.notify_all()
@@ -49,17 +101,25 @@ class Client:
     """Talk to one robot's stack through a Zenoh router."""
 
     def __init__(
-        self, robot: str = "r1", connect: Optional[str] = None, bus: Optional[ZenohBus] = None, connect_timeout: Optional[float] = None
+        self,
+        robot: str = "r1",
+        connect: str | None = None,
+        bus: QueryBus | None = None,
+        connect_timeout: float | None = None,
+        mode: str = "client",
     ) -> None:
-        """Connect to the router at `connect`; with `connect_timeout`, ClientError `unavailable` if none answers."""
+        """Connect to the router at `connect` (Unavailable if none answers within `connect_timeout`),
+        or talk through `bus`, which stays the caller's to close."""
         self.robot = keys.check_robot_id(robot)
+        self._owned = bus is None
         if bus is None:
             try:
-                bus = ZenohBus.open(connect, connect_timeout=connect_timeout)
+                bus = ZenohBus(zenoh.open(zenoh_config(mode, connect, connect_timeout=connect_timeout)))
             except zenoh.ZError as e:
-                raise ClientError("unavailable", f"no Zenoh router at {connect or DEFAULT_CONNECT}: {e}") from None
-        self.bus = bus
+                raise Unavailable(f"no Zenoh router at {connect or DEFAULT_CONNECT}: {e}") from None
+        self.bus: QueryBus = bus
         self._latest: dict[str, Latest] = {}
+        self._handles: list[Handle] = []  # subscriptions made through this client
 
     def __enter__(self) -> Client:
         return self
@@ -68,18 +128,29 @@ class Client:
         self.close()
 
     def close(self) -> None:
-        self.bus.close()
+        """Withdraw this client's subscriptions and close the session it opened."""
+        undeclare_all(self._handles)
+        if self._owned:
+            self.bus.close()
 
     def key(self, suffix: str) -> str:
+        """The full key of a contract suffix for this robot."""
         return keys.key(self.robot, suffix)
 
-    def query(self, suffix: str, request: Optional[dict] = None, timeout: float = 5.0) -> Any:
-        """Send a query; return the decoded reply or raise ClientError."""
-        _, reply_type = keys.QUERIES[suffix]
-        payload = codec.encode(request or {})
-        replies = self.bus.get(self.key(suffix), payload=payload, timeout=timeout)
+    def query(self, suffix: str, request: dict | None = None, timeout: float = 5.0) -> Any:
+        """Send a query; return the decoded reply or raise ZenavError.
+
+        The request is checked against the contract first: a bad one raises
+        InvalidArgument naming the field, as the service would, without a round trip.
+        """
+        request_type, reply_type = keys.QUERIES[suffix]
+        try:
+            msgspec.convert(request or {}, request_type)
+        except msgspec.ValidationError as e:
+            raise InvalidArgument(f"{request_type.__name__}: {e}") from None
+        replies = self.bus.get(self.key(suffix), payload=codec.encode(request or {}), timeout=timeout, urgent=suffix in URGENT)
         if not replies:
-            raise ClientError("unavailable", f"no reply from {self.key(suffix)} (is the service up?)")
+            raise Unavailable(f"no reply from {self.key(suffix)} (is the service up?)")
         ok, data = replies[0]
         if not ok:
             try:
@@ -87,15 +158,16 @@ class Client:
             except codec.BadInput:
                 # Not a zenav error map: Zenoh's own, e.g. b"Timeout" when no reply came in time.
                 code = "unavailable" if b"timeout" in data.lower() else "internal"
-                raise ClientError(code, f"{self.key(suffix)}: {data.decode(errors='replace')} after {timeout} s") from None
-            raise ClientError(err.error, err.message)
+                raise error(code, f"{self.key(suffix)}: {data.decode(errors='replace')} after {timeout} s") from None
+            raise error(err.error, err.message)
         return codec.decode(data, reply_type)
 
     def publish(self, suffix: str, msg: Any) -> None:
+        """Publish a message on a topic of this robot."""
         self.bus.publish(self.key(suffix), codec.encode(msg))
 
-    def subscribe(self, suffix: str, callback: Callable[[Any], None], typ: Optional[type] = None) -> None:
-        """Call `callback(msg)` for every valid message on a topic (on Zenoh's thread)."""
+    def subscribe(self, suffix: str, callback: Callable[[Any], None], typ: type | None = None) -> Handle:
+        """Call `callback(msg)` for every valid message on a topic (on Zenoh's thread: it must not block)."""
         typ = typ or keys.TOPICS[suffix]
 
         def on_sample(key: str, data: bytes) -> None:
@@ -104,7 +176,9 @@ class Client:
             except codec.BadInput:
                 pass
 
-        self.bus.subscribe(self.key(suffix), on_sample)
+        handle = self.bus.subscribe(self.key(suffix), on_sample)
+        self._handles.append(handle)
+        return handle
 
     def latest(self, suffix: str) -> Latest:
         """Follow a topic, keeping its newest message (subscribes once per topic)."""
@@ -114,16 +188,18 @@ class Client:
         return self._latest[suffix]
 
     def alive(self, timeout: float = 1.0) -> set[str]:
-        """The services whose liveliness token is present now."""
+        """The services whose liveliness token is present now (a Zenoh session's bus only)."""
+        if not isinstance(self.bus, ZenohBus):
+            raise TypeError("alive() asks a Zenoh session; use wait_alive() on other buses")
         names = set()
         for rep in self.bus.session.liveliness().get(self.key("alive/*"), timeout=timeout):
             if rep.ok is not None:
                 names.add(str(rep.ok.key_expr).rsplit("/", 1)[-1])
         return names
 
-    def wait_alive(self, services: Iterable[str] = keys.SERVICES, timeout: float = 30.0) -> set[str]:
+    def wait_alive(self, services: Iterable[str], timeout: float = 30.0) -> set[str]:
         """Block until every named service has its token; TimeoutError names the missing."""
-        want, seen = set(services), set()
+        want, seen = set(services), set[str]()
         cond = threading.Condition()
 
         def on_token(key: str, up: bool) -> None:

@@ -3,18 +3,24 @@
 Services read time only through a Clock. `wall_delay` converts a span of clock time
 into wall seconds so the runtime knows how long to block before the next timer.
 """
+
 from __future__ import annotations
 
 import math
 import threading
 import time
-from typing import Optional, Protocol
+from typing import Protocol
 
 from zenav.common.messages import Clock as ClockMsg
 
-
 RESTART_JUMP = 1.0  # [s] a clock tick this far behind the last one means the sim restarted
-FUTURE_LIMIT = 1.0  # [s] a message stamped further than this past now comes from a broken clock
+FUTURE_STAMP = 0.1  # [s] default lead a message's stamp may have over the clock ([limits] future_stamp)
+CLOCK_JUMP = 1.0  # [s] default for how far a tick may run past the rtf's pace ([limits] clock_jump)
+MAX_RTF = 100.0  # [-] the highest realtime factor a sim runs at (the [sim] rtf limit)
+PACE_MARGIN = 2.0  # [-] a tick may advance this many times the rtf's pace over the wall time since the last
+REFUSED_RUN = 20  # ticks refused in a row that agree with each other are a new timeline, taken as a restart
+
+ACCEPTED, RESTARTED, REFUSED = "accepted", "restarted", "refused"
 
 
 class Clock(Protocol):
@@ -25,7 +31,7 @@ class Clock(Protocol):
     def ready(self) -> bool:
         """Whether now() means anything yet (a sim clock waits for its first tick)."""
 
-    def wall_delay(self, dt: float) -> Optional[float]:
+    def wall_delay(self, dt: float) -> float | None:
         """Wall seconds until `dt` clock seconds pass (None: time only moves when told)."""
 
     def horizon(self) -> float:
@@ -37,14 +43,17 @@ class WallClock:
 
     ready = True
 
+    def __init__(self, future: float = FUTURE_STAMP) -> None:
+        self._future = future  # [s]
+
     def now(self) -> float:
         return time.time()
 
-    def wall_delay(self, dt: float) -> Optional[float]:
+    def wall_delay(self, dt: float) -> float | None:
         return max(dt, 0.0)
 
     def horizon(self) -> float:
-        return self.now() + FUTURE_LIMIT
+        return self.now() + self._future
 
 
 class ScaledWallClock:
@@ -52,19 +61,20 @@ class ScaledWallClock:
 
     ready = True
 
-    def __init__(self, rtf: float = 1.0, t0: float = 0.0) -> None:
+    def __init__(self, rtf: float = 1.0, t0: float = 0.0, future: float = FUTURE_STAMP) -> None:
         self.rtf = rtf
+        self._future = future  # [s]
         self._t0 = t0
         self._start = time.monotonic()
 
     def now(self) -> float:
         return self._t0 + (time.monotonic() - self._start) * self.rtf
 
-    def wall_delay(self, dt: float) -> Optional[float]:
+    def wall_delay(self, dt: float) -> float | None:
         return max(dt, 0.0) / self.rtf
 
     def horizon(self) -> float:
-        return self.now() + FUTURE_LIMIT * max(1.0, self.rtf)
+        return self.now() + self._future * max(1.0, self.rtf)
 
 
 class SimClock:
@@ -72,47 +82,95 @@ class SimClock:
 
     Between two ticks, now() advances with the wall clock at the sim's realtime
     factor (processes on one host share that clock), but never more than
-    `max_extrapolation` wall seconds past the last tick: a stopped sim stops time.
+    `max_extrapolation` wall seconds, nor one tick interval, past the last tick: a
+    stopped sim stops time, and at a high rtf the interpolation cannot run ahead
+    of the ticks (a stamp is judged against the sim's own steps).
+
+    Time moves only by plausible ticks: a tick with an rtf above MAX_RTF or other than
+    the current one, or one further ahead than `jump` plus twice the rtf's pace over the
+    wall time since the last tick, is refused (`refused` counts them). A tick far behind
+    is a sim restart; so is a run of REFUSED_RUN refused ticks that agree with each other.
     """
 
-    def __init__(self, max_extrapolation: float = 0.05) -> None:
+    def __init__(self, max_extrapolation: float = 0.05, future: float = FUTURE_STAMP, jump: float = CLOCK_JUMP) -> None:
         self._lock = threading.Lock()
-        self._t: Optional[float] = None
+        self._t: float | None = None
         self._wall = 0.0
         self._rtf = 1.0
         self._last = 0.0
-        self._max_ext = max_extrapolation
+        self._max_ext = max_extrapolation  # [s] wall
+        self._future, self._jump = future, jump  # [s]
+        self._step = jump  # [s] the latest tick interval: a sample may lead the clock by one
+        self._seen = 0.0  # [s] monotonic time the last tick was taken
+        self._refused_run: list[ClockMsg] = []  # the refused ticks in a row
+        self.refused = 0  # ticks refused so far
+        self.refusal = ""  # why the last one was
 
     @property
     def ready(self) -> bool:
         return self._t is not None
 
-    def update(self, msg: ClockMsg) -> bool:
-        """Take a tick from the `clock` topic; True if time jumped back (the sim restarted)."""
+    def update(self, msg: ClockMsg) -> str:
+        """Take a tick from the `clock` topic: ACCEPTED, RESTARTED (time jumped back) or REFUSED."""
         with self._lock:
-            restarted = self._t is not None and msg.t < self._t - RESTART_JUMP
+            seen = time.monotonic()
+            why = self._implausible(msg, seen)
+            restarted = self._t is not None and msg.t < self._t - RESTART_JUMP and msg.rtf <= MAX_RTF
+            if why is not None and not restarted:
+                run = self._refused_run
+                if run and self._plausible_after(run[-1], msg):
+                    run.append(msg)
+                else:
+                    run[:] = [msg]
+                if len(run) < REFUSED_RUN:
+                    self.refused += 1
+                    self.refusal = why
+                    return REFUSED
+                restarted = True  # a new timeline, not a glitch
+            self._refused_run = []
             if restarted:
-                self._last = 0.0  # time starts again
-            self._t, self._rtf = msg.t, msg.rtf
+                self._last, self._step = 0.0, self._jump  # time starts again
+            elif self._t is not None and msg.t > self._t:
+                self._step = min(msg.t - self._t, self._jump)
+            self._t, self._rtf, self._seen = msg.t, msg.rtf, seen
             self._wall = msg.wall if msg.wall > 0 else time.time()
-            return restarted
+            return RESTARTED if restarted else ACCEPTED
+
+    def _implausible(self, msg: ClockMsg, seen: float) -> str | None:
+        """Why a tick cannot follow the current one, or None."""
+        if msg.rtf > MAX_RTF:
+            return f"rtf {msg.rtf:g} is above {MAX_RTF:g}"
+        if self._t is None:
+            return None
+        if msg.rtf != self._rtf:
+            return f"rtf changed from {self._rtf:g} to {msg.rtf:g} without a restart"
+        allowed = self._jump + PACE_MARGIN * self._rtf * max(seen - self._seen, 0.0)
+        if msg.t - self._t > allowed:
+            return f"t jumped {msg.t - self._t:.3f} s ahead (at most {allowed:.3f} s is plausible)"
+        return None
+
+    def _plausible_after(self, prev: ClockMsg, msg: ClockMsg) -> bool:
+        return msg.rtf == prev.rtf and prev.t <= msg.t <= prev.t + self._jump
 
     def now(self) -> float:
         with self._lock:
             if self._t is None:
                 return 0.0
-            ext = min(max(time.time() - self._wall, 0.0), self._max_ext)
-            self._last = max(self._last, self._t + ext * self._rtf)
+            ext = min(max(time.time() - self._wall, 0.0), self._max_ext) * self._rtf
+            self._last = max(self._last, self._t + min(ext, self._step))
             return self._last
 
-    def wall_delay(self, dt: float) -> Optional[float]:
+    def wall_delay(self, dt: float) -> float | None:
         return max(dt, 0.0) / self._rtf
 
     def horizon(self) -> float:
-        """Before the first tick nothing is known to be from the future."""
+        """The clock, plus one tick (a sensor sample goes out just before its tick), plus `future`.
+
+        Before the first tick nothing is known to be from the future.
+        """
         if not self.ready:
             return math.inf
-        return self.now() + FUTURE_LIMIT * max(1.0, self._rtf)
+        return self.now() + self._step + self._future
 
 
 class ManualClock:
@@ -130,7 +188,7 @@ class ManualClock:
         self.t += dt
         return self.t
 
-    def wall_delay(self, dt: float) -> Optional[float]:
+    def wall_delay(self, dt: float) -> float | None:
         return None
 
     def horizon(self) -> float:

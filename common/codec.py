@@ -1,8 +1,10 @@
 """The one codec: msgpack via msgspec. Services never touch bytes."""
+
 from __future__ import annotations
 
 import json
-from typing import Any, Mapping, TypeVar
+from collections.abc import Mapping
+from typing import Any, TypeVar
 
 import msgspec
 

@@ -5,21 +5,26 @@ overrides what it names, and `config/default.toml` documents every key (a test
 keeps the two equal). A bad or unknown key fails fast, naming the key and the
 accepted range: `config: [motor] watchdog: Expected `float` > 0.0`.
 """
+
 from __future__ import annotations
 
+import dataclasses
+import functools
 import re
 import tomllib
-from dataclasses import dataclass, field
-from typing import Annotated, Any, Literal, Optional, TypeVar
+from dataclasses import dataclass
+from importlib import resources
+from typing import Annotated, Any, Literal, TypeVar
 
 import msgspec
 from msgspec import Meta, Struct
 
 from zenav.common import messages as m
-from zenav.common.bus import DEFAULT_CONNECT
+from zenav.common.keys import DEFAULT_CONNECT
 from zenav.common.scenarios import Scenario, scenario
 
 T = TypeVar("T")
+OWN_SECTIONS = ("deployment", "robot", "scenario", "limits", "field")  # the sections Settings reads itself
 
 
 class ConfigError(ValueError):
@@ -31,7 +36,9 @@ class Deployment(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
 
     robot: Annotated[str, Meta(pattern=m.ROBOT_ID_PATTERN)] = "r1"  # key prefix zenav/<robot>/
     connect: str = DEFAULT_CONNECT  # Zenoh router endpoint(s), comma-separated
-    zenoh_mode: Literal["client", "peer"] = "client"  # client: every message through the router; peer: services also link directly on loopback
+    zenoh_mode: Literal["client", "peer"] = (
+        "client"  # client: every message through the router; peer: services also link directly on loopback
+    )
     clock: Literal["sim", "wall"] = "sim"  # follow the sim's `clock` topic, or the host clock
     scenario: str = "default"  # scenario preset (default, coarse, harsh)
     seed: Annotated[int, Meta(ge=0)] = 1  # seed of the run's random generators
@@ -42,12 +49,60 @@ class Robot(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
 
     wheel_diameter: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.0673  # [m] 2.65 in
     track_width: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.1156  # [m] wheel contact to contact
-    ticks_per_rev: Optional[Annotated[int, Meta(ge=1, le=1_000_000)]] = None  # None: the scenario's
+    ticks_per_rev: Annotated[int, Meta(ge=1, le=1000000)] | None = None  # None: the scenario's
     max_wheel_speed: Annotated[float, Meta(gt=0.0, le=1e3)] = 10.0  # [rad/s]
 
     @property
     def wheel_radius(self) -> float:
         return self.wheel_diameter / 2.0
+
+
+class Limits(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """What one input may cost a service: sizes checked before decoding, the queue's bounds, time's steps."""
+
+    max_payload: Annotated[int, Meta(ge=1024, le=1 << 30)] = 1 << 20  # [bytes] larger payloads are refused undecoded
+    max_params: Annotated[int, Meta(ge=256, le=1 << 30)] = 64 << 10  # [bytes] larger selector parameters are refused
+    queue_items: Annotated[int, Meta(ge=16, le=10_000_000)] = 10_000  # [items] a service's input queue; more are dropped
+    queue_bytes: Annotated[int, Meta(ge=1 << 16, le=1 << 34)] = 64 << 20  # [bytes] payload bytes queued; more are dropped
+    future_stamp: Annotated[float, Meta(ge=0.0, le=60.0)] = 0.1  # [s] a stamp may lead the stack clock by this (sim: plus one tick)
+    clock_jump: Annotated[float, Meta(gt=0.0, le=3600.0)] = 1.0  # [s] a sim clock tick may run this far past the rtf's pace
+
+
+class Field(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """The area the robot may drive in (map frame); goals outside it are refused."""
+
+    enabled: bool = True  # false: no bounds
+    x_min: float = -1.0  # [m]
+    x_max: float = 3.0  # [m]
+    y_min: float = -1.0  # [m]
+    y_max: float = 3.0  # [m]
+
+    def __post_init__(self) -> None:
+        if not (self.x_min < self.x_max and self.y_min < self.y_max):
+            raise ValueError("x_min < x_max and y_min < y_max are required")
+
+    def outside(self, x: float, y: float) -> str | None:
+        """The bound (x, y) [m] lies beyond, as text, or None when inside (or the field is off)."""
+        if not self.enabled or (self.x_min <= x <= self.x_max and self.y_min <= y <= self.y_max):
+            return None
+        for name, value, ok in (
+            (f"x_min = {self.x_min}", x, x >= self.x_min),
+            (f"x_max = {self.x_max}", x, x <= self.x_max),
+            (f"y_min = {self.y_min}", y, y >= self.y_min),
+            (f"y_max = {self.y_max}", y, y <= self.y_max),
+        ):
+            if not ok:
+                return f"{value:g} m is outside the field ([field] {name})"
+        return None
+
+
+@functools.cache
+def known_sections() -> tuple[str, ...]:
+    """The sections a config may have: the Settings' own, then every one the shipped default.toml documents
+    (each service's, [camera]), so a section is known wherever the settings are loaded, whatever is imported."""
+    with resources.files("zenav").joinpath("data/default.toml").open("rb") as f:
+        documented = tomllib.load(f)
+    return tuple(dict.fromkeys([*OWN_SECTIONS, *documented]))
 
 
 def _convert(raw: Any, typ: type[T], where: str) -> T:
@@ -65,8 +120,10 @@ class Settings:
     deployment: Deployment
     robot: Robot
     scenario: Scenario
-    sections: dict[str, dict] = field(default_factory=dict)
-    path: Optional[str] = None
+    sections: dict[str, dict] = dataclasses.field(default_factory=dict)
+    path: str | None = None
+    limits: Limits = Limits()
+    field: Field = Field()
 
     @property
     def robot_id(self) -> str:
@@ -77,7 +134,7 @@ class Settings:
         return _convert(self.sections.get(name, {}), typ, name)
 
     @classmethod
-    def load(cls, path: Optional[str] = None, **overrides: dict) -> Settings:
+    def load(cls, path: str | None = None, **overrides: dict) -> Settings:
         """Read `path` (or only defaults), then apply per-section overrides.
 
         `Settings.load(None, deployment={"robot": "r2"}, sim={"rtf": 5.0})`.
@@ -94,6 +151,9 @@ class Settings:
         for name, value in raw.items():
             if not isinstance(value, dict):
                 raise ConfigError(f"config: `{name}` must be a [section], not a value")
+        unknown = [name for name in raw if name not in known_sections()]
+        if unknown:
+            raise ConfigError(f"config: unknown section [{unknown[0]}] (known: {', '.join(known_sections())})")
         deployment = _convert(raw.get("deployment", {}), Deployment, "deployment")
         try:
             scen = scenario(deployment.scenario, raw.get("scenario"))
@@ -102,7 +162,65 @@ class Settings:
         except ValueError as e:
             raise ConfigError(f"config [deployment] scenario: {e}") from None
         robot = _convert(raw.get("robot", {}), Robot, "robot")
+        limits = _convert(raw.get("limits", {}), Limits, "limits")
+        bounds = _convert(raw.get("field", {}), Field, "field")
         if robot.ticks_per_rev is None:  # the encoders are known: take the scenario's
             robot = msgspec.structs.replace(robot, ticks_per_rev=scen.ticks_per_rev)
-        sections = {k: v for k, v in raw.items() if k not in ("deployment", "robot", "scenario")}
-        return cls(deployment, robot, scen, sections, path)
+        sections = {k: v for k, v in raw.items() if k not in OWN_SECTIONS}
+        return cls(deployment, robot, scen, sections, path, limits, bounds)
+
+
+class Anchor(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """A fixed fiducial on the floor: its tag id and the map position of its centre, sides along x and y."""
+
+    id: Annotated[int, Meta(ge=0, le=586)]  # tag36h11 id
+    x: float  # [m] map frame
+    y: float  # [m]
+
+
+Positive = Annotated[float, Meta(gt=0.0, le=1e4)]
+DEFAULT_ANCHORS = tuple(
+    Anchor(id=100 + i, x=x, y=y) for i, (x, y) in enumerate(((-0.5, -0.2), (1.5, -0.2), (1.5, 1.2), (-0.5, 1.2), (0.5, -0.2), (0.5, 1.2)))
+)
+
+
+class Camera(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """The [camera] section: the overhead camera of the field, its fiducials, and how the VPS reads it."""
+
+    device: str = ""  # frame source: "" the sim's frames on the bus; a video file; a webcam index ("0"); an RTSP/HTTP URL
+    width: Annotated[int, Meta(ge=16, le=8192)] = 640  # [px]
+    height: Annotated[int, Meta(ge=16, le=8192)] = 480  # [px]
+    rate_hz: Annotated[float, Meta(gt=0.0, le=1000.0)] = 10.0  # [Hz] frames captured
+    x: Annotated[float, Meta(ge=-1e3, le=1e3)] = 0.5  # [m] optical centre, map frame
+    y: Annotated[float, Meta(ge=-1e3, le=1e3)] = 0.5  # [m]
+    z: Annotated[float, Meta(gt=0.0, le=100.0)] = 2.0  # [m] above the floor
+    yaw: Annotated[float, Meta(ge=-7.0, le=7.0)] = 0.0  # [rad] image x axis from map x
+    tilt: Annotated[float, Meta(ge=-0.8, le=0.8)] = 0.0  # [rad] optical axis off vertical, about the image x axis
+    fx: Positive = 533.0  # [px] focal length
+    fy: Positive = 533.0  # [px]
+    cx: Annotated[float, Meta(ge=0.0, le=8192.0)] | None = None  # [px] principal point; None: the image centre
+    cy: Annotated[float, Meta(ge=0.0, le=8192.0)] | None = None  # [px]
+    k1: Annotated[float, Meta(ge=-10.0, le=10.0)] = -0.05  # radial distortion (OpenCV model)
+    k2: Annotated[float, Meta(ge=-10.0, le=10.0)] = 0.0
+    p1: Annotated[float, Meta(ge=-1.0, le=1.0)] = 0.0  # tangential distortion
+    p2: Annotated[float, Meta(ge=-1.0, le=1.0)] = 0.0
+    k3: Annotated[float, Meta(ge=-10.0, le=10.0)] = 0.0
+    exposure: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.008  # [s] sim: motion blur over this time
+    noise: Annotated[float, Meta(ge=0.0, le=100.0)] = 2.0  # [grey levels] sim: sensor noise, 1 sigma
+    lighting: Annotated[float, Meta(ge=0.0, le=0.9)] = 0.15  # sim: relative swing of the light over time and across the field
+    tag_size: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.10  # [m] robot tag, edge of its black square
+    tag_height: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.12  # [m] robot tag above the floor
+    robot_radius: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.09  # [m] sim: the robot's top, a disc under its tag
+    anchor_size: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.15  # [m] fixed tags, edge of their black square
+    anchors: tuple[Anchor, ...] = DEFAULT_ANCHORS  # fixed tags on the floor (calibration)
+    robots: dict[Annotated[str, Meta(pattern=m.ROBOT_ID_PATTERN)], Annotated[int, Meta(ge=0, le=586)]] = msgspec.field(
+        default_factory=lambda: {"r1": 0}
+    )  # robot id -> the tag id on top of it
+    calibration: str = "camera-calibration.json"  # the file `zenav camera calibrate` writes and the VPS reads
+    link_delay: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.3  # [s] added after detection (the radio link)
+    corner_sigma: Annotated[float, Meta(gt=0.0, le=100.0)] = 0.3  # [px] 1 sigma of a sharp tag corner, the base of a fix's covariance
+
+    @property
+    def principal(self) -> tuple[float, float]:
+        """(cx, cy) [px]."""
+        return (self.width / 2.0 if self.cx is None else self.cx, self.height / 2.0 if self.cy is None else self.cy)

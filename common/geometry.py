@@ -1,4 +1,5 @@
 """SE(2) poses and angle helpers (REP-103: x forward, y left, theta CCW, radians)."""
+
 from __future__ import annotations
 
 import math

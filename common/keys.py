@@ -1,11 +1,13 @@
 """The contract's key expressions, and which message type travels on each."""
+
 from __future__ import annotations
 
 import re
 
 from zenav.common import messages as m
 
-SERVICES = ("sim", "odometry", "vps", "localizer", "navigator", "motor")
+SERVICES = ("sim", "odometry", "vps", "localizer", "navigator", "motor", "driver")
+DEFAULT_CONNECT = "tcp/127.0.0.1:7447"  # the router the stack and its tools meet at (Zenoh's standard port)
 _ROBOT_ID = re.compile(m.ROBOT_ID_PATTERN)
 
 # Topic suffix (after zenav/<robot>/) -> message type.
@@ -25,9 +27,16 @@ TOPICS: dict[str, type[m.Topic]] = {
     **{f"diag/{s}": m.Diag for s in SERVICES},
 }
 
+# Field-level topics: one sender serves every robot on the field, under zenav/field/ (not a robot's prefix).
+FIELD = "field"
+FIELD_TOPICS: dict[str, type[m.Topic]] = {
+    "camera/frame": m.CameraFrame,
+}
+
 # Query suffix -> (request type, reply type).
 QUERIES: dict[str, tuple[type[m.Request], type[m.Reply]]] = {
     "nav/move_to_point": (m.MoveToPoint, m.GoalReply),
+    "nav/move_to_pose": (m.MoveToPose, m.GoalReply),
     "nav/turn_to_heading": (m.TurnToHeading, m.GoalReply),
     "nav/turn_to_point": (m.TurnToPoint, m.GoalReply),
     "nav/move_straight": (m.MoveStraight, m.GoalReply),
@@ -60,3 +69,8 @@ def key(robot: str, suffix: str) -> str:
 def alive(robot: str, service: str) -> str:
     """The liveliness token key of a service."""
     return key(robot, f"alive/{service}")
+
+
+def field_key(suffix: str) -> str:
+    """The full key expression of a field-level topic: `zenav/field/<suffix>`."""
+    return f"zenav/{FIELD}/{suffix}"

@@ -6,9 +6,10 @@ bad payload is rejected by decoding alone, with the field named in the error.
 Topic messages ignore unknown keys (forward compatible); query requests forbid them
 so a typo (`tolerence`) is an error, not a silent default.
 """
+
 from __future__ import annotations
 
-from typing import Annotated, Any, Optional
+from typing import Annotated, Any, Literal
 
 import msgspec
 from msgspec import Meta, Struct
@@ -44,13 +45,13 @@ class Reply(Struct, frozen=True, kw_only=True):
 
 
 # ---------------------------------------------------------------- topics
-class Clock(Topic, kw_only=True):
+class Clock(Topic, frozen=True, kw_only=True):
     t: Time  # [s] simulated time
     rtf: Annotated[float, Meta(gt=0.0, le=1e4)] = 1.0  # realtime factor the sim runs at
     wall: Annotated[float, Meta(ge=0.0, le=1e11)] = 0.0  # [s] sender's wall clock (epoch) at t
 
 
-class Truth(Topic, kw_only=True):
+class Truth(Topic, frozen=True, kw_only=True):
     t: Time
     x: Coord  # [m] map frame
     y: Coord  # [m]
@@ -59,25 +60,25 @@ class Truth(Topic, kw_only=True):
     omega: Velocity  # [rad/s] CCW
 
 
-class Encoders(Topic, kw_only=True):
+class Encoders(Topic, frozen=True, kw_only=True):
     t: Time
     left: Ticks  # cumulative ticks, wrapping signed 32-bit
     right: Ticks
 
 
-class Imu(Topic, kw_only=True):
+class Imu(Topic, frozen=True, kw_only=True):
     t: Time
     gyro_z: Velocity  # [rad/s] yaw rate, body frame
     accel_x: Accel  # [m/s^2] forward, body frame
     accel_y: Accel  # [m/s^2] left, body frame
 
 
-class Compass(Topic, kw_only=True):
+class Compass(Topic, frozen=True, kw_only=True):
     t: Time
     heading: Angle  # [rad] map frame
 
 
-class VpsPose(Topic, kw_only=True):
+class VpsPose(Topic, frozen=True, kw_only=True):
     t: Time  # capture time
     x: Coord
     y: Coord
@@ -85,7 +86,19 @@ class VpsPose(Topic, kw_only=True):
     cov: Cov9 = ZERO_COV
 
 
-class Odom(Topic, kw_only=True):
+class CameraFrame(Topic, frozen=True, kw_only=True):
+    """One frame of the overhead camera that serves the whole field (zenav/field/camera/frame)."""
+
+    t: Time  # capture time: the middle of the exposure
+    seq: Annotated[int, Meta(ge=0)] = 0  # frame number of the source
+    width: Annotated[int, Meta(ge=1, le=8192)]  # [px]
+    height: Annotated[int, Meta(ge=1, le=8192)]  # [px]
+    encoding: Literal["mono8", "png", "jpeg"] = "mono8"  # mono8: width x height grey bytes, top row first
+    exposure: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.0  # [s]
+    data: bytes
+
+
+class Odom(Topic, frozen=True, kw_only=True):
     t: Time  # encoder sample time
     x: Coord  # [m] odom frame
     y: Coord
@@ -98,7 +111,7 @@ class Odom(Topic, kw_only=True):
     unmeasured_right: Finite = 0.0  # [m] likewise, right
 
 
-class Pose(Topic, kw_only=True):
+class Pose(Topic, frozen=True, kw_only=True):
     t: Time  # the odom t this estimate is for
     x: Coord  # [m] map frame
     y: Coord
@@ -111,34 +124,35 @@ class Pose(Topic, kw_only=True):
     calibration: dict[str, Finite] = {}  # online estimates of odometry errors
 
 
-class CmdVel(Topic, kw_only=True):
+class CmdVel(Topic, frozen=True, kw_only=True):
     t: Time  # pose t acted on; 0 means "now" (clients without the stack clock)
     v: Velocity  # [m/s]
     omega: Velocity  # [rad/s]
 
 
-class Wheels(Topic, kw_only=True):
+class Wheels(Topic, frozen=True, kw_only=True):
     t: Time  # cmd_vel t
     left: Velocity  # [rad/s] wheel angular velocity command after limits
     right: Velocity
 
 
-class NavState(Topic, kw_only=True):
+class NavState(Topic, frozen=True, kw_only=True):
     t: Time
-    state: str  # STOPPED, MOVING_TO_POINT, TURNING_TO_HEADING, MOVING_STRAIGHT, FOLLOWING_PATH
+    state: str  # STOPPED, MOVING_TO_POINT, MOVING_TO_POSE, TURNING_TO_HEADING, MOVING_STRAIGHT, FOLLOWING_PATH
     goal_id: int = 0
-    goal: Optional[dict[str, Any]] = None
-    result: Optional[str] = None  # succeeded, cancelled, aborted; nil while running
-    distance_remaining: Optional[Finite] = None  # [m]
-    heading_error: Optional[Finite] = None  # [rad]
-    eta: Optional[Finite] = None  # [s]
+    goal: dict[str, Any] | None = None
+    result: str | None = None  # succeeded, cancelled, aborted; nil while running
+    distance_remaining: Finite | None = None  # [m]
+    heading_error: Finite | None = None  # [rad]
+    eta: Finite | None = None  # [s]
     elapsed: Finite = 0.0  # [s]
-    next_point: Optional[int] = None  # follow_path: index of the point being approached
-    cross_track_error: Optional[Finite] = None  # [m]
+    next_point: int | None = None  # follow_path: index of the point being approached
+    cross_track_error: Finite | None = None  # [m]
     message: str = ""
+    exit: str | None = None  # why the goal's move ended (within_tolerance, settled, timeout, ...); nil while running
 
 
-class Fix(Topic, kw_only=True):
+class Fix(Topic, frozen=True, kw_only=True):
     t: Time  # capture time of the fix
     t_arrival: Time
     latency: Finite  # [s] t_arrival - t
@@ -147,9 +161,11 @@ class Fix(Topic, kw_only=True):
     mahalanobis_d2: Finite
     accepted: bool
     reason: str
+    latency_estimate: Finite | None = None  # [s] VPS latency estimated online ([localizer] latency = "estimate"), else None
+    latency_sigma: Finite | None = None  # [s] 1 sigma of latency_estimate
 
 
-class Diag(Topic, kw_only=True):
+class Diag(Topic, frozen=True, kw_only=True):
     t: Time
     service: str
     uptime: Finite  # [s]
@@ -161,100 +177,112 @@ class Diag(Topic, kw_only=True):
 
 
 # ---------------------------------------------------------------- queries
-class Empty(Request, kw_only=True):
+class Empty(Request, frozen=True, kw_only=True):
     """A request with no fields (stop, status, localizer/pose)."""
 
 
-class GoalOptions(Request, kw_only=True):
-    speed: Optional[PosSpeed] = None
-    tolerance: Optional[Tolerance] = None
+class GoalOptions(Request, frozen=True, kw_only=True):
+    speed: PosSpeed | None = None
+    tolerance: Tolerance | None = None
     wait: bool = False
-    lease: Optional[Lease] = None
+    lease: Lease | None = None
+    timeout: Annotated[float, Meta(gt=0.0, le=1e4)] | None = None  # [s] the move stops after this long (exit timeout)
 
 
-class MoveToPoint(GoalOptions, kw_only=True):
+class MoveToPoint(GoalOptions, frozen=True, kw_only=True):
     x: Coord
     y: Coord
 
 
-class TurnToHeading(GoalOptions, kw_only=True):
+class MoveToPose(GoalOptions, frozen=True, kw_only=True):
+    x: Coord
+    y: Coord
+    theta: Angle  # [rad] heading to arrive with
+    heading_tolerance: Tolerance | None = None  # [rad]
+    lead: Annotated[float, Meta(ge=0.0, le=1.0)] | None = None  # [-] boomerang carrot distance per metre to the goal
+
+
+class TurnToHeading(GoalOptions, frozen=True, kw_only=True):
     heading: Angle
 
 
-class TurnToPoint(GoalOptions, kw_only=True):
+class TurnToPoint(GoalOptions, frozen=True, kw_only=True):
     x: Coord
     y: Coord
 
 
-class MoveStraight(Request, kw_only=True):
+class MoveStraight(Request, frozen=True, kw_only=True):
     speed: Annotated[float, Meta(ge=-1e3, le=1e3)]  # [m/s] signed
-    distance: Optional[Annotated[float, Meta(gt=0.0, le=1e4)]] = None  # [m]
+    distance: Annotated[float, Meta(gt=0.0, le=10000.0)] | None = None  # [m]
     wait: bool = False
-    lease: Optional[Lease] = None
+    lease: Lease | None = None
 
 
-Point = Annotated[tuple[Coord, ...], Meta(min_length=2, max_length=2)]
+Point = Annotated[tuple[Coord, ...], Meta(min_length=2, max_length=3)]  # [x, y] or [x, y, tolerance [m]]
 
 
-class FollowPath(GoalOptions, kw_only=True):
+class FollowPath(GoalOptions, frozen=True, kw_only=True):
     points: Annotated[list[Point], Meta(min_length=1, max_length=10_000)]
+    waypoint_tolerance: Tolerance | None = None  # [m] of the points before the last that name none
 
 
-class SetPose(Request, kw_only=True):
-    x: Optional[Coord] = None
-    y: Optional[Coord] = None
-    theta: Optional[Angle] = None
+class SetPose(Request, frozen=True, kw_only=True):
+    x: Coord | None = None
+    y: Coord | None = None
+    theta: Angle | None = None
 
 
-class SimReset(Request, kw_only=True):
-    x: Optional[Coord] = None
-    y: Optional[Coord] = None
-    theta: Optional[Angle] = None
-    seed: Optional[Annotated[int, Meta(ge=0, le=2**63 - 1)]] = None
+class SimReset(Request, frozen=True, kw_only=True):
+    x: Coord | None = None
+    y: Coord | None = None
+    theta: Angle | None = None
+    seed: Annotated[int, Meta(ge=0, le=2**63 - 1)] | None = None
 
 
-class PoseStamped(Reply, kw_only=True):
+class PoseStamped(Reply, frozen=True, kw_only=True):
     t: float
     x: float
     y: float
     theta: float
 
 
-class GoalReply(Reply, kw_only=True):
+class GoalReply(Reply, frozen=True, kw_only=True):
     goal_id: int
     state: str
-    speed: Optional[float] = None  # the speed limit used, after clamping
-    result: Optional[str] = None
-    pose: Optional[PoseStamped] = None
+    speed: float | None = None  # the speed limit used, after clamping
+    result: str | None = None
+    pose: PoseStamped | None = None
     message: str = ""
+    exit: str | None = None  # why the move ended (within_tolerance, settled, timeout, ...); nil until it ends
 
 
-class StopReply(Reply, kw_only=True):
+class StopReply(Reply, frozen=True, kw_only=True):
     state: str
 
 
-class StatusReply(Reply, kw_only=True):
+class StatusReply(Reply, frozen=True, kw_only=True):
     state: str
     is_moving: bool
     goal_id: int
-    goal: Optional[dict[str, Any]]
-    result: Optional[str]
-    distance_remaining: Optional[float]
-    pose: Optional[PoseStamped]
+    goal: dict[str, Any] | None
+    result: str | None
+    distance_remaining: float | None
+    pose: PoseStamped | None
     not_ready: str = ""  # why a new goal would be refused now ("": one can start)
+    exit: str | None = None  # why the newest goal's move ended; nil while it runs
 
 
-class LocalizerPoseReply(Reply, kw_only=True):
+class LocalizerPoseReply(Reply, frozen=True, kw_only=True):
     t: float
     x: float
     y: float
     theta: float
     cov: tuple[float, ...]
     calibration: dict[str, float] = {}
-    vps_latency: Optional[float] = None  # [s] estimated from the fixes
+    vps_latency: float | None = None  # [s] estimated from the fixes
 
 
-class ErrorReply(Reply, kw_only=True):
+class ErrorReply(Reply, frozen=True, kw_only=True):
     error: str  # invalid_argument, unavailable, internal
     message: str
 

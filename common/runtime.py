@@ -12,34 +12,78 @@ A service is a class whose methods are declared as handlers:
         @timer(0.05)
         def check_watchdog(self, now: float) -> None: ...
 
-        @query("nav/stop", Empty)
+        @query("nav/stop", Empty, priority=True)
         def stop(self, req: Empty, q: Query) -> StopReply: ...
 
 Bus callbacks only enqueue; one worker runs every handler in arrival order, and
-timers on the service clock in between. A payload that does not decode is counted
-(`bad_input`), logged and dropped; a bad query gets an `invalid_argument` reply. A
-handler that raises is logged and counted (`errors`) and the service keeps going.
-A message stamped more than a second past the stack clock (clock.horizon) is
-counted (`dropped_future`), logged and dropped: one bad stamp must not make every
-later sample look stale.
+timers on the service clock in between. Queries declared `priority` (and liveliness
+events) go in a lane the worker empties before anything else, so a stop is never
+queued behind other input. The queue is bounded in items and bytes ([limits]): a full
+one drops new input (`dropped_overflow`).
+
+Sizes are checked in the bus callback, before anything is decoded: a payload over
+[limits] max_payload or selector parameters over max_params are counted (`oversize`),
+logged and dropped (a query is answered `invalid_argument`). A payload that does not
+decode is counted (`bad_input`), logged and dropped; a bad query gets an
+`invalid_argument` reply. A handler that raises is logged and counted (`errors`) and
+the service keeps going. A message stamped past the stack clock's horizon is counted
+(`dropped_future`), logged and dropped: one bad stamp must not make every later
+sample look stale.
+
+A query that acts (the default; read-only ones declare `acts=False`) runs only when
+asked on its exact key: a wildcard get (`zenav/r1/**`) is answered `invalid_argument`
+naming the key and counted (`wildcard_refused`).
+
+One instance per service and robot: `start` refuses (`Duplicate`) when the service's
+token is already declared, and each instance holds `instance/<service>/<id>`, so two
+that started together see each other: diag shows `error` while another runs.
+
+Replies are msgpack, or JSON text (Zenoh encoding application/json) when the query
+asks with the selector parameter `_format=json` (browsers and curl through Zenoh's
+REST plugin). Parameters named `_...` are Zenoh's (`_format`, the REST plugin's `_raw`,
+`_time`), never request fields.
+
+Log lines that may carry what a sender sent (decode errors, tracebacks, keys) are
+cut to LOG_CHARS characters a line (`clip`).
 """
+
 from __future__ import annotations
 
+import functools
 import logging
-import queue
+import math
+import os
+import socket
 import threading
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable, Optional
+from typing import Any
+
+import msgspec
 
 from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common.bus import Bus, Query
-from zenav.common.clock import Clock, SimClock, WallClock
+from zenav.common.bus import JSON, MSGPACK, Bus, Handle, Query, undeclare_all
+from zenav.common.clock import REFUSED, RESTARTED, Clock, SimClock, WallClock
 from zenav.common.config import Settings
+from zenav.common.inbox import Inbox
 
-QUEUE_LIMIT = 10_000  # items; a full queue drops new input and counts it
+LOG_CHARS = 200  # a log line (and an internal error reply) is cut to this many characters
+FORMAT_PARAM = "_format"  # selector parameter choosing the reply format: msgpack (default) or json
+FORMATS = {"msgpack": MSGPACK, "json": JSON}
+
+
+def clip(text: str, limit: int = LOG_CHARS) -> str:
+    """`text` with each line cut to `limit` characters (a payload's repr must not flood the log)."""
+    return "\n".join(
+        line if len(line) <= limit else f"{line[:limit]}... ({len(line) - limit} more characters)" for line in text.split("\n")
+    )
+
+
+class Duplicate(Exception):
+    """Another instance of the service already runs for this robot."""
 
 
 class QueryError(Exception):
@@ -50,23 +94,38 @@ class QueryError(Exception):
         self.code, self.message = code, message
 
 
-def reply_error(q: Query, code: str, message: str) -> None:
-    """Answer a query with the contract's error map, and end it."""
-    q.reply_err(codec.encode(m.ErrorReply(error=code, message=message)))
+def reply_format(q: Query) -> str:
+    """The encoding a query asked its replies in (`_format=json`: JSON; otherwise msgpack)."""
+    if not q.params_size:
+        return MSGPACK
+    return FORMATS.get(q.params.get(FORMAT_PARAM, "msgpack"), MSGPACK)
+
+
+def _encode(msg: Any, encoding: str) -> bytes:
+    return msgspec.json.encode(msg) if encoding == JSON else codec.encode(msg)
+
+
+def reply_error(q: Query, code: str, message: str, *, read_params: bool = True) -> None:
+    """Answer a query with the contract's error map, and end it.
+
+    `read_params=False`: msgpack without parsing the selector parameters (refused as oversize)."""
+    encoding = reply_format(q) if read_params else MSGPACK
+    q.reply_err(_encode(m.ErrorReply(error=code, message=message), encoding), encoding)
     q.finish()
 
 
 def reply_ok(q: Query, reply: m.Reply) -> None:
     """Answer a query with a reply message, and end it."""
-    q.reply(codec.encode(reply))
+    encoding = reply_format(q)
+    q.reply(_encode(reply, encoding), encoding)
     q.finish()
 
 
 # ----------------------------------------------------------------- decorators
-def subscribe(suffix: str, typ: Optional[type] = None) -> Callable:
+def subscribe(suffix: str, typ: type | None = None) -> Callable:
     """Run the method for every message on `zenav/<robot>/<suffix>`, decoded as `typ`."""
 
-    def deco(fn: Callable) -> Callable:
+    def deco(fn: Any) -> Any:
         fn._zenav_sub = (suffix, typ or keys.TOPICS[suffix])
         return fn
 
@@ -76,7 +135,7 @@ def subscribe(suffix: str, typ: Optional[type] = None) -> Callable:
 def publish(suffix: str) -> Callable:
     """Publish the method's return value (unless None) on `suffix`."""
 
-    def deco(fn: Callable) -> Callable:
+    def deco(fn: Any) -> Any:
         fn._zenav_pub = suffix
         return fn
 
@@ -90,18 +149,22 @@ def timer(period: float | str) -> Callable:
     (so that config can set it: `@timer("tick_period")`).
     """
 
-    def deco(fn: Callable) -> Callable:
+    def deco(fn: Any) -> Any:
         fn._zenav_timer = period
         return fn
 
     return deco
 
 
-def query(suffix: str, typ: Optional[type] = None) -> Callable:
-    """Serve queries on `suffix`; the method returns a reply, or None to reply later."""
+def query(suffix: str, typ: type | None = None, *, priority: bool = False, acts: bool = True) -> Callable:
+    """Serve queries on `suffix`; the method returns a reply, or None to reply later.
 
-    def deco(fn: Callable) -> Callable:
-        fn._zenav_query = (suffix, typ or keys.QUERIES[suffix][0])
+    `priority`: taken before any other queued input. `acts=False`: read-only, so a
+    wildcard query may reach it; an acting query runs only on its exact key.
+    """
+
+    def deco(fn: Any) -> Any:
+        fn._zenav_query = (suffix, typ or keys.QUERIES[suffix][0], priority, acts)
         return fn
 
     return deco
@@ -114,7 +177,7 @@ def on_liveliness(service: str) -> Callable:
     message timeout, so safety reactions (stop the wheels) hang on it.
     """
 
-    def deco(fn: Callable) -> Callable:
+    def deco(fn: Any) -> Any:
         fn._zenav_liveliness = service
         return fn
 
@@ -125,7 +188,7 @@ def on_liveliness(service: str) -> Callable:
 class _Timer:
     period: float
     fn: Callable[[float], Any]
-    due: Optional[float] = None
+    due: float | None = None
 
 
 @dataclass
@@ -133,7 +196,9 @@ class Counters:
     """Counters and per-topic message counts, published in diag."""
 
     values: dict[str, int] = field(
-        default_factory=lambda: {"msgs_in": 0, "msgs_out": 0, "bad_input": 0, "dropped_stale": 0, "errors": 0}
+        default_factory=lambda: dict.fromkeys(
+            ("msgs_in", "msgs_out", "bad_input", "dropped_stale", "dropped_future", "oversize", "errors"), 0
+        )
     )
     window: dict[str, int] = field(default_factory=dict)  # topic -> messages since the last diag
 
@@ -148,25 +213,30 @@ class Service:
     """Base of every zenav service. Subclasses set `name` and declare handlers."""
 
     name = "service"
-    config_type: Optional[type] = None  # the Struct of this service's config section
+    config_type: type | None = None  # the Struct of this service's config section
     diag_period = 1.0  # [s] of the service clock
 
     def __init__(self, settings: Settings, bus: Bus, clock: Clock) -> None:
         self.settings = settings
-        self.cfg = settings.section(self.name, self.config_type) if self.config_type else None
+        self.cfg: Any = settings.section(self.name, self.config_type) if self.config_type else None
         self.bus, self.clock, self.robot = bus, clock, keys.check_robot_id(settings.robot_id)
         self.log = logging.getLogger(f"zenav.{self.name}")
         self.counters = Counters()
         self.status, self.status_message = "ok", ""
-        self._queue: queue.Queue = queue.Queue(QUEUE_LIMIT)
+        self.limits = settings.limits
+        self._inbox = Inbox(self.limits.queue_items, self.limits.queue_bytes)
         self._timers: list[_Timer] = []
+        self._next_due = -math.inf  # [s] stack time of the earliest timer due (before it, no timer runs)
         self._handles: list = []
-        self._token = None
+        self._token: Handle | None = None
         self._started_wall = time.monotonic()
-        self._last_diag_t: Optional[float] = None  # stack-clock time of the last diag
+        self._last_diag_t: float | None = None  # stack-clock time of the last diag
         self._stop = threading.Event()
         self._keys: dict[str, str] = {}  # suffix -> full key (publishing is a hot path)
         self._warned: dict[str, list[float]] = {}  # warning kind -> [count, last wall time]
+        self.instance = _instance_id()  # this process's (and object's) id in instance/<service>/<id>
+        self._others: set[str] = set()  # instance ids of other instances of this service seen alive
+        self._started = False
 
     # ------------------------------------------------------------ helpers
     def key(self, suffix: str) -> str:
@@ -190,23 +260,30 @@ class Service:
         """Set the diag status (ok, degraded, error) and its reason; logs changes."""
         if (status, message) != (self.status, self.status_message):
             level = logging.INFO if status == "ok" else logging.WARNING
-            self.log.log(level, "status %s%s", status, f": {message}" if message else "")
+            self.log.log(level, "status %s%s", status, clip(f": {message}") if message else "")
         self.status, self.status_message = status, message
 
-    def warn(self, kind: str, text: str) -> None:
-        """Log a warning, at most a few lines a second per kind (the counters keep the rest)."""
+    def warn(self, kind: str, text: str, level: int = logging.WARNING) -> None:
+        """Log a warning (lines clipped), at most a few lines a second per kind (the counters keep the rest)."""
         now = time.monotonic()
         seen = self._warned.setdefault(kind, [0, 0.0])
         seen[0] += 1
         if seen[0] <= 5 or now - seen[1] >= 5.0:
             suffix = f" ({seen[0]} so far)" if seen[0] > 5 else ""
-            self.log.warning("%s%s", text, suffix)
+            self.log.log(level, "%s%s", clip(text), suffix)
             seen[1] = now
 
     # ------------------------------------------------------------ lifecycle
     def start(self) -> None:
-        """Declare subscriptions, queryables and timers, then the liveliness token."""
+        """Declare subscriptions, queryables and timers, then the liveliness token.
+
+        Duplicate (nothing declared) if this service already runs for this robot."""
+        self._refuse_duplicate()
+        self._started = True
+        mine = self.key(f"instance/{self.name}/{self.instance}")
+        self._handles.append(self.bus.watch_tokens(self.key(f"instance/{self.name}/*"), self._instance_enqueuer(mine)))
         if isinstance(self.clock, SimClock):
+            self.counters.values.setdefault("clock_refused", 0)
             self._handles.append(self.bus.subscribe(self.key("clock"), self._enqueue_clock))
         for attr in dir(type(self)):
             fn = getattr(type(self), attr, None)
@@ -214,13 +291,14 @@ class Service:
                 continue
             bound = getattr(self, attr)
             if hasattr(fn, "_zenav_sub"):
-                self.subscribe(*fn._zenav_sub, bound)
+                suffix, typ = fn._zenav_sub
+                self.subscribe(suffix, typ, bound)
             if hasattr(fn, "_zenav_query"):
-                suffix, typ = fn._zenav_query
-                self._handles.append(self.bus.queryable(self.key(suffix), self._query_enqueuer(bound, typ)))
+                suffix, typ, priority, acts = fn._zenav_query
+                enqueue = self._query_enqueuer(bound, suffix, typ, priority, acts)
+                self._handles.append(self.bus.queryable(self.key(suffix), enqueue))
             if hasattr(fn, "_zenav_liveliness"):
-                token_key = keys.alive(self.robot, fn._zenav_liveliness)
-                self._handles.append(self.bus.watch_tokens(token_key, self._token_enqueuer(bound)))
+                self._handles.append(self.watch(keys.alive(self.robot, fn._zenav_liveliness), bound))
             if hasattr(fn, "_zenav_timer"):
                 period = fn._zenav_timer
                 period = float(getattr(self, period) if isinstance(period, str) else period)
@@ -228,17 +306,27 @@ class Service:
         self._timers.append(_Timer(self.diag_period, self._publish_diag))
         self.on_start()
         self._token = self.bus.token(keys.alive(self.robot, self.name))
-        self.log.info("%s up (robot %s)", self.name, self.robot)
+        self._handles.append(self.bus.token(mine))
+        self.log.info("%s up (robot %s, instance %s)", self.name, self.robot, self.instance)
 
     @classmethod
     def make_clock(cls, settings: Settings) -> Clock:
         """The clock this service runs on in its own process."""
-        return SimClock() if settings.deployment.clock == "sim" else WallClock()
+        lim = settings.limits
+        if settings.deployment.clock == "sim":
+            return SimClock(future=lim.future_stamp, jump=lim.clock_jump)
+        return WallClock(future=lim.future_stamp)
 
     def subscribe(self, suffix: str, typ: type, fn: Callable[[Any], Any]) -> None:
         """Subscribe `fn` to a topic at start-up, for subscriptions that depend on config
         (the @subscribe decorator covers the rest). `fn` may carry @publish."""
         self._handles.append(self.bus.subscribe(self.key(suffix), self._enqueuer(fn, suffix, typ)))
+
+    def watch(self, key: str, fn: Callable[[bool], Any]) -> Handle:
+        """Watch a liveliness token key at run time: `fn(alive)` runs in the worker on each
+        appearance and loss (ahead of queued input). `fn` may carry @publish. Undeclare the
+        handle to stop; a key that does not parse raises."""
+        return self.bus.watch_tokens(key, self._token_enqueuer(fn))
 
     def on_start(self) -> None:
         """Hook: runs once before the liveliness token is declared."""
@@ -252,36 +340,26 @@ class Service:
     def stop(self) -> None:
         """Ask the worker loop to end (safe from any thread or a signal handler)."""
         self._stop.set()
-        try:
-            self._queue.put_nowait(None)
-        except queue.Full:
-            pass
+        self._inbox.put(None, priority=True)
 
     def close(self) -> None:
-        """Run on_stop, withdraw the token and every declaration."""
+        """Run on_stop (if started), withdraw the token and every declaration."""
         try:
-            self.on_stop()
+            if self._started:
+                self.on_stop()
         except Exception:
             self.log.exception("on_stop failed")
         if self._token is not None:
             self._token.undeclare()
             self._token = None
-        for h in self._handles:
-            try:
-                h.undeclare()
-            except Exception:  # the session may already be closed
-                pass
-        self._handles.clear()
+        undeclare_all(self._handles)
 
     def run(self) -> None:
         """Process input and timers until stop()."""
         while not self._stop.is_set():
             delay = self._run_timers()
-            try:
-                item = self._queue.get(timeout=0.1 if delay is None else min(delay, 0.1))
-            except queue.Empty:
-                continue
-            if item is not None:
+            got, item = self._inbox.get(timeout=0.1 if delay is None else min(delay, 0.1))
+            if got and item is not None:
                 self._dispatch(item)
 
     def drain(self, limit: int = 100_000) -> int:
@@ -289,9 +367,8 @@ class Service:
         n = 0
         while n < limit:
             self._run_timers()
-            try:
-                item = self._queue.get_nowait()
-            except queue.Empty:
+            got, item = self._inbox.get()
+            if not got:
                 break
             if item is not None:
                 self._dispatch(item)
@@ -300,54 +377,109 @@ class Service:
         return n
 
     # ------------------------------------------------------------ internals
-    def _put(self, item: tuple) -> None:
-        try:
-            self._queue.put_nowait(item)
-        except queue.Full:
-            self.counters.inc("dropped_overflow")
+    def _put(self, item: tuple, size: int = 0, priority: bool = False) -> bool:
+        if self._inbox.put(item, size, priority):
+            return True
+        self.counters.inc("dropped_overflow")
+        return False
+
+    def _refuse_duplicate(self) -> None:
+        """Raise Duplicate, naming the other instance, if this service's token is declared."""
+        found = self.bus.tokens(self.key(f"instance/{self.name}/*")) or self.bus.tokens(keys.alive(self.robot, self.name))
+        if found:
+            names = ", ".join(sorted(k.rsplit("/", 1)[-1] for k in found))
+            raise Duplicate(f"another {self.name} already runs for robot {self.robot} ({names}); stop it first")
+
+    def _instance_enqueuer(self, mine: str) -> Callable[[str, bool], None]:
+        def enqueue(key: str, alive: bool) -> None:
+            if key != mine:
+                self._put(("live", functools.partial(self._other_instance, key.rsplit("/", 1)[-1]), key, None, alive), priority=True)
+
+        return enqueue
+
+    def _other_instance(self, other: str, alive: bool) -> None:
+        """Another instance of this service came or went (diag shows error while one runs)."""
+        (self._others.add if alive else self._others.discard)(other)
+        if alive:
+            self.log.error("another %s runs for robot %s: instance %s (this is %s)", self.name, self.robot, other, self.instance)
+
+    def _oversize(self, what: str, size: int, limit: int, name: str) -> str:
+        """Count and log an input refused for its size (in the bus callback: cheap)."""
+        self.counters.inc("oversize")
+        text = f"{what}: {size} bytes is over [limits] {name} = {limit}"
+        self.warn(f"oversize:{what}", f"dropped {text}")
+        return text
 
     def _enqueue_clock(self, key: str, data: bytes) -> None:
-        self._put((self._on_clock, "clock", m.Clock, data))
+        if len(data) > self.limits.max_payload:
+            self._oversize("clock", len(data), self.limits.max_payload, "max_payload")
+            return
+        self._put(("clock", self._on_clock, "clock", m.Clock, data), len(data))
 
     def _on_clock(self, msg: m.Clock) -> None:
-        if self.clock.update(msg):
-            self.log.warning("stack clock jumped back to %.2f s (sim restarted): state reset", msg.t)
+        clock = self.clock
+        assert isinstance(clock, SimClock)  # the clock topic is subscribed only then
+        outcome = clock.update(msg)
+        if outcome == REFUSED:
+            self.count("clock_refused")
+            self.warn("clock_refused", f"refused a clock tick t={msg.t:.3f} rtf={msg.rtf:g}: {clock.refusal}")
+        elif outcome == RESTARTED:
+            self.log.warning("stack clock jumped to %.2f s (sim restarted): state reset", msg.t)
             self.count("clock_resets")
             for tm in self._timers:
                 tm.due = None
+            self._next_due = -math.inf
             self.on_clock_reset()
 
     def _enqueuer(self, fn: Callable, suffix: str, typ: type) -> Callable[[str, bytes], None]:
+        limit = self.limits.max_payload
+
         def enqueue(key: str, data: bytes) -> None:
-            self._put((fn, suffix, typ, data))
+            if len(data) > limit:
+                self._oversize(suffix, len(data), limit, "max_payload")
+                return
+            self._put(("msg", fn, suffix, typ, data), len(data))
 
         return enqueue
 
     def _token_enqueuer(self, fn: Callable) -> Callable[[str, bool], None]:
         def enqueue(key: str, alive: bool) -> None:
-            self._put((fn, "@liveliness", None, alive))
+            self._put(("live", fn, key, None, alive), priority=True)
 
         return enqueue
 
-    def _query_enqueuer(self, fn: Callable, typ: type) -> Callable[[Query], None]:
+    def _query_enqueuer(self, fn: Callable, suffix: str, typ: type, priority: bool, acts: bool) -> Callable[[Query], None]:
+        lim, exact = self.limits, self.key(suffix) if acts else None
+
         def enqueue(q: Query) -> None:
-            self._put((fn, None, typ, q))
+            size, psize = len(q.payload), q.params_size
+            if size > lim.max_payload or psize > lim.max_params:
+                big = size > lim.max_payload
+                text = self._oversize(
+                    f"query {suffix} {'payload' if big else 'parameters'}",
+                    size if big else psize,
+                    lim.max_payload if big else lim.max_params,
+                    "max_payload" if big else "max_params",
+                )
+                reply_error(q, "invalid_argument", text, read_params=psize <= lim.max_params)
+            elif not self._put(("query", fn, exact, typ, q), size + psize, priority):
+                reply_error(q, "unavailable", f"{self.name} is overloaded: input queue full")
 
         return enqueue
 
     def _dispatch(self, item: tuple) -> None:
-        fn, suffix, typ, data = item
-        if suffix is None:
-            self._dispatch_query(fn, typ, data)
+        kind, fn, suffix, typ, data = item
+        if kind == "query":
+            self._dispatch_query(fn, suffix, typ, data)
             return
-        if suffix == "@liveliness":
+        if kind == "live":
             try:
                 self._publish_result(fn, fn(data))
             except Exception:
                 self.counters.inc("errors")
                 self.warn(f"live:{fn.__name__}", f"liveliness handler {fn.__name__} failed:\n{traceback.format_exc()}")
             return
-        if suffix != "clock":
+        if kind != "clock":
             self.counters.inc("msgs_in")
             self.counters.seen(suffix)
         try:
@@ -357,9 +489,9 @@ class Service:
             self.warn(f"bad:{suffix}", f"dropped bad input on {suffix}: {e}")
             return
         t = getattr(msg, "t", None)
-        if t is not None and t > self.clock.horizon():
+        if t is not None and kind != "clock" and t > self.clock.horizon():
             self.counters.inc("dropped_future")
-            self.warn(f"future:{suffix}", f"dropped {suffix} stamped t={t:.3f}, {t - self.clock.now():.1f} s ahead of the clock")
+            self.warn(f"future:{suffix}", f"dropped {suffix} stamped t={t:.3f}, {t - self.clock.now():.3f} s ahead of the clock")
             return
         try:
             out = fn(msg)
@@ -374,14 +506,25 @@ class Service:
         if target is not None and out is not None:
             self.publish(target, out)
 
-    def _dispatch_query(self, fn: Callable, typ: type, q: Query) -> None:
+    def _dispatch_query(self, fn: Callable, exact: str | None, typ: type, q: Query) -> None:
         self.counters.inc("queries")
+        if exact is not None and q.key != exact:
+            self.counters.inc("wildcard_refused")
+            self.warn("wildcard", f"refused a query on {q.key}: it acts, so only {exact} is served")
+            reply_error(q, "invalid_argument", f"{q.key}: this query acts; ask it on its exact key {exact}")
+            return
+        fmt = q.params.get(FORMAT_PARAM) if q.params_size else None
+        if fmt is not None and fmt not in FORMATS:
+            self.counters.inc("bad_input")
+            reply_error(q, "invalid_argument", f"{FORMAT_PARAM}={clip(fmt, 40)}: expected one of {', '.join(FORMATS)}")
+            return
         try:
-            req = codec.decode(q.payload, typ) if q.payload else codec.from_params(q.params, typ)
+            params = {k: v for k, v in q.params.items() if not k.startswith("_")} if q.params_size else {}
+            req: Any = codec.decode(q.payload, typ) if q.payload else codec.from_params(params, typ)
         except codec.BadInput as e:
             self.counters.inc("bad_input")
-            self.warn(f"badq:{q.key}", f"bad query on {q.key}: {e}")
-            reply_error(q, "invalid_argument", str(e))
+            self.warn(f"badq:{fn.__name__}", f"bad query on {q.key}: {e}")
+            reply_error(q, "invalid_argument", clip(str(e)))
             return
         try:
             rep = fn(req, q)
@@ -392,17 +535,19 @@ class Service:
             return
         except Exception as e:
             self.counters.inc("errors")
-            self.log.error("query %s failed:\n%s", q.key, traceback.format_exc())
-            reply_error(q, "internal", f"{type(e).__name__}: {e}")
+            self.warn(f"query:{fn.__name__}", f"query {q.key} failed:\n{traceback.format_exc()}", logging.ERROR)
+            reply_error(q, "internal", clip(f"{type(e).__name__}: {e}"))
             return
         if rep is not None:
             reply_ok(q, rep)
 
-    def _run_timers(self) -> Optional[float]:
+    def _run_timers(self) -> float | None:
         """Run due timers; return wall seconds until the next one (None: unknown)."""
         if not self.clock.ready:
             return None
         now = self.clock.now()
+        if now < self._next_due:  # the common case, once per input: nothing due yet
+            return self.clock.wall_delay(self._next_due - now)
         nearest = None
         for tm in self._timers:
             if tm.due is None:
@@ -419,6 +564,7 @@ class Service:
                     tm.due = now + tm.period
             left = tm.due - now
             nearest = left if nearest is None else min(nearest, left)
+        self._next_due = -math.inf if nearest is None else now + nearest
         return None if nearest is None else self.clock.wall_delay(nearest)
 
     def diag(self, now: float) -> m.Diag:
@@ -427,16 +573,26 @@ class Service:
         self._last_diag_t = now
         rates = {k: round(v / span, 2) for k, v in self.counters.window.items()}
         self.counters.window = {}
+        status, message = self.status, self.status_message
+        if self._others:
+            status = "error"
+            message = f"another {self.name} runs for robot {self.robot}: {', '.join(sorted(self._others))} (this is {self.instance})"
         return m.Diag(
             t=now,
             service=self.name,
             uptime=time.monotonic() - self._started_wall,
             counters=dict(self.counters.values),
             rates=rates,
-            status=self.status,
-            message=self.status_message,
-            queue=self._queue.qsize(),
+            status=status,
+            message=message,
+            queue=self._inbox.qsize(),
         )
 
     def _publish_diag(self, now: float) -> None:
         self.publish(f"diag/{self.name}", self.diag(now))
+
+
+def _instance_id() -> str:
+    """host-pid-random: names one service object (several may share a process in tests)."""
+    host = "".join(c if c.isalnum() or c in "-_." else "_" for c in socket.gethostname())[:40] or "host"
+    return f"{host}-{os.getpid()}-{os.urandom(3).hex()}"

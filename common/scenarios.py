@@ -1,8 +1,9 @@
 """The reference scenarios of shared/spec/scenarios.md: how the simulated world
 differs from the nominal robot. Presets by name; any field can be overridden."""
+
 from __future__ import annotations
 
-from typing import Annotated, Literal, Optional
+from typing import Annotated, Literal
 
 import msgspec
 from msgspec import Meta, Struct
@@ -12,25 +13,17 @@ NonNeg = Annotated[float, Meta(ge=0.0, le=1e3)]
 Prob = Annotated[float, Meta(ge=0.0, le=1.0)]
 
 
-FUTURE_OFFSET = 1000.0  # [s] how far ahead a `future_stamp` fault stamps its samples
-
-
 class Fault(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """A sensor fault the simulated world injects from `start` for `duration` seconds of stack time.
 
     gyro_dead: no IMU sample; encoder_frozen: the left encoder count holds;
     duplicate: every encoder and IMU sample and every VPS fix is sent twice;
-    future_stamp: samples and fixes are stamped FUTURE_OFFSET seconds ahead.
+    future_stamp: samples and fixes are stamped far ahead (1000 s). The world model applies them.
     """
 
     kind: Literal["gyro_dead", "encoder_frozen", "duplicate", "future_stamp"]
     start: NonNeg  # [s]
     duration: Annotated[float, Meta(gt=0.0, le=1e5)]  # [s]
-
-
-def active(faults: tuple[Fault, ...], t: float) -> frozenset[str]:
-    """The kinds of fault under way at time t [s]."""
-    return frozenset(f.kind for f in faults if f.start <= t < f.start + f.duration)
 
 
 class Scenario(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
@@ -40,7 +33,11 @@ class Scenario(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     wheel_radius_err_right: Frac = -0.003  # true right radius vs nominal (-0.3 %)
     track_width_err: Frac = 0.02  # true track width vs nominal (+2 %)
     slip_sigma: Frac = 0.01  # multiplicative noise on each wheel's travel per step, 1 sigma
-    load_radius_err: Frac = 0.0  # radius change with payload (seed 000), both wheels
+    load_radius_err: Frac = 0.0  # radius change with payload (seed 000), both wheels: the mean of the varying model below
+    load_payload: tuple[tuple[NonNeg, Annotated[float, Meta(ge=-1e3, le=1e3)]], ...] = ()  # (from t [s], payload [kg] above nominal)
+    load_radius_per_kg: Annotated[float, Meta(ge=-0.1, le=0.1)] = 0.0  # [1/kg] relative radius change per kg of payload
+    load_radius_per_accel: Annotated[float, Meta(ge=-0.1, le=0.1)] = 0.0  # [s^2/m] both wheels, per m/s^2 forward accel
+    load_radius_per_lateral: Annotated[float, Meta(ge=-0.1, le=0.1)] = 0.0  # [s^2/m] outer wheel per m/s^2 centripetal (inner: -)
     ticks_per_rev: Annotated[int, Meta(ge=1, le=1_000_000)] = 360  # encoder resolution
     motor_lag: NonNeg = 0.05  # [s] first-order time constant
     motor_deadband: NonNeg = 0.5  # [rad/s] commands below this do not turn the wheel
@@ -63,7 +60,7 @@ class Scenario(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     vps_drop: Prob = 0.10  # probability a fix is lost
     vps_outlier: Prob = 0.01  # probability a fix is displaced
     vps_outlier_dist: NonNeg = 0.5  # [m] displacement of an outlier
-    vps_outage_start: Optional[NonNeg] = None  # [s] stack time an outage starts (None: no outage)
+    vps_outage_start: NonNeg | None = None  # [s] stack time an outage starts (None: no outage)
     vps_outage_duration: NonNeg = 0.0  # [s]
     sensor_rate_hz: Annotated[float, Meta(ge=1.0, le=2000.0)] = 100.0  # [Hz] encoders, imu, clock, truth
     compass_rate_hz: Annotated[float, Meta(gt=0.0, le=1000.0)] = 10.0  # [Hz]
@@ -79,6 +76,10 @@ PRESETS: dict[str, Scenario] = {
         track_width_err=0.04,
         slip_sigma=0.03,
         load_radius_err=-0.005,
+        load_payload=((10.0, 0.5), (20.0, 0.0), (30.0, -0.5), (40.0, 0.0)),
+        load_radius_per_kg=-0.004,
+        load_radius_per_accel=-0.002,
+        load_radius_per_lateral=-0.003,
         ticks_per_rev=16,
         motor_lag=0.08,
         motor_deadband=1.0,
@@ -102,7 +103,7 @@ PRESETS: dict[str, Scenario] = {
 }
 
 
-def scenario(name: str, overrides: Optional[dict] = None) -> Scenario:
+def scenario(name: str, overrides: dict | None = None) -> Scenario:
     """A preset by name, with field overrides; ValueError names a bad one."""
     if name not in PRESETS:
         raise ValueError(f"unknown scenario {name!r}; choose one of {', '.join(PRESETS)}")
@@ -110,3 +111,9 @@ def scenario(name: str, overrides: Optional[dict] = None) -> Scenario:
         return PRESETS[name]
     merged = {**msgspec.structs.asdict(PRESETS[name]), **overrides}
     return msgspec.convert(merged, Scenario)
+
+
+# The reference trials of shared/spec/scenarios.md, in the map frame, from (0, 0, 0).
+PATH = ((1.0, 0.0), (1.0, 1.0))  # [m] seed 002's path trial
+SQUARE = ((1.0, 0.0), (1.0, 1.0), (0.0, 1.0), (0.0, 0.0))  # [m] seed 003's square, one lap
+HEADINGS = (5.0, 30.0, 90.0, -90.0, 180.0, -135.0)  # [deg] the turn sweep's targets

@@ -1,11 +1,27 @@
-"""Fixtures shared by the test suites: a real router, an in-process stack, a client."""
+"""Fixtures shared by the test suites: a clean environment, a real router, an in-process stack, a client, a Docker engine."""
+
 from __future__ import annotations
+
+import os
+import shutil
+import subprocess
 
 import pytest
 
 from zenav.common.client import Client
 from zenav.common.config import Settings
-from zenav.common.stack import InProcessStack, Router
+from zenav.stack.inprocess import InProcessStack
+from zenav.stack.router import Router
+
+ZENOH_VARIABLES = ("ZENOH_CONNECT", "ZENOH_MODE", "ZENOH_CONFIG")
+
+
+@pytest.fixture(autouse=True)
+def clean_environment(monkeypatch):
+    """No ZENAV_* (nor ZENOH_CONNECT, ZENOH_MODE, ZENOH_CONFIG) from the user's shell reaches a test."""
+    for name in list(os.environ):
+        if name.startswith("ZENAV_") or name in ZENOH_VARIABLES:
+            monkeypatch.delenv(name)
 
 
 @pytest.fixture
@@ -34,3 +50,18 @@ def make_stack(router):
     yield make
     for s in reversed(stacks):
         s.stop()
+
+
+@pytest.fixture(scope="module")
+def engine():
+    """A docker SDK client of an engine that answers; skip otherwise."""
+    docker = pytest.importorskip("docker", reason="the docker Python SDK is not installed (pip install docker)")
+    if not shutil.which("docker"):
+        pytest.skip("the docker command is not installed")
+    # Asked with the CLI first: the SDK leaks a socket when no engine answers.
+    version = subprocess.run(["docker", "version", "--format", "{{.Server.Version}}"], capture_output=True, text=True)
+    if version.returncode != 0:
+        pytest.skip(f"no Docker engine answers: {version.stderr.strip()}")
+    client = docker.from_env()
+    yield client
+    client.close()

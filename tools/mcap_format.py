@@ -15,22 +15,41 @@ tools then read the file as it is.
 
 Replay decodes the JSON through the same type and encodes msgpack again, so what it
 publishes is exactly what the contract defines.
+
+A recorder writes `OUT.mcap.part` and renames it to `OUT.mcap` once the file is
+finished (footer and summary written). A `.part` file left behind is a recording
+whose recorder died (SIGKILL, out of memory, power loss): it has no summary and may
+end inside a record. read() reads it sequentially up to its last complete chunk.
 """
+
 from __future__ import annotations
 
+import functools
 import json
+import os
+import struct
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
-from typing import Any, Iterable, Iterator, Optional
+from typing import Any
 
 import msgspec
-from mcap.reader import make_reader
+from mcap.exceptions import McapError
+from mcap.reader import NonSeekingReader, make_reader
+from mcap.records import Channel, Message
 from mcap.well_known import MessageEncoding, SchemaEncoding
 
 from zenav.common import keys
+from zenav.common import messages as m
 
 MESSAGE_ENCODING = MessageEncoding.JSON
 SCHEMA_ENCODING = SchemaEncoding.JSONSchema
 NS = 1_000_000_000  # nanoseconds per second
+PART = ".part"  # suffix of a recording not finished (being written, or its recorder died)
+MAGIC = b"\x89MCAP0\r\n"  # first and last 8 bytes of a finished MCAP file
+
+
+class BadRecording(ValueError):
+    """A file that is not an MCAP recording, or is damaged before its end."""
 
 
 def topic_of(key: str) -> str:
@@ -43,7 +62,7 @@ def key_of(topic: str) -> str:
     return topic.lstrip("/")
 
 
-def split_key(key: str) -> Optional[tuple[str, str]]:
+def split_key(key: str) -> tuple[str, str] | None:
     """`zenav/<robot>/<suffix>` -> (robot, suffix); None for any other key."""
     parts = key.split("/", 2)
     if len(parts) != 3 or parts[0] != "zenav":
@@ -51,7 +70,7 @@ def split_key(key: str) -> Optional[tuple[str, str]]:
     return parts[1], parts[2]
 
 
-def message_type(key: str) -> Optional[type]:
+def message_type(key: str) -> type[m.Topic] | None:
     """The contract type of the messages on a Zenoh key, or None if it is no contract topic."""
     split = split_key(key)
     return keys.TOPICS.get(split[1]) if split else None
@@ -89,8 +108,9 @@ def json_schema(typ: type) -> dict[str, Any]:
     return schema
 
 
+@functools.cache
 def schema_bytes(typ: type) -> bytes:
-    """json_schema() as the bytes of an MCAP schema record."""
+    """json_schema() as the bytes of an MCAP schema record (computed once per type)."""
     return json.dumps(json_schema(typ)).encode()
 
 
@@ -113,27 +133,64 @@ class Record:
     log_time: int  # [ns] recorder wall clock at arrival
 
 
-def read(path: str, robot: Optional[str] = None, suffixes: Optional[Iterable[str]] = None) -> Iterator[Record]:
+def finished(path: str) -> bool:
+    """Whether a recording was finished (True) or its writer stopped before (False); BadRecording if no MCAP."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(len(MAGIC))
+            size = f.seek(0, os.SEEK_END)
+            f.seek(max(size - len(MAGIC), 0))
+            tail = f.read()
+    except IsADirectoryError:
+        raise BadRecording(f"{path}: is a directory") from None
+    if head != MAGIC:
+        raise BadRecording(f"{path}: not an MCAP file")
+    return size > 2 * len(MAGIC) and tail == MAGIC
+
+
+def _messages(path: str) -> Iterator[tuple[Channel, Message]]:
+    # In file order, which is arrival order (the recorder writes as samples arrive).
+    # Sequential, so a file with no summary reads too; an unfinished one ends early.
+    complete = finished(path)
+    with open(path, "rb") as f:
+        messages = NonSeekingReader(f).iter_messages(log_time_order=False)
+        while True:
+            try:
+                _, channel, message = next(messages)
+            except StopIteration:
+                return
+            except (McapError, struct.error) as e:
+                if complete:
+                    raise BadRecording(f"{path}: damaged ({e or type(e).__name__})") from None
+                return  # the recorder died while writing this record: the end of what is readable
+            yield channel, message
+
+
+def read(path: str, robot: str | None = None, suffixes: Iterable[str] | None = None) -> Iterator[Record]:
     """The contract messages of a recording in arrival order (optionally one robot, some topics)."""
     wanted = set(suffixes) if suffixes is not None else None
-    with open(path, "rb") as f:
-        for _, channel, message in make_reader(f).iter_messages(log_time_order=True):
-            key = key_of(channel.topic)
-            split, typ = split_key(key), message_type(key)
-            if typ is None or channel.message_encoding != MESSAGE_ENCODING:
-                continue
-            if (robot is not None and split[0] != robot) or (wanted is not None and split[1] not in wanted):
-                continue
-            yield Record(key, msgspec.json.decode(message.data, type=typ), message.log_time)
+    for channel, message in _messages(path):
+        key = key_of(channel.topic)
+        split, typ = split_key(key), message_type(key)
+        if split is None or typ is None or channel.message_encoding != MESSAGE_ENCODING:
+            continue
+        if (robot is not None and split[0] != robot) or (wanted is not None and split[1] not in wanted):
+            continue
+        yield Record(key, msgspec.json.decode(message.data, type=typ), message.log_time)
 
 
 def robots(path: str) -> list[str]:
-    """The robot ids that have channels in a recording, in first-seen order."""
-    with open(path, "rb") as f:
-        summary = make_reader(f).get_summary()
+    """The robot ids that have contract channels in a recording, in first-seen order."""
+    if finished(path):  # the summary lists every channel
+        with open(path, "rb") as f:
+            summary = make_reader(f).get_summary()
+        channels: Iterable[Channel] = summary.channels.values() if summary else ()
+    else:
+        channels = (channel for channel, _ in _messages(path))
     found: list[str] = []
-    for ch in summary.channels.values() if summary else ():
-        split = split_key(key_of(ch.topic))
-        if split and split[0] not in found:
+    for channel in channels:
+        key = key_of(channel.topic)
+        split = split_key(key)
+        if split and message_type(key) and split[0] not in found:
             found.append(split[0])
     return found

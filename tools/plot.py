@@ -7,19 +7,20 @@ truth interpolated at each sample's t, so odom (t = encoder sample), pose (t = o
 t) and fixes (t = capture time) are each judged at the instant they describe. Odom
 is drawn in the map frame as it is: its frame starts where the robot starts.
 """
+
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Optional, Sequence
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from zenav.common.track import Sample, Track
 from zenav.tools import mcap_format as fmt
 
-Sample = tuple[float, float, float, float]  # (t [s], x [m], y [m], theta [rad])
 Series = Sequence[Sample]
 
 STYLE = {  # series -> (label, colour)
@@ -45,7 +46,7 @@ OUTLIER_ROOM = 1.3  # the position axis goes this far above the 95th percentile 
 TOPIC_SERIES = {"sim/truth": "truth", "odom": "odom", "pose": "pose", "vps/pose": "fixes"}
 
 
-def load(path: str, robot: Optional[str] = None) -> Run:
+def load(path: str, robot: str | None = None) -> Run:
     """The series of one robot (default: the first in the file) from an MCAP recording."""
     if robot is None:
         found = fmt.robots(path)
@@ -54,7 +55,10 @@ def load(path: str, robot: Optional[str] = None) -> Run:
         robot = found[0]
     run = Run()
     for rec in fmt.read(path, robot, TOPIC_SERIES):
-        series = getattr(run, TOPIC_SERIES[fmt.split_key(rec.key)[1]])
+        split = fmt.split_key(rec.key)
+        if split is None:
+            continue
+        series = getattr(run, TOPIC_SERIES[split[1]])
         series.append((rec.msg.t, rec.msg.x, rec.msg.y, rec.msg.theta))
     return run
 
@@ -64,17 +68,9 @@ def errors(est: Series, truth: Series) -> tuple[np.ndarray, np.ndarray, np.ndarr
 
     Samples outside the truth's time span are left out.
     """
-    if not est or len(truth) < 2:
+    if len(truth) < 2:
         return np.empty(0), np.empty(0), np.empty(0)
-    tr = np.array(sorted(truth))
-    e = np.array(sorted(est))
-    inside = (e[:, 0] >= tr[0, 0]) & (e[:, 0] <= tr[-1, 0])
-    e = e[inside]
-    tx = np.interp(e[:, 0], tr[:, 0], tr[:, 1])
-    ty = np.interp(e[:, 0], tr[:, 0], tr[:, 2])
-    tth = np.interp(e[:, 0], tr[:, 0], np.unwrap(tr[:, 3]))
-    dth = (e[:, 3] - tth + math.pi) % (2 * math.pi) - math.pi
-    return e[:, 0], np.hypot(e[:, 1] - tx, e[:, 2] - ty), np.abs(dth)
+    return Track(truth).errors(est)
 
 
 def rms(values: np.ndarray) -> float:
@@ -143,7 +139,7 @@ def plot_run(out: str, truth: Series, odom: Series = (), pose: Series = (), fixe
     fig.savefig(out, dpi=100)
 
 
-def plot_file(path: str, out: str, robot: Optional[str] = None, title: Optional[str] = None) -> Run:
+def plot_file(path: str, out: str, robot: str | None = None, title: str | None = None) -> Run:
     """Plot a recording to a PNG; returns the series it read."""
     run = load(path, robot)
     if not (run.truth or run.odom or run.pose or run.fixes):

@@ -10,11 +10,12 @@ services following it (SimClock) extrapolate from now, not from the recording da
 To re-run the localizer on recorded sensors, replay `clock`, `odom` and `vps/pose`
 into a stack that runs only the localizer, and compare its `pose` with the recorded one.
 """
+
 from __future__ import annotations
 
 import threading
 import time
-from typing import Iterable, Optional
+from collections.abc import Iterable
 
 import msgspec
 
@@ -28,10 +29,10 @@ def replay(
     path: str,
     bus: Bus,
     rate: float = 1.0,
-    robot: Optional[str] = None,
-    as_robot: Optional[str] = None,
-    suffixes: Optional[Iterable[str]] = None,
-    stop: Optional[threading.Event] = None,
+    robot: str | None = None,
+    as_robot: str | None = None,
+    suffixes: Iterable[str] | None = None,
+    stop: threading.Event | None = None,
 ) -> int:
     """Publish the recording's messages (of `robot`, on `suffixes`; all by default); return how many.
 
@@ -41,7 +42,7 @@ def replay(
         raise ValueError(f"rate must be >= 0, not {rate}")
     stop = stop or threading.Event()
     start_wall = time.monotonic()
-    first_ns: Optional[int] = None
+    first_ns: int | None = None
     sent = 0
     for rec in fmt.read(path, robot, suffixes):
         first_ns = rec.log_time if first_ns is None else first_ns
@@ -51,7 +52,7 @@ def replay(
                 break
         elif stop.is_set():
             break
-        recorded_robot, suffix = fmt.split_key(rec.key)
+        _, recorded_robot, suffix = rec.key.split("/", 2)  # zenav/<robot>/<suffix>
         msg = rec.msg
         if isinstance(msg, m.Clock):
             msg = msgspec.structs.replace(msg, wall=time.time(), rtf=msg.rtf * rate if rate > 0 else msg.rtf)

@@ -3,15 +3,18 @@
 Pure: no server, no clock. `update()` takes one message and returns the Foxglove
 messages to show at once (poses, the map->base_link transform, log lines on events);
 `scene()` returns the whole SceneUpdate (trails, covariance ellipse, VPS fixes, goal,
-path, navigator state), which the view sends at a few Hz rather than per message.
+path, navigator state), which `feed()` adds once per period rather than per message.
+The live view (tools/view.py) and the recorder (tools/record.py) both feed a Scene,
+so a recording holds the channels the live view shows (VIZ_TYPES).
 Everything is in the `map` frame; odom is drawn as it is (its frame starts where the
 robot starts). Stamps are the arrival wall time, the live timeline Foxglove shows.
 """
+
 from __future__ import annotations
 
 import math
 from collections import deque
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 from foxglove import messages as fm
@@ -24,6 +27,17 @@ TRAIL_STEP = 0.01  # [m] a trail gets a new point when the robot moved this far
 TRAIL_POINTS = 3000  # points kept per trail (30 m of path)
 FIXES_KEPT = 300  # VPS fixes drawn
 ELLIPSE_SIGMA = math.sqrt(5.991)  # 95 % of a 2-D Gaussian lies inside this many sigmas
+SCENE_PERIOD = 0.1  # [s] between two SceneUpdates of the live view
+NS = 1_000_000_000  # nanoseconds per second
+
+VIZ_TYPES: dict[str, type] = {  # view topic suffix (under zenav/<robot>/) -> Foxglove message type
+    "viz/truth": fm.PoseInFrame,
+    "viz/odom": fm.PoseInFrame,
+    "viz/pose": fm.PoseInFrame,
+    "viz/tf": fm.FrameTransforms,
+    "viz/scene": fm.SceneUpdate,
+    "viz/log": fm.Log,
+}
 
 COLOURS = {  # r, g, b, a
     "truth": (0.1, 0.75, 0.2, 1.0),
@@ -46,7 +60,7 @@ def colour(name: str) -> fm.Color:
 
 def timestamp(ns: int) -> fm.Timestamp:
     """Nanoseconds since the epoch as a Foxglove timestamp."""
-    return fm.Timestamp(sec=ns // 1_000_000_000, nsec=ns % 1_000_000_000)
+    return fm.Timestamp(sec=ns // NS, nsec=ns % NS)
 
 
 def yaw(theta: float) -> fm.Quaternion:
@@ -59,7 +73,7 @@ def pose3(x: float, y: float, theta: float = 0.0, z: float = 0.0) -> fm.Pose:
     return fm.Pose(position=fm.Vector3(x=x, y=y, z=z), orientation=yaw(theta))
 
 
-def ellipse(cov: tuple[float, ...], sigmas: float = ELLIPSE_SIGMA) -> Optional[tuple[float, float, float]]:
+def ellipse(cov: tuple[float, ...], sigmas: float = ELLIPSE_SIGMA) -> tuple[float, float, float] | None:
     """(semi-major [m], semi-minor [m], angle of the major axis [rad]) of the xy block of a 3x3 cov."""
     xy = np.array([[cov[0], cov[1]], [cov[3], cov[4]]])
     if not np.all(np.isfinite(xy)) or np.allclose(xy, 0.0):
@@ -69,7 +83,7 @@ def ellipse(cov: tuple[float, ...], sigmas: float = ELLIPSE_SIGMA) -> Optional[t
     return sigmas * math.sqrt(max(vals[1], 0.0)), sigmas * math.sqrt(max(vals[0], 0.0)), math.atan2(major[1], major[0])
 
 
-def goal_points(goal: Optional[dict[str, Any]]) -> list[tuple[float, float]]:
+def goal_points(goal: dict[str, Any] | None) -> list[tuple[float, float]]:
     """The map points of a navigator goal: its path (`points`), or its target (`x`, `y`)."""
     if not goal:
         return []
@@ -95,13 +109,23 @@ class Trail:
 class Scene:
     """The state of one robot's view, fed message by message."""
 
-    def __init__(self, robot: str) -> None:
+    def __init__(self, robot: str, period: float = SCENE_PERIOD) -> None:
         self.robot = robot
+        self.period = period  # [s] between two SceneUpdates from feed()
+        self._scene_ns: int | None = None  # when feed() last added one
         self.trails = {"truth": Trail(), "odom": Trail(), "pose": Trail()}
-        self.pose: Optional[m.Pose] = None
-        self.nav: Optional[m.NavState] = None
+        self.pose: m.Pose | None = None
+        self.nav: m.NavState | None = None
         self.fixes: deque[list] = deque(maxlen=FIXES_KEPT)  # [t, x, y, accepted or None]
         self.status: dict[str, str] = {}  # service -> diag status
+
+    def feed(self, suffix: str, msg: Any, ns: int) -> list[tuple[str, Any]]:
+        """update(), plus the whole SceneUpdate when `period` has passed since the last one."""
+        out = self.update(suffix, msg, ns)
+        if self._scene_ns is None or ns - self._scene_ns >= self.period * NS:
+            self._scene_ns = ns
+            out.append(("viz/scene", self.scene(ns)))
+        return out
 
     def update(self, suffix: str, msg: Any, ns: int) -> list[tuple[str, Any]]:
         """Take one contract message; return (view topic suffix, Foxglove message) pairs to log now."""
@@ -109,12 +133,17 @@ class Scene:
         if suffix in ("sim/truth", "odom", "pose"):
             name = suffix.rsplit("/", 1)[-1]
             self.trails[name].add(msg.x, msg.y)
-            out = [(f"viz/{name}", fm.PoseInFrame(timestamp=stamp, frame_id=FRAME, pose=pose3(msg.x, msg.y, msg.theta)))]
+            out: list[tuple[str, Any]] = [
+                (f"viz/{name}", fm.PoseInFrame(timestamp=stamp, frame_id=FRAME, pose=pose3(msg.x, msg.y, msg.theta)))
+            ]
             if suffix == "pose":
                 self.pose = msg
                 tf = fm.FrameTransform(
-                    timestamp=stamp, parent_frame_id=FRAME, child_frame_id=ROBOT_FRAME,
-                    translation=fm.Vector3(x=msg.x, y=msg.y, z=0.0), rotation=yaw(msg.theta),
+                    timestamp=stamp,
+                    parent_frame_id=FRAME,
+                    child_frame_id=ROBOT_FRAME,
+                    translation=fm.Vector3(x=msg.x, y=msg.y, z=0.0),
+                    rotation=yaw(msg.theta),
                 )
                 out.append(("viz/tf", fm.FrameTransforms(transforms=[tf])))
             return out
@@ -135,9 +164,9 @@ class Scene:
                 level = fm.LogLevel.Warning if msg.result == "aborted" else fm.LogLevel.Info
                 return [("viz/log", self._log(stamp, level, "navigator", text))]
         elif suffix.startswith("diag/"):
-            before = self.status.get(msg.service)
+            was = self.status.get(msg.service)
             self.status[msg.service] = msg.status
-            if before is not None and before != msg.status:
+            if was is not None and was != msg.status:
                 level = fm.LogLevel.Info if msg.status == "ok" else fm.LogLevel.Warning
                 return [("viz/log", self._log(stamp, level, msg.service, f"status {msg.status}: {msg.message}"))]
         return []
@@ -154,29 +183,43 @@ class Scene:
 
         entities = [entity(f"trail/{name}", lines=[line(trail.points, name)]) for name, trail in self.trails.items()]
         fix_colour = {None: "fix", True: "fix_accepted", False: "fix_rejected"}
-        entities.append(entity("vps/fixes", spheres=[
-            fm.SpherePrimitive(pose=pose3(x, y), size=fm.Vector3(x=0.03, y=0.03, z=0.03), color=colour(fix_colour[ok]))
-            for _, x, y, ok in self.fixes
-        ]))
-        ell = ellipse(self.pose.cov) if self.pose is not None else None
-        entities.append(entity("pose/covariance", cylinders=[disc(self.pose.x, self.pose.y, *ell, "ellipse")] if ell else []))
+        entities.append(
+            entity(
+                "vps/fixes",
+                spheres=[
+                    fm.SpherePrimitive(pose=pose3(x, y), size=fm.Vector3(x=0.03, y=0.03, z=0.03), color=colour(fix_colour[ok]))
+                    for _, x, y, ok in self.fixes
+                ],
+            )
+        )
+        pose, nav = self.pose, self.nav
+        ell = ellipse(pose.cov) if pose is not None else None
+        entities.append(entity("pose/covariance", cylinders=[disc(pose.x, pose.y, *ell, "ellipse")] if pose is not None and ell else []))
         # The way still to go: from the robot through the goal's points not reached yet.
-        points = goal_points(self.nav.goal) if self.nav is not None and self.nav.result is None else []
-        ahead = points[self.nav.next_point or 0:] if points else []
-        if ahead and self.pose is not None:
-            ahead = [(self.pose.x, self.pose.y), *ahead]
-        entities.append(entity(
-            "nav/goal",
-            lines=[line(ahead, "goal", width=3.0)] if len(ahead) > 1 else [],
-            cylinders=[disc(x, y, 0.04, 0.04, 0.0, "goal") for x, y in points[-1:]],
-        ))
+        points = goal_points(nav.goal) if nav is not None and nav.result is None else []
+        ahead = points[nav.next_point or 0 :] if nav is not None and points else []
+        if ahead and pose is not None:
+            ahead = [(pose.x, pose.y), *ahead]
+        entities.append(
+            entity(
+                "nav/goal",
+                lines=[line(ahead, "goal", width=3.0)] if len(ahead) > 1 else [],
+                cylinders=[disc(x, y, 0.04, 0.04, 0.0, "goal") for x, y in points[-1:]],
+            )
+        )
         texts = []
         if self.nav is not None and self.pose is not None:
             left = self.nav.distance_remaining
-            texts.append(fm.TextPrimitive(
-                pose=pose3(self.pose.x, self.pose.y, z=0.15), billboard=True, font_size=14.0, scale_invariant=True,
-                color=colour("text"), text=self.nav.state + (f"  {left:.2f} to go" if left is not None else ""),
-            ))
+            texts.append(
+                fm.TextPrimitive(
+                    pose=pose3(self.pose.x, self.pose.y, z=0.15),
+                    billboard=True,
+                    font_size=14.0,
+                    scale_invariant=True,
+                    color=colour("text"),
+                    text=self.nav.state + (f"  {left:.2f} to go" if left is not None else ""),
+                )
+            )
         entities.append(entity("nav/state", texts=texts))
         return fm.SceneUpdate(entities=entities)
 
@@ -184,14 +227,21 @@ class Scene:
 def line(points: Any, name: str, width: float = 2.0, z: float = 0.002) -> fm.LinePrimitive:
     """A polyline through (x, y) points, `width` pixels wide."""
     return fm.LinePrimitive(
-        type=fm.LinePrimitiveLineType.LineStrip, pose=pose3(0.0, 0.0), thickness=width, scale_invariant=True,
-        points=[fm.Point3(x=x, y=y, z=z) for x, y in points], color=colour(name),
+        type=fm.LinePrimitiveLineType.LineStrip,
+        pose=pose3(0.0, 0.0),
+        thickness=width,
+        scale_invariant=True,
+        points=[fm.Point3(x=x, y=y, z=z) for x, y in points],
+        color=colour(name),
     )
 
 
 def disc(x: float, y: float, a: float, b: float, angle: float, name: str) -> fm.CylinderPrimitive:
     """A flat ellipse on the ground: semi-axes a, b [m], the first along `angle` [rad]."""
     return fm.CylinderPrimitive(
-        pose=pose3(x, y, angle, z=0.001), size=fm.Vector3(x=2 * a, y=2 * b, z=0.002),
-        bottom_scale=1.0, top_scale=1.0, color=colour(name),
+        pose=pose3(x, y, angle, z=0.001),
+        size=fm.Vector3(x=2 * a, y=2 * b, z=0.002),
+        bottom_scale=1.0,
+        top_scale=1.0,
+        color=colour(name),
     )

@@ -7,12 +7,13 @@ Two kinds of channels:
 - what a 3D panel draws (tools/scene.py), in Foxglove's own schemas under
   `/zenav/<robot>/viz/`: `truth`, `odom`, `pose` (PoseInFrame), `tf` (map ->
   base_link), `scene` (SceneUpdate: trails, covariance ellipse, VPS fixes, goal and
-  path, navigator state; sent every SCENE_PERIOD) and `log` (navigator events,
-  rejected fixes, status changes).
+  path, navigator state; sent every scene.SCENE_PERIOD) and `log` (navigator events,
+  rejected fixes, status changes). `zenav record` writes the same channels.
 """
+
 from __future__ import annotations
 
-from typing import Optional
+from typing import Any
 
 import foxglove
 from foxglove import channels as fc
@@ -25,7 +26,6 @@ from zenav.tools.tap import Tap
 
 DEFAULT_HOST = "127.0.0.1"  # loopback: the view shows ground truth and needs no wider audience
 DEFAULT_PORT = 8765  # Foxglove's usual WebSocket port
-SCENE_PERIOD = 0.1  # [s] wall time between two SceneUpdates
 
 
 VIZ_CHANNELS = {  # view topic suffix -> Foxglove channel type
@@ -47,10 +47,9 @@ class View:
         # Every channel exists before the first client connects: clients see the
         # whole topic list at once, and none is advertised while one is connecting.
         self._mirrors = {suffix: self._mirror(suffix, typ) for suffix, typ in keys.TOPICS.items()}
-        self._viz = {suffix: cls(self._topic(suffix), context=self.context) for suffix, cls in VIZ_CHANNELS.items()}
+        self._viz: dict[str, Any] = {suffix: cls(self._topic(suffix), context=self.context) for suffix, cls in VIZ_CHANNELS.items()}
         self.server = foxglove.start_server(name=f"zenav {robot}", host=host, port=port, context=self.context)
         self.scene = Scene(robot)
-        self._last_scene_ns = 0
         self._tap = Tap(bus, f"{keys.prefix(robot)}/**", self._on_sample, name="view")
 
     @property
@@ -68,7 +67,16 @@ class View:
         self._tap.stop()
         self.server.stop()
 
-    def app_url(self) -> Optional[str]:
+    def channels(self) -> dict[str, tuple[str, str, str]]:
+        """Every channel served: topic -> (schema name, schema encoding, message encoding)."""
+        out = {}
+        served: list[Any] = [*self._mirrors.values(), *self._viz.values()]
+        for ch in served:
+            schema = ch.schema()
+            out[ch.topic()] = (schema.name, schema.encoding, ch.message_encoding)
+        return out
+
+    def app_url(self) -> str | None:
         """A Foxglove web app address that opens this server as its data source."""
         return self.server.app_url()
 
@@ -84,13 +92,10 @@ class View:
         if typ is None:
             return
         try:
-            msg = codec.decode(data, typ)
+            msg: Any = codec.decode(data, typ)  # a contract message: every one has `t`
         except codec.BadInput:
             return
-        suffix = fmt.split_key(key)[1]
+        suffix = key.split("/", 2)[2]  # a contract key: zenav/<robot>/<suffix>
         self._mirrors[suffix].log(fmt.to_json(msg), log_time=ns)
-        for viz_suffix, viz in self.scene.update(suffix, msg, ns):
+        for viz_suffix, viz in self.scene.feed(suffix, msg, ns):
             self._viz[viz_suffix].log(viz, log_time=ns)
-        if ns - self._last_scene_ns >= SCENE_PERIOD * fmt.NS:
-            self._last_scene_ns = ns
-            self._viz["viz/scene"].log(self.scene.scene(ns), log_time=ns)

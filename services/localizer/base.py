@@ -5,14 +5,16 @@ arrival time), answers `get_pose` for the newest odom sample, and can be reset w
 `set_pose` / `set_position` / `set_heading`. The checks every mode shares (stale
 odometry, jumps, fixes from before a reset or from the future) live here.
 """
+
 from __future__ import annotations
 
 import math
 import statistics
 from collections import deque
 from dataclasses import dataclass
-from typing import Annotated, Literal, Optional
+from typing import Annotated, Literal, get_args
 
+import msgspec
 import numpy as np
 from msgspec import Meta, Struct
 
@@ -20,16 +22,20 @@ from zenav.common import messages as m
 from zenav.common.config import Robot
 from zenav.common.geometry import Pose2, wrap_angle
 
+from .latency import Estimate, LatencyEstimator, LatencyParams
+
 Pos = Annotated[float, Meta(gt=0.0, le=1e3)]
+NonNegW = Annotated[float, Meta(ge=0.0, le=1e3)]  # a weight [-]
 DUPLICATE_WINDOW = 64  # fixes: one equal to any of this many recent ones is a duplicate
 MIN_FIX_VAR = 1e-6  # [m^2] and [rad^2] floor of a fix's variances (1 mm, 1 mrad)
-MODES = ("ekf", "ekf_no_delay", "dead_reckoning", "overwrite", "weighted", "weighted_latency", "multisensor")
+ModeName = Literal["ekf", "ekf_no_delay", "dead_reckoning", "overwrite", "weighted", "weighted_latency", "multisensor", "seed001"]
+MODES: tuple[str, ...] = get_args(ModeName)
 
 
 class LocalizerConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """The [localizer] section."""
 
-    mode: Literal[MODES] = "ekf"  # fusion rule (see README): ekf is the best measured
+    mode: ModeName = "ekf"  # fusion rule (see services/localizer/README.md): ekf is the best measured
     history: Annotated[float, Meta(ge=0.1, le=60.0)] = 1.5  # [s] odometry kept to apply late fixes at capture time
     future_tolerance: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.05  # [s] a fix this far past the newest odom applies to it
     max_odom_step: Pos = 0.2  # [m] a larger odom increment is a jump (odometry restart), not motion
@@ -55,6 +61,29 @@ class LocalizerConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=T
     expected_latency: Annotated[float, Meta(ge=0.0, le=60.0)] = 0.3  # [s] VPS latency the deployment expects (only compared)
     latency_tolerance: Pos = 0.1  # [s] a measured latency further off than this is reported
     latency_window: Annotated[int, Meta(ge=1, le=10_000)] = 50  # fixes over which the latency median is taken
+    latency: Literal["stamped", "estimate"] = "stamped"  # a fix's capture time: its stamp, or arrival - estimated latency
+    latency_max: Annotated[float, Meta(gt=0.0, le=10.0)] = 1.0  # [s] estimate: largest latency searched
+    latency_step: Annotated[float, Meta(gt=0.0, le=1.0)] = 0.01  # [s] estimate: grid of the search
+    latency_fit_window: Annotated[float, Meta(gt=0.0, le=60.0)] = 4.0  # [s] estimate: fixes fitted together
+    seed001_distance_weights: tuple[NonNegW, NonNegW] = (1.0, 0.0)  # seed001: encoders, accelerometer distance [-]
+    seed001_angle_weights: tuple[NonNegW, NonNegW, NonNegW] = (1.0, 3.0, 0.0)  # seed001: encoders, gyro, accel angle [-]
+    seed001_fix_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.1  # seed001: fraction of the way x, y move to a fix
+    seed001_fix_heading_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.05  # seed001: ... and the heading
+
+
+def latency_estimator(cfg: LocalizerConfig) -> LatencyEstimator:
+    """The online latency estimator of [localizer] latency = "estimate", its prior the expected latency."""
+    p = LatencyParams(
+        prior=cfg.expected_latency,
+        prior_sigma=cfg.latency_tolerance,
+        max_lag=cfg.latency_max,
+        step=cfg.latency_step,
+        window=cfg.latency_fit_window,
+        sigma_xy=cfg.fix_sigma_xy,
+        sigma_theta=cfg.fix_sigma_theta,
+        max_odom_step=cfg.max_odom_step,
+    )
+    return LatencyEstimator(p)
 
 
 @dataclass(frozen=True)
@@ -85,23 +114,34 @@ class Mode:
 
     def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
         self.cfg, self.robot = cfg, robot
-        self.odom: Optional[m.Odom] = None  # newest odometry sample used
+        self.odom: m.Odom | None = None  # newest odometry sample used
         self.t_set = -math.inf  # [s] fixes captured before the last set_pose are ignored
-        self.t_accepted: Optional[float] = None  # [s] arrival of the last accepted fix
+        self.t_accepted: float | None = None  # [s] arrival of the last accepted fix
         self.correction = (0.0, 0.0, 0.0)  # moved by fixes between the previous odom sample and the newest
         self._pending = [0.0, 0.0, 0.0]  # corrections since the newest odom sample
-        self._preset: Optional[tuple] = None  # a set_pose that came before any odometry
+        self._preset: tuple | None = None  # a set_pose that came before any odometry
         self._latencies: deque[float] = deque(maxlen=cfg.latency_window)
         self._recent_fixes: deque[tuple] = deque(maxlen=DUPLICATE_WINDOW)  # (t, x, y, theta) of recent fixes
+        self.latency_estimator = latency_estimator(cfg) if cfg.latency == "estimate" else None
 
     # ------------------------------------------------------------ interface
-    def on_odom(self, odom: m.Odom) -> Optional[str]:
+    @property
+    def last(self) -> m.Odom:
+        """The newest odometry sample: the mode's hooks run only once there is one."""
+        if self.odom is None:
+            raise RuntimeError("no odometry sample yet")
+        return self.odom
+
+    def on_odom(self, odom: m.Odom) -> str | None:
         """Integrate an odometry sample; returns why it was dropped (None: used)."""
         prev = self.odom
         if prev is not None and odom.t <= prev.t:
             return "stale"
         self.odom = odom
-        self.correction, self._pending = tuple(self._pending), [0.0, 0.0, 0.0]
+        if self.latency_estimator is not None:
+            self.latency_estimator.on_odom(odom.t, odom.x, odom.y, odom.theta)
+        c = self._pending
+        self.correction, self._pending = (c[0], c[1], c[2]), [0.0, 0.0, 0.0]
         if prev is None:
             self._start(Pose2(odom.x, odom.y, wrap_angle(odom.theta)))
             if self._preset is not None:
@@ -119,9 +159,13 @@ class Mode:
 
     def on_fix(self, fix: m.VpsPose, t_arrival: float) -> m.Fix:
         """Use (or reject) a fix; returns its audit record."""
+        key = (fix.t, fix.x, fix.y, fix.theta)
+        est: Estimate | None = None
+        if self.latency_estimator is not None:  # the capture time is arrival minus the estimated latency
+            est = self.latency_estimator.on_fix(t_arrival, fix.x, fix.y, fix.theta)
+            fix = msgspec.structs.replace(fix, t=max(0.0, t_arrival - est.latency))
         latency = t_arrival - fix.t
         self._latencies.append(latency)
-        key = (fix.t, fix.x, fix.y, fix.theta)
         duplicate = key in self._recent_fixes
         self._recent_fixes.append(key)
         if duplicate:  # the same fix twice (a resent message): using it again would double its weight
@@ -149,29 +193,36 @@ class Mode:
             mahalanobis_d2=res.mahalanobis_d2,
             accepted=res.accepted,
             reason=res.reason,
+            latency_estimate=None if est is None else est.latency,
+            latency_sigma=None if est is None else est.sigma,
         )
 
-    def on_imu(self, imu: m.Imu) -> Optional[str]:
+    def on_imu(self, imu: m.Imu) -> str | None:
         """Take a gyro sample (modes that use none ignore it); returns why it was dropped."""
         return None
 
     def on_compass(self, compass: m.Compass) -> None:
         """Take a compass heading (modes that use none ignore it)."""
 
-    def get_pose(self) -> Optional[m.Pose]:
+    def get_pose(self) -> m.Pose | None:
         """The estimate at the newest odom sample (None before any odometry)."""
         if self.odom is None:
             return None
         p, cov = self._estimate()
         o = self.odom
         return m.Pose(
-            t=o.t, x=p.x, y=p.y, theta=p.theta, v=o.v, omega=o.omega,
-            cov=cov, correction=self.correction, calibration=self.calibration(),
+            t=o.t,
+            x=p.x,
+            y=p.y,
+            theta=p.theta,
+            v=o.v,
+            omega=o.omega,
+            cov=cov,
+            correction=self.correction,
+            calibration=self.calibration(),
         )
 
-    def set_pose(
-        self, t: float, x: Optional[float] = None, y: Optional[float] = None, theta: Optional[float] = None
-    ) -> Pose2:
+    def set_pose(self, t: float, x: float | None = None, y: float | None = None, theta: float | None = None) -> Pose2:
         """Reset any subset of the pose at time t; history cleared, older fixes ignored."""
         self.t_set = t
         given = (x, y, None if theta is None else wrap_angle(theta))
@@ -191,8 +242,10 @@ class Mode:
         return self.set_pose(t, theta=theta)
 
     @property
-    def latency(self) -> Optional[float]:
-        """[s] the VPS latency measured: median of arrival minus capture over recent fixes."""
+    def latency(self) -> float | None:
+        """[s] the VPS latency: median of arrival minus capture over recent fixes, or the online estimate."""
+        if self.latency_estimator is not None:
+            return self.latency_estimator.estimate.latency
         return statistics.median(self._latencies) if self._latencies else None
 
     def calibration(self) -> dict[str, float]:
@@ -212,7 +265,7 @@ class Mode:
         """Use a fix captured at t (no later than the newest odom sample)."""
         raise NotImplementedError
 
-    def _set(self, x: Optional[float], y: Optional[float], theta: Optional[float]) -> None:
+    def _set(self, x: float | None, y: float | None, theta: float | None) -> None:
         """Replace the given components of the estimate at the newest odom sample."""
         raise NotImplementedError
 

@@ -9,12 +9,12 @@ re-acquires. The state carries the odometry's and the gyro's calibration errors,
 which the fixes make observable. Gyro samples that come after their odom sample
 are filled into the history the same way.
 """
+
 from __future__ import annotations
 
 import bisect
 import math
 from dataclasses import dataclass, field, replace
-from typing import Optional
 
 import numpy as np
 
@@ -60,13 +60,11 @@ class Ekf(Mode):
         self.history: list[_Entry] = []  # oldest first; the first entry is at or before the horizon
         self.rejections = 0  # consecutive rejected fixes
         self.initialised = False  # a fix or a full set_pose has placed the robot in the map
-        self.candidate: Optional[_Candidate] = None  # the newest unused fix, to confirm the next one
+        self.candidate: _Candidate | None = None  # the newest unused fix, to confirm the next one
         self.gyro = GyroIntegral(cfg.history, cfg.gyro_max_gap)
         self.gyro_used = False
         tick = 2.0 * math.pi * robot.wheel_radius / (robot.ticks_per_rev or 360)
-        self.noise = model.Noise(
-            robot.track_width, tick, cfg.wheel_noise, cfg.calib_noise, cfg.gyro_noise**2, cfg.gyro_bias_noise**2
-        )
+        self.noise = model.Noise(robot.track_width, tick, cfg.wheel_noise, cfg.calib_noise, cfg.gyro_noise**2, cfg.gyro_bias_noise**2)
         self._unknown = np.diag([cfg.unknown_sigma_xy**2] * 2 + [math.pi**2])  # pose covariance when lost
 
     # ------------------------------------------------------------ filter steps
@@ -93,7 +91,7 @@ class Ekf(Mode):
             done = frac
         frac = (end - t0) / span
         if frac > done:
-            s, P = model.predict(s, P, e.u.part(frac - done), self.noise)
+            s, P = model.predict(s, P, e.u if done == 0.0 and frac == 1.0 else e.u.part(frac - done), self.noise)
         return s, P
 
     def _replay(self, k: int) -> None:
@@ -102,7 +100,7 @@ class Ekf(Mode):
             prev, e = self.history[i - 1], self.history[i]
             e.s, e.P = self._advance(prev.s, prev.P, prev.t, e)
 
-    def _agrees(self, a: Optional[_Candidate], b: _Candidate) -> bool:
+    def _agrees(self, a: _Candidate | None, b: _Candidate) -> bool:
         """Whether fix b is where fix a and the odometry since a say the robot is."""
         if a is None:
             return False
@@ -112,7 +110,7 @@ class Ekf(Mode):
         return float(nu @ np.linalg.solve(a.R + b.R, nu)) <= self.cfg.gate
 
     # ------------------------------------------------------------ mode hooks
-    def on_imu(self, imu: m.Imu) -> Optional[str]:
+    def on_imu(self, imu: m.Imu) -> str | None:
         if not self.gyro.add(imu.t, imu.gyro_z):
             return "stale"
         if not self.history:
@@ -138,13 +136,13 @@ class Ekf(Mode):
         for i in (model.ES, model.EW, model.ED, model.SG):
             P[i, i] = self.cfg.calib_sigma**2
         P[model.BG, model.BG] = self.cfg.gyro_bias_sigma**2
-        self.history = [_Entry(self.odom.t, model.Step(0.0, 0.0, 0.0), np.array([*pose, 0.0, 0.0, 0.0, 0.0, 0.0]), P)]
+        self.history = [_Entry(self.last.t, model.Step(0.0, 0.0, 0.0), np.array([*pose, 0.0, 0.0, 0.0, 0.0, 0.0]), P)]
 
     def _move(self, ds: float, dth: float, t0: float, t: float) -> None:
         last = self.history[-1]
         g = self.gyro.between(t0, t)
         self.gyro_used = self.gyro_used or g is not None
-        u = model.Step(ds, dth, t - t0, g, (self.odom.unmeasured_left**2, self.odom.unmeasured_right**2))
+        u = model.Step(ds, dth, t - t0, g, (self.last.unmeasured_left**2, self.last.unmeasured_right**2))
         s, P = model.predict(last.s, last.P, u, self.noise)
         self.history.append(_Entry(t, u, s, P))
         drop = bisect.bisect_left(self.history, t - self.cfg.history, key=lambda e: e.t)
@@ -194,7 +192,7 @@ class Ekf(Mode):
         self._replay(k)
         return FixResult(True, reason, innovation, d2, len(self.history) - k)
 
-    def _set(self, x: Optional[float], y: Optional[float], theta: Optional[float]) -> None:
+    def _set(self, x: float | None, y: float | None, theta: float | None) -> None:
         last = self.history[-1]
         s, P = last.s.copy(), last.P.copy()
         for i, value, sigma in (
@@ -213,8 +211,8 @@ class Ekf(Mode):
 
     def _estimate(self) -> tuple[Pose2, tuple[float, ...]]:
         e = self.history[-1]
-        cov = e.P[model.POSE, model.POSE]
-        return Pose2(float(e.s[0]), float(e.s[1]), float(e.s[2])), tuple(float(c) for c in cov.flat)
+        x, y, theta = e.s[model.POSE].tolist()
+        return Pose2(x, y, theta), tuple(e.P[model.POSE, model.POSE].ravel().tolist())
 
     def calibration(self) -> dict[str, float]:
         return model.calibration(self.history[-1].s, self.robot.track_width, self.gyro_used)

@@ -1,8 +1,8 @@
 """The gyro's rate samples as a running integral, to cut into odom-sized increments."""
+
 from __future__ import annotations
 
 import bisect
-from typing import Optional
 
 
 class GyroIntegral:
@@ -15,7 +15,7 @@ class GyroIntegral:
         self.angle: list[float] = []  # [rad] integral at each sample time
 
     @property
-    def newest(self) -> Optional[float]:
+    def newest(self) -> float | None:
         """[s] the newest sample time (None: nothing yet)."""
         return self.t[-1] if self.t else None
 
@@ -40,7 +40,7 @@ class GyroIntegral:
         f = (t - self.t[i - 1]) / (self.t[i] - self.t[i - 1])
         return self.angle[i - 1] + f * (self.angle[i] - self.angle[i - 1])
 
-    def between(self, a: float, b: float) -> Optional[float]:
+    def between(self, a: float, b: float) -> float | None:
         """[rad] the integral over (a, b], or None when the samples do not cover it."""
         if not self.t or a < self.t[0] or b > self.t[-1]:
             return None

@@ -11,11 +11,11 @@ the gyro is there, the two heading increments are fused by their variances and
 their difference is a measurement of the calibration states (that is how the track
 width is learnt while the gyro steers the heading).
 """
+
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional
 
 import numpy as np
 
@@ -27,7 +27,6 @@ ODOM_GATE = 25.0
 N = 8  # state size
 X, Y, TH, ES, EW, ED, BG, SG = range(N)
 POSE = slice(0, 3)
-H = np.eye(3, N)  # a fix observes x, y, theta
 
 
 @dataclass(frozen=True)
@@ -49,24 +48,13 @@ class Step:
     ds: float  # [m] forward, nominal geometry
     dth: float  # [rad] nominal geometry
     dt: float  # [s]
-    gyro: Optional[float] = None  # [rad] raw gyro rate integrated over dt
+    gyro: float | None = None  # [rad] raw gyro rate integrated over dt
     unmeasured: tuple[float, float] = (0.0, 0.0)  # [m^2] variance of each wheel's travel its silent encoder missed
 
     def part(self, f: float) -> Step:
         """The fraction f of this increment."""
         gyro = None if self.gyro is None else self.gyro * f
         return Step(self.ds * f, self.dth * f, self.dt * f, gyro, (self.unmeasured[0] * f, self.unmeasured[1] * f))
-
-
-def _odom_heading(s: np.ndarray, u: Step, track: float) -> tuple[float, np.ndarray]:
-    """The odometry's heading increment corrected by the calibration, and its derivative."""
-    es, ew, ed = s[ES], s[EW], s[ED]
-    k = 1.0 + ew
-    # Wheels: nominal travel dl, dr = ds -+ track*dth/2; true = nominal*(1 + es -+ ed).
-    dth = (u.dth * (1.0 + es) + 2.0 * ed * u.ds / track) / k
-    J = np.zeros(N)
-    J[ES], J[EW], J[ED] = u.dth / k, -dth / k, 2.0 * u.ds / (track * k)
-    return dth, J
 
 
 def _wheel_vars(u: Step, nz: Noise) -> tuple[float, float, float]:
@@ -82,34 +70,30 @@ def _wheel_vars(u: Step, nz: Noise) -> tuple[float, float, float]:
     return var_l + var_r, var_r - var_l, rounding
 
 
-def _gyro_heading(s: np.ndarray, u: Step) -> tuple[float, np.ndarray]:
-    """The gyro's increment corrected by its bias and scale, and its derivative."""
-    k = 1.0 + s[SG]
-    g = (u.gyro - s[BG] * u.dt) / k
-    J = np.zeros(N)
-    J[BG], J[SG] = -u.dt / k, -g / k
-    return g, J
+# The model works on the state as Python floats and on the covariance with as few numpy
+# calls as the structure allows: one step changes only the pose rows of the Jacobian.
 
 
-def _learn_from_gyro(s: np.ndarray, P: np.ndarray, u: Step, var_odom: float, nz: Noise):
+def _learn_from_gyro(s: np.ndarray, P: np.ndarray, u: Step, var_odom: float, nz: Noise) -> tuple[np.ndarray, np.ndarray]:
     """Update (state, covariance) with the odometry's heading increment, predicted from the gyro's.
 
     The gyro's is the far less noisy one; the other way round, tick rounding in the
     odometry's increment would bias the scale estimates.
     """
-    g, Jg = _gyro_heading(s, u)
-    ke, kw = 1.0 + s[ES], 1.0 + s[EW]
-    pred = (g * kw - 2.0 * s[ED] * u.ds / nz.track) / ke  # the odometry's dth if the state is right
-    h = Jg * kw / ke
-    h[ES] -= pred / ke
-    h[EW] += g / ke
-    h[ED] -= 2.0 * u.ds / (nz.track * ke)
-    S = float(h @ P @ h) + var_odom + nz.gyro_var * u.dt
+    assert u.gyro is not None
+    _, _, _, es, ew, ed, bg, sg = s.tolist()
+    kg, ke, kw = 1.0 + sg, 1.0 + es, 1.0 + ew
+    g = (u.gyro - bg * u.dt) / kg  # the gyro's increment corrected by its bias and scale
+    pred = (g * kw - 2.0 * ed * u.ds / nz.track) / ke  # the odometry's dth if the state is right
+    r = kw / ke
+    h = np.array((0.0, 0.0, 0.0, -pred / ke, g / ke, -2.0 * u.ds / (nz.track * ke), -u.dt / kg * r, -g / kg * r))
+    Ph = P @ h  # P is symmetric: h P = (P h)^T
+    S = float(h @ Ph) + var_odom + nz.gyro_var * u.dt
     nu = u.dth - pred
     if nu * nu > ODOM_GATE * S:  # not the wheels' doing: the odometry's heading was corrected
         return s, P
-    K = (P @ h) / S
-    return s + K * nu, P - np.outer(K, h @ P)
+    K = Ph / S
+    return s + K * nu, P - K[:, None] * Ph
 
 
 def predict(s: np.ndarray, P: np.ndarray, u: Step, nz: Noise) -> tuple[np.ndarray, np.ndarray]:
@@ -119,35 +103,58 @@ def predict(s: np.ndarray, P: np.ndarray, u: Step, nz: Noise) -> tuple[np.ndarra
     does, and the odometry's heading increment teaches the calibration.
     """
     var_sum, var_diff, rounding = _wheel_vars(u, nz)
-    if u.gyro is None:
-        dth, J = _odom_heading(s, u, nz.track)
-        kb = nz.track * (1.0 + s[EW])
+    track = nz.track
+    if u.gyro is not None:
+        s, P = _learn_from_gyro(s, P, u, (var_sum + rounding) / track**2, nz)
+    x, y, th, es, ew, ed, bg, sg = s.tolist()
+    J = [0.0] * N  # d(dth)/d(state)
+    if u.gyro is None:  # the odometry's heading increment corrected by the calibration
+        k = 1.0 + ew
+        # Wheels: nominal travel dl, dr = ds -+ track*dth/2; true = nominal*(1 + es -+ ed).
+        dth = (u.dth * (1.0 + es) + 2.0 * ed * u.ds / track) / k
+        J[ES], J[EW], J[ED] = u.dth / k, -dth / k, 2.0 * u.ds / (track * k)
+        kb = track * k
         var_dth, cov_ds_dth = var_sum / kb**2, var_diff / (2.0 * kb)
-    else:
-        s, P = _learn_from_gyro(s, P, u, (var_sum + rounding) / nz.track**2, nz)
-        dth, J = _gyro_heading(s, u)
+    else:  # the gyro's, corrected by its bias and scale
+        k = 1.0 + sg
+        dth = (u.gyro - bg * u.dt) / k
+        J[BG], J[SG] = -u.dt / k, -dth / k
         var_dth, cov_ds_dth = nz.gyro_var * u.dt, 0.0
-    ds_t = u.ds * (1.0 + s[ES]) + s[ED] * nz.track * u.dth / 2.0
-    phi = s[TH] + dth / 2.0
+    half = track * u.dth / 2.0
+    ds_t = u.ds * (1.0 + es) + ed * half
+    phi = th + dth / 2.0
     c, sn = math.cos(phi), math.sin(phi)
-    out = s.copy()
-    out[X] += ds_t * c
-    out[Y] += ds_t * sn
-    out[TH] = wrap_angle(s[TH] + dth)
-    d_ds = np.zeros(N)  # d(ds_t)/d(state)
-    d_ds[ES], d_ds[ED] = u.ds, nz.track * u.dth / 2.0
-    F = np.eye(N)
-    F[X] += d_ds * c - ds_t * sn * J / 2.0
-    F[Y] += d_ds * sn + ds_t * c * J / 2.0
-    F[TH] += J
-    F[X, TH] -= ds_t * sn
-    F[Y, TH] += ds_t * c
-    G = np.array([[c, -ds_t * sn / 2.0], [sn, ds_t * c / 2.0], [0.0, 1.0]])  # d(x, y, theta)/d(ds, dth)
-    Q = np.zeros((N, N))
-    Q[POSE, POSE] = G @ np.array([[var_sum / 4.0, cov_ds_dth], [cov_ds_dth, var_dth]]) @ G.T
-    Q[ES, ES] = Q[EW, EW] = Q[ED, ED] = nz.calib_var * (abs(u.ds) + nz.track * abs(u.dth) / 2.0)
-    Q[BG, BG] = nz.bias_var * u.dt
-    return out, F @ P @ F.T + Q
+    ax, ay = -ds_t * sn / 2.0, ds_t * c / 2.0  # d(x, y)/d(dth)
+    row_x = [ax * j for j in J]
+    row_y = [ay * j for j in J]
+    row_th = J[:]
+    row_x[X] += 1.0
+    row_x[TH] -= ds_t * sn
+    row_x[ES] += u.ds * c
+    row_x[ED] += half * c
+    row_y[Y] += 1.0
+    row_y[TH] += ds_t * c
+    row_y[ES] += u.ds * sn
+    row_y[ED] += half * sn
+    row_th[TH] += 1.0
+    A = np.array((row_x, row_y, row_th))  # the pose rows of F; the others are the identity's
+    AP = A @ P
+    out = P.copy()
+    out[POSE] = AP
+    out[3:, POSE] = AP[:, 3:].T
+    # Q: the increment's noise through G = d(x, y, theta)/d(ds, dth), and the random walks.
+    vs, vd, cv = var_sum / 4.0, var_dth, cov_ds_dth
+    g = ((c, ax), (sn, ay), (0.0, 1.0))
+    M = [(a * vs + b * cv, a * cv + b * vd) for a, b in g]  # G M
+    Q = [[m0 * a + m1 * b for a, b in g] for m0, m1 in M]
+    out[POSE, POSE] = AP @ A.T + np.array(Q)
+    walk = nz.calib_var * (abs(u.ds) + track * abs(u.dth) / 2.0)
+    out[ES, ES] += walk
+    out[EW, EW] += walk
+    out[ED, ED] += walk
+    out[BG, BG] += nz.bias_var * u.dt
+    state = np.array((x + ds_t * c, y + ds_t * sn, wrap_angle(th + dth), es, ew, ed, bg, sg))
+    return state, out
 
 
 def innovation(s: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
@@ -163,7 +170,8 @@ def update(s: np.ndarray, P: np.ndarray, nu: np.ndarray, S: np.ndarray, R: np.nd
     K = np.linalg.solve(S, P[POSE, :]).T  # P H^T S^-1, with S symmetric
     out = s + K @ nu
     out[TH] = wrap_angle(out[TH])
-    IKH = np.eye(N) - K @ H
+    IKH = np.eye(N)
+    IKH[:, POSE] -= K  # I - K H, H picking the pose
     P_new = IKH @ P @ IKH.T + K @ R @ K.T
     return out, (P_new + P_new.T) / 2.0
 

@@ -1,10 +1,12 @@
 """Every mode by its config name."""
+
 from __future__ import annotations
 
 from zenav.common.config import Robot
 
 from .base import LocalizerConfig, Mode
 from .ekf import Ekf
+from .seed001 import Seed001
 from .simple import DeadReckoning, MultiSensor, Overwrite, Weighted, WeightedLatency
 
 
@@ -18,5 +20,6 @@ def make_mode(cfg: LocalizerConfig, robot: Robot) -> Mode:
         "weighted": Weighted,
         "weighted_latency": WeightedLatency,
         "multisensor": MultiSensor,
+        "seed001": Seed001,
     }
     return classes[cfg.mode](cfg, robot)

@@ -1,14 +1,12 @@
 """The localizer service: odometry and late VPS fixes in, the pose in the map frame out."""
-from __future__ import annotations
 
-from typing import Optional
+from __future__ import annotations
 
 from zenav.common import messages as m
 from zenav.common.runtime import QueryError, Service, publish, query, subscribe, timer
 
 from .base import LocalizerConfig
 from .modes import make_mode
-
 
 OUTLIERS_DEGRADED = 3  # fixes rejected in a row that make the status degraded
 GYRO_SILENT = 0.5  # [s] a gyro that was heard and is silent this long makes the status degraded
@@ -19,14 +17,15 @@ class Localizer(Service):
 
     name = "localizer"
     config_type = LocalizerConfig
+    cfg: LocalizerConfig
     health_period = 0.5  # [s] how often the diag status is re-evaluated
 
     def __init__(self, *args) -> None:
         super().__init__(*args)
         self.mode = make_mode(self.cfg, self.settings.robot)
-        self.newest_fix: Optional[float] = None  # [s] latest capture time received
+        self.newest_fix: float | None = None  # [s] latest capture time received
         self.outliers_in_row = 0  # fixes rejected as outliers since the last accepted one
-        self.last_imu: Optional[float] = None  # [s] stack time the newest gyro sample arrived
+        self.last_imu: float | None = None  # [s] stack time the newest gyro sample arrived
 
     def on_clock_reset(self) -> None:
         """The sim restarted: the world and its odometry start again, and so does the estimate."""
@@ -35,7 +34,7 @@ class Localizer(Service):
 
     @subscribe("odom")
     @publish("pose")
-    def on_odom(self, msg: m.Odom) -> Optional[m.Pose]:
+    def on_odom(self, msg: m.Odom) -> m.Pose | None:
         """One odom sample: the pose at its t."""
         dropped = self.mode.on_odom(msg)
         if dropped == "stale":
@@ -76,15 +75,13 @@ class Localizer(Service):
             self.outliers_in_row += 1
         return rec
 
-    @query("localizer/pose")
+    @query("localizer/pose", acts=False)
     def get_pose(self, req: m.Empty, q) -> m.LocalizerPoseReply:
         """getPose: the newest estimate, its calibration and the measured VPS latency."""
         p = self.mode.get_pose()
         if p is None:
             raise QueryError("unavailable", "no odometry received yet")
-        return m.LocalizerPoseReply(
-            t=p.t, x=p.x, y=p.y, theta=p.theta, cov=p.cov, calibration=p.calibration, vps_latency=self.mode.latency
-        )
+        return m.LocalizerPoseReply(t=p.t, x=p.x, y=p.y, theta=p.theta, cov=p.cov, calibration=p.calibration, vps_latency=self.mode.latency)
 
     @query("localizer/set_pose")
     def set_pose(self, req: m.SetPose, q) -> m.PoseStamped:
@@ -101,7 +98,9 @@ class Localizer(Service):
         notes = []
         latency = self.mode.latency
         if latency is not None:
-            notes.append(f"vps latency {latency:.3f} s")
+            est = self.mode.latency_estimator
+            sigma = "" if est is None else f" +/- {est.estimate.sigma:.3f} s estimated"
+            notes.append(f"vps latency {latency:.3f} s{sigma}")
             expected = self.cfg.expected_latency
             if abs(latency - expected) > self.cfg.latency_tolerance:
                 notes.append(f"expected {expected:.3f} s")

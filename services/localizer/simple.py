@@ -9,12 +9,12 @@
 
 Their covariance is a rule of thumb: the fix's sigma plus a growth per metre driven.
 """
+
 from __future__ import annotations
 
 import bisect
 import math
 from collections import deque
-from typing import Optional
 
 from zenav.common import messages as m
 from zenav.common.config import Robot
@@ -50,7 +50,7 @@ class DeadReckoning(Mode):
     def _reset(self, i: int, sigma: float) -> None:
         self.sigma[i], self.driven[i] = sigma, 0.0
 
-    def _set(self, x: Optional[float], y: Optional[float], theta: Optional[float]) -> None:
+    def _set(self, x: float | None, y: float | None, theta: float | None) -> None:
         e = self.est
         self.est = Pose2(e.x if x is None else x, e.y if y is None else y, e.theta if theta is None else theta)
         if x is not None and y is not None:
@@ -87,7 +87,7 @@ class Weighted(DeadReckoning):
     def confidence(self) -> float:
         """Weight of a fix: 1 standing still, 0 at the robot's top speed."""
         top = self.robot.max_wheel_speed * self.robot.wheel_radius  # [m/s]
-        return max(0.0, 1.0 - abs(self.odom.v) / top)
+        return max(0.0, 1.0 - abs(self.last.v) / top)
 
     def _fix(self, fix: m.VpsPose, t: float, t_arrival: float) -> FixResult:
         return self._blend(fix, fix.x, fix.y, self.confidence())
@@ -102,7 +102,7 @@ class WeightedLatency(Weighted):
 
     def _start(self, pose: Pose2) -> None:
         super()._start(pose)
-        self.path.append((self.odom.t, 0.0, 0.0))
+        self.path.append((self.last.t, 0.0, 0.0))
 
     def _move(self, ds: float, dth: float, t0: float, t: float) -> None:
         before = self.est
@@ -112,9 +112,9 @@ class WeightedLatency(Weighted):
         while len(self.path) > 2 and self.path[1][0] <= t - self.cfg.history:
             self.path.popleft()
 
-    def _set(self, x: Optional[float], y: Optional[float], theta: Optional[float]) -> None:
+    def _set(self, x: float | None, y: float | None, theta: float | None) -> None:
         super()._set(x, y, theta)
-        self.path = deque([(self.odom.t, 0.0, 0.0)])
+        self.path = deque([(self.last.t, 0.0, 0.0)])
 
     def _fix(self, fix: m.VpsPose, t: float, t_arrival: float) -> FixResult:
         if t < self.path[0][0]:
@@ -135,7 +135,7 @@ class MultiSensor(DeadReckoning):
         super().__init__(cfg, robot)
         self.gyro = GyroIntegral(cfg.history, cfg.gyro_max_gap)
 
-    def on_imu(self, imu: m.Imu) -> Optional[str]:
+    def on_imu(self, imu: m.Imu) -> str | None:
         return None if self.gyro.add(imu.t, imu.gyro_z) else "stale"
 
     def on_compass(self, compass: m.Compass) -> None:

@@ -4,6 +4,7 @@ Pure: time comes in as dt. A command goes through `wheel_command`: inverse
 kinematics, saturation that keeps the curvature, an acceleration limit from the
 previous command, then deadband compensation.
 """
+
 from __future__ import annotations
 
 import math
@@ -34,9 +35,7 @@ def saturate(left: float, right: float, max_speed: float) -> tuple[float, float]
     return left * k, right * k
 
 
-def limit_accel(
-    left: float, right: float, last_left: float, last_right: float, max_accel: float, dt: float
-) -> tuple[float, float]:
+def limit_accel(left: float, right: float, last_left: float, last_right: float, max_accel: float, dt: float) -> tuple[float, float]:
     """Move from the last output towards (left, right) by at most max_accel * dt per wheel.
 
     Both changes shrink by one factor, so a start from rest keeps the commanded curvature.

@@ -1,7 +1,8 @@
 """The motor service: `cmd_vel` to wheel speed commands on `motors/wheels`, with limits and a watchdog."""
+
 from __future__ import annotations
 
-from typing import Annotated, Optional
+from typing import Annotated
 
 from msgspec import Meta, Struct
 
@@ -30,11 +31,12 @@ class Motor(Service):
 
     name = "motor"
     config_type = MotorConfig
+    cfg: MotorConfig
 
     def __init__(self, settings: Settings, bus: Bus, clock: Clock) -> None:
         super().__init__(settings, bus, clock)
         robot = settings.robot
-        self.limits = kin.Limits(
+        self.wheels = kin.Limits(
             radius=robot.wheel_radius,
             track=robot.track_width,
             max_speed=robot.max_wheel_speed,
@@ -43,7 +45,7 @@ class Motor(Service):
         )
         self.watchdog_period = self.cfg.watchdog_period  # read by @timer
         self.ramp = ZERO  # [rad/s] (left, right) of the last output before deadband compensation
-        self.last_out_t: Optional[float] = None  # [s] clock time of the last output
+        self.last_out_t: float | None = None  # [s] clock time of the last output
         self.last_cmd_t = 0.0  # [s] clock time the last command was accepted
         self.count("watchdog_stops", 0)
         self.count("navigator_lost_stops", 0)
@@ -59,7 +61,7 @@ class Motor(Service):
 
     @subscribe("cmd_vel")
     @publish("motors/wheels")
-    def on_cmd_vel(self, msg: m.CmdVel) -> Optional[m.Wheels]:
+    def on_cmd_vel(self, msg: m.CmdVel) -> m.Wheels | None:
         """One velocity command: the wheel commands after limits, stamped with the command's t."""
         now = self.clock.now()
         if msg.t > 0.0 and now - msg.t > self.cfg.watchdog:  # t == 0: "now" (no stack clock)
@@ -69,11 +71,11 @@ class Motor(Service):
         dt = self.cfg.max_accel_dt if self.last_out_t is None else now - self.last_out_t
         dt = min(max(dt, 0.0), self.cfg.max_accel_dt)
         self.last_cmd_t = now
-        return self._output(msg.t, *kin.wheel_command(msg.v, msg.omega, self.ramp, dt, self.limits), now)
+        return self._output(msg.t, *kin.wheel_command(msg.v, msg.omega, self.ramp, dt, self.wheels), now)
 
     @timer("watchdog_period")
     @publish("motors/wheels")
-    def check_watchdog(self, now: float) -> Optional[m.Wheels]:
+    def check_watchdog(self, now: float) -> m.Wheels | None:
         """Stop the wheels once when moving and no command came within the watchdog time."""
         if self.ramp == ZERO or now - self.last_cmd_t <= self.cfg.watchdog:
             return None
@@ -83,7 +85,7 @@ class Motor(Service):
 
     @on_liveliness("navigator")
     @publish("motors/wheels")
-    def navigator_presence(self, alive: bool) -> Optional[m.Wheels]:
+    def navigator_presence(self, alive: bool) -> m.Wheels | None:
         """The navigator's process is gone (its token went with its socket): stop now, not at the watchdog."""
         if alive or self.ramp == ZERO:
             return None

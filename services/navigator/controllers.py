@@ -6,11 +6,15 @@
   k_beta beta, driving backwards when the goal starts behind.
 - `proportional` (seed 000): forward speed proportional to the distance, weighted by
   the cosine of the bearing error, and a proportional turn toward the goal.
+- `carrot` (LemLib's boomerang): move_to_pose drives a point tracker to a point behind
+  the goal pose that slides onto it as the robot closes in.
 """
+
 from __future__ import annotations
 
 import math
-from typing import Callable, NamedTuple, Sequence
+from collections.abc import Callable, Sequence
+from typing import NamedTuple
 
 from zenav.common.geometry import wrap_angle
 from zenav.services.navigator.params import Params
@@ -44,6 +48,7 @@ class Target(NamedTuple):
     theta: float  # [rad] approach heading (the direction of travel, reversed when backing)
     speed: float  # [m/s] forward speed limit of the goal
     reverse: bool = False  # drive backwards to it (polar, goal behind at the start)
+    lead: float = 0.0  # [-] boomerang: carrot distance behind the point per metre to it
 
 
 class Wheelbase(NamedTuple):
@@ -65,13 +70,30 @@ def make_target(pose: PoseSample, x: float, y: float, speed: float, allow_revers
 
 
 def check_polar_gains(k_rho: float, k_alpha: float, k_beta: float) -> None:
-    """Raise ValueError unless the gains meet the strong stability condition (Siegwart)."""
-    margin = k_alpha + 5.0 / 3.0 * k_beta - 2.0 / math.pi * k_rho
-    if k_rho <= 0 or k_beta >= 0 or margin <= 0:
+    """Raise ValueError, naming the equation, unless the gains meet seed 002's eq. 8 and eq. 9.
+
+    Eq. 8: the linearised system (eq. 6) is stable: k_rho > 0, k_beta < 0, k_alpha - k_rho > 0
+    (the roots of eq. 7). Eq. 9, the strong stability condition (Siegwart): also
+    k_alpha + 5/3 k_beta - 2/pi k_rho > 0.
+    """
+    gains = f"polar gains k_rho={k_rho:g}, k_alpha={k_alpha:g}, k_beta={k_beta:g}"
+    if k_rho <= 0 or k_beta >= 0 or k_alpha - k_rho <= 0:
         raise ValueError(
-            f"unstable polar gains k_rho={k_rho}, k_alpha={k_alpha}, k_beta={k_beta}: the strong stability "
-            f"condition needs k_rho > 0, k_beta < 0 and k_alpha + 5/3 k_beta - 2/pi k_rho > 0 (it is {margin:.3g})"
+            f"unstable {gains}: the linearised system (seed 002 eq. 8) needs k_rho > 0, k_beta < 0 and "
+            f"k_alpha - k_rho > 0 (it is {k_alpha - k_rho:.3g})"
         )
+    margin = k_alpha + 5.0 / 3.0 * k_beta - 2.0 / math.pi * k_rho
+    if margin <= 0:
+        raise ValueError(
+            f"unstable {gains}: the strong stability condition (seed 002 eq. 9) needs "
+            f"k_alpha + 5/3 k_beta - 2/pi k_rho > 0 (it is {margin:.3g})"
+        )
+
+
+def carrot(pose: PoseSample, x: float, y: float, theta: float, lead: float) -> tuple[float, float]:
+    """Boomerang (LemLib's moveToPose): the point `lead` x distance behind the goal pose, along its heading [m]."""
+    d = math.hypot(x - pose.x, y - pose.y)
+    return x - lead * d * math.cos(theta), y - lead * d * math.sin(theta)
 
 
 def _bearing_error(pose: PoseSample, target: Target) -> tuple[float, float]:
@@ -123,9 +145,20 @@ def proportional(pose: PoseSample, target: Target, params: Params) -> tuple[floa
     return v * max(0.0, math.cos(err)), params.prop_heading_gain * err
 
 
+def boomerang(pose: PoseSample, target: Target, params: Params) -> tuple[float, float]:
+    """LemLib's moveToPose: turn toward the carrot, speed from the distance to the goal point."""
+    cx, cy = carrot(pose, target.x, target.y, target.theta, target.lead)
+    dist = math.hypot(target.x - pose.x, target.y - pose.y)
+    err = wrap_angle(math.atan2(cy - pose.y, cx - pose.x) - pose.theta)
+    v = _clamp(params.prop_speed_gain * dist, params.min_speed, target.speed)
+    return v * max(0.0, math.cos(err)), params.prop_heading_gain * err
+
+
 def make(name: str) -> Controller:
     """A fresh controller by config name (pid keeps state: one per target)."""
-    return {"pid": RotationPid, "polar": lambda: polar, "proportional": lambda: proportional}[name]()
+    if name == "pid":
+        return RotationPid()
+    return {"polar": polar, "proportional": proportional, "boomerang": boomerang}[name]
 
 
 def limit(v: float, omega: float, max_turn_speed: float, wheels: Wheelbase) -> tuple[float, float]:

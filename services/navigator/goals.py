@@ -1,33 +1,45 @@
 """The goal state machine: one goal at a time, from start to succeeded, cancelled or aborted.
 
 Pure: poses and the time come in as arguments. `on_pose` returns the command for
-that pose; `check` (called periodically) aborts on a stale or too uncertain pose, or no progress.
+that pose; `check` (called periodically) aborts on a stale or too uncertain pose, or no
+progress, and ends a goal whose time-out ran out. How a move ends is in exits.py: the
+goal's tolerance ends it as soon as the error is within it and the robot stops within it
+(judged on the pose predicted `stop_lead` ahead); then zero is held for `rest_time` and
+the error is re-checked: `succeeded` only if still within the tolerance.
+Within `lock_distance` of its final point a move stops turning toward it (no heading
+swing on arrival) and drives straight on, braking to reach the tolerance's edge at the
+speed whose coast ends on the point. A move_to_pose then turns in place to its heading.
+follow_path passes its intermediate points, each within its own tolerance, without
+stopping (no slower than `through_speed`, but for the turn limit).
 Every end but a handover to a new goal asks for zero velocity at once (`End.stop`).
-A position goal arrives when it is within tolerance and no longer ahead (seen from
-the pose predicted `stop_lead` ahead, the point is off the direction of travel by
-more than APPROACH_CONE: driving on would not bring it closer), a turn when it is
-within tolerance and the predicted heading reaches the target; then zero is held
-for `settle_time` and the goal succeeds: "arrived" means stopped.
+The robot stays in the field: a goal whose target lies outside is refused
+(`outside`), and a running goal aborts when the pose leaves it. A move_straight
+without a distance aborts after `straight_max_time`.
 """
+
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
-from typing import Optional
+from operator import itemgetter
 
+from zenav.common.config import Field
 from zenav.common.geometry import wrap_angle
-from zenav.services.navigator import controllers
+from zenav.services.navigator import controllers, exits
 from zenav.services.navigator.controllers import PoseSample, Target, Wheelbase
+from zenav.services.navigator.exits import Hold
 from zenav.services.navigator.params import Params
 from zenav.services.navigator.turning import profile_speed, turn_command
 
 STOPPED = "STOPPED"
 MOVING_TO_POINT = "MOVING_TO_POINT"
+MOVING_TO_POSE = "MOVING_TO_POSE"
 TURNING_TO_HEADING = "TURNING_TO_HEADING"
 MOVING_STRAIGHT = "MOVING_STRAIGHT"
 FOLLOWING_PATH = "FOLLOWING_PATH"
 SUCCEEDED, CANCELLED, ABORTED = "succeeded", "cancelled", "aborted"
-APPROACH_CONE = math.pi / 3  # [rad] inside tolerance, a goal point further off the travel direction is reached
+MAX_SWITCHES = 256  # path points passed on one pose at most (bunched points: the rest on the next poses)
 
 
 class Refused(Exception):
@@ -39,11 +51,15 @@ class Goal:
     """What to do, with speeds and tolerances already resolved and clamped."""
 
     state: str  # the navigator state the goal runs in
-    points: tuple[tuple[float, float], ...] = ()  # [m] in order (move_to_point: one)
-    heading: float = 0.0  # [rad] turn target
+    points: tuple[tuple[float, float], ...] = ()  # [m] in order (move_to_point, move_to_pose: one)
+    heading: float = 0.0  # [rad] turn target; move_to_pose: the final heading
     speed: float = 0.0  # [m/s] forward limit, signed for move_straight; [rad/s] for turns
-    tolerance: float = 0.0  # [m]; [rad] for turns
-    distance: Optional[float] = None  # [m] move_straight: stop after this far (None: until stopped)
+    tolerance: float = 0.0  # [m] of the final point; [rad] for turns
+    distance: float | None = None  # [m] move_straight: stop after this far (None: until stopped)
+    heading_tolerance: float = 0.0  # [rad] move_to_pose: of the final heading
+    point_tolerances: tuple[float, ...] = ()  # [m] follow_path: of each point ((): waypoint_tolerance, the last `tolerance`)
+    lead: float = 0.0  # [-] move_to_pose with the boomerang: carrot distance per metre to the goal
+    timeout: float = 0.0  # [s] stop after this long (exit timeout); 0: [navigator] goal_timeout
 
 
 @dataclass(frozen=True)
@@ -54,18 +70,19 @@ class End:
     result: str  # succeeded, cancelled, aborted
     message: str
     stop: bool  # command zero velocity now (every end but a handover)
+    exit: str = ""  # why the move ended (exits.EXITS)
 
 
 @dataclass(frozen=True)
 class Feedback:
     """Progress of the running goal (all None when there is none)."""
 
-    distance_remaining: Optional[float] = None  # [m]; [rad] for turns
-    heading_error: Optional[float] = None  # [rad]
-    eta: Optional[float] = None  # [s]
+    distance_remaining: float | None = None  # [m]; [rad] for turns
+    heading_error: float | None = None  # [rad]
+    eta: float | None = None  # [s]
     elapsed: float = 0.0  # [s]
-    next_point: Optional[int] = None  # follow_path: index of the point being approached
-    cross_track_error: Optional[float] = None  # [m] left of the segment or line is positive
+    next_point: int | None = None  # follow_path: index of the point being approached
+    cross_track_error: float | None = None  # [m] left of the segment or line is positive
 
 
 @dataclass
@@ -73,17 +90,54 @@ class _Run:
     goal: Goal
     start_t: float  # [s] clock time the goal started
     origin: PoseSample  # pose when it started
+    small: Hold  # the settle_error band
+    big: Hold  # the big_error band
+    deadline: float = math.inf  # [s] clock time of the time-out
     rest: list[float] = field(default_factory=list)  # [m] path length after each point
     index: int = 0  # point being approached
-    target: Optional[Target] = None
-    controller: Optional[controllers.Controller] = None
-    settle_from: Optional[float] = None  # [s] pose t of arrival
+    target: Target | None = None
+    controller: controllers.Controller | None = None
+    locked: bool = False  # within lock_distance of the final point: no more turning toward it
+    turning: bool = False  # move_to_pose: at the point, turning to the heading
+    exit: str | None = None  # why the move ended (set when it stops)
+    retries: int = 0  # corrections made after a re-check over the tolerance
+    settle_from: float | None = None  # [s] pose t of the stop
     progress: float = 0.0  # gain toward the current target, larger is better
-    best: Optional[float] = None  # best progress so far (None: invalidated, take the next)
+    best: float | None = None  # best progress so far (None: invalidated, take the next)
     best_t: float = 0.0  # [s] clock time of the last progress
-    remaining: Optional[float] = None
-    heading_error: Optional[float] = None
-    cross_track: Optional[float] = None
+    remaining: float | None = None
+    heading_error: float | None = None
+    cross_track: float | None = None
+
+
+def outside(goal: Goal, pose: PoseSample, area: Field) -> str | None:
+    """Why the goal's target (each point; a straight's end) lies outside the field, or None."""
+    if goal.points and area.enabled:
+        xs, ys = list(map(itemgetter(0), goal.points)), list(map(itemgetter(1), goal.points))
+        if min(xs) < area.x_min or max(xs) > area.x_max or min(ys) < area.y_min or max(ys) > area.y_max:
+            i, why = next((i, w) for i, p in enumerate(goal.points) if (w := area.outside(*p)) is not None)
+            return f"points[{i}]: {why}" if goal.state == FOLLOWING_PATH else f"x, y: {why}"
+    if goal.state == MOVING_STRAIGHT and goal.distance is not None:
+        d = math.copysign(goal.distance, goal.speed)  # [m] along the start heading
+        end = area.outside(pose.x + d * math.cos(pose.theta), pose.y + d * math.sin(pose.theta))
+        if end is not None:
+            return f"distance: the end is outside: {end}"
+    return None
+
+
+def path_rest(points: tuple[tuple[float, float], ...]) -> list[float]:
+    """[m] path length after each point to the last, in one pass."""
+    legs = list(map(math.dist, points[:-1], points[1:]))
+    legs.reverse()  # summed from the end
+    rest = list(itertools.accumulate(legs, initial=0.0))
+    rest.reverse()
+    return rest
+
+
+def _aimed(run: _Run) -> Target:
+    """The target of a run of points (set when it starts)."""
+    assert run.target is not None
+    return run.target
 
 
 def _lateral(ox: float, oy: float, heading: float, x: float, y: float) -> float:
@@ -91,26 +145,58 @@ def _lateral(ox: float, oy: float, heading: float, x: float, y: float) -> float:
     return -(x - ox) * math.sin(heading) + (y - oy) * math.cos(heading)
 
 
+def final_error(goal: Goal, origin: PoseSample, pose: PoseSample) -> tuple[float, float]:
+    """(position error [m], heading error [rad]) of `pose` against the goal's end (0 where it has none)."""
+    if goal.state == TURNING_TO_HEADING:
+        return 0.0, abs(wrap_angle(goal.heading - pose.theta))
+    if goal.state == MOVING_STRAIGHT:
+        travelled = (pose.x - origin.x) * math.cos(origin.theta) + (pose.y - origin.y) * math.sin(origin.theta)
+        return abs(abs(travelled) - (goal.distance or 0.0)), 0.0
+    x, y = goal.points[-1]
+    turn = abs(wrap_angle(goal.heading - pose.theta)) if goal.state == MOVING_TO_POSE else 0.0
+    return math.hypot(x - pose.x, y - pose.y), turn
+
+
+def verdict(goal: Goal, origin: PoseSample, pose: PoseSample, exit: str) -> tuple[str, str]:
+    """(result, message) of a move that stopped on `exit`, from its error re-checked at `pose`."""
+    dist, turn = final_error(goal, origin, pose)
+    fails = []
+    if goal.state == TURNING_TO_HEADING:
+        if turn > goal.tolerance:
+            fails.append(f"{math.degrees(turn):.2f} deg off the heading (tolerance {math.degrees(goal.tolerance):.2f} deg)")
+    else:
+        if dist > goal.tolerance:
+            fails.append(f"{dist * 100:.2f} cm from the goal (tolerance {goal.tolerance * 100:.2f} cm)")
+        if goal.state == MOVING_TO_POSE and turn > goal.heading_tolerance:
+            fails.append(f"{math.degrees(turn):.2f} deg off the heading (tolerance {math.degrees(goal.heading_tolerance):.2f} deg)")
+    if not fails:
+        return SUCCEEDED, "arrived"
+    return ABORTED, f"stopped {' and '.join(fails)}: exit {exit}"
+
+
 class GoalMachine:
     """The navigator's state: STOPPED or running one goal."""
 
-    def __init__(self, params: Params, wheels: Wheelbase) -> None:
+    def __init__(self, params: Params, wheels: Wheelbase, area: Field | None = None) -> None:
         self.params, self.wheels = params, wheels
+        self.area = area or Field(enabled=False)
         self.state = STOPPED
         self.goal_id = 0  # id of the newest goal
-        self.goal: Optional[Goal] = None  # the newest goal (kept after it ends)
-        self.result: Optional[str] = None  # result of the newest goal; None while it runs
+        self.goal: Goal | None = None  # the newest goal (kept after it ends)
+        self.result: str | None = None  # result of the newest goal; None while it runs
+        self.exit: str | None = None  # why the newest goal's move ended; None while it runs
         self.message = ""
-        self.pose: Optional[PoseSample] = None  # newest pose
-        self._cmd = (0.0, 0.0)  # (v [m/s], omega [rad/s]) last commanded: the rate the arrival is predicted at
-        self._run: Optional[_Run] = None
+        self.pose: PoseSample | None = None  # newest pose
+        self._cmd = (0.0, 0.0)  # (v [m/s], omega [rad/s]) last commanded
+        self._rate = (0.0, 0.0)  # (v [m/s], omega [rad/s]) the commands through a first-order lag of stop_lead
+        self._run: _Run | None = None
 
     @property
     def active(self) -> bool:
         """Whether a goal is running."""
         return self._run is not None
 
-    def refusal(self, now: float) -> Optional[str]:
+    def refusal(self, now: float) -> str | None:
         """Why no goal can start now (no pose, stale pose, uncertain pose), or None."""
         if self.pose is None:
             return "no pose yet: is the localizer running?"
@@ -121,78 +207,99 @@ class GoalMachine:
             return f"{doubt} (no VPS fix yet or for long: wait for one, or set the pose)"
         return None
 
-    def uncertain(self) -> Optional[str]:
+    def uncertain(self) -> str | None:
         """Why the newest pose is too uncertain to drive on, or None."""
         p, pose = self.params, self.pose
+        if pose is None:
+            return "no pose yet"
         if pose.sigma_xy > p.max_position_sigma:
             return f"pose too uncertain: position sigma {pose.sigma_xy:.3f} m > {p.max_position_sigma:.3f} m"
         if pose.sigma_theta > p.max_heading_sigma:
             return f"pose too uncertain: heading sigma {pose.sigma_theta:.3f} rad > {p.max_heading_sigma:.3f} rad"
         return None
 
-    def start(self, goal: Goal, now: float) -> Optional[End]:
+    def start(self, goal: Goal, now: float) -> End | None:
         """Start a goal, preempting the running one (its End, a handover, is returned)."""
         reason = self.refusal(now)
         if reason is not None:
             raise Refused(reason)
-        preempted = self._end(CANCELLED, f"preempted by goal {self.goal_id + 1}", stop=False)
+        pose = self.pose
+        assert pose is not None  # no refusal: there is a pose
+        preempted = self._end(CANCELLED, f"preempted by goal {self.goal_id + 1}", stop=False, exit=exits.CANCELLED)
         self.goal_id += 1
-        self.goal, self.state, self.result, self.message = goal, goal.state, None, ""
-        run = self._run = _Run(goal, now, self.pose)
+        self.goal, self.state, self.result, self.exit, self.message = goal, goal.state, None, None, ""
+        p = self.params
+        timeout = goal.timeout or p.goal_timeout
+        run = self._run = _Run(goal, now, pose, Hold(p.settle_time), Hold(p.big_time), now + timeout if timeout > 0 else math.inf)
         if goal.points:
-            legs = [math.dist(a, b) for a, b in zip(goal.points, goal.points[1:])]
-            run.rest = [sum(legs[i:]) for i in range(len(goal.points))]
-            self._aim(run, self.pose)
-        self._step(run, self.pose)  # feedback and progress from the start
+            run.rest = path_rest(goal.points)
+            self._aim(run, pose)
+        cmd = self._step(run, pose)  # feedback and progress from the start
+        if cmd is None:  # already there
+            self._stop(run, pose.t)
         run.best, run.best_t = run.progress, now
         return preempted
 
-    def cancel(self, message: str) -> Optional[End]:
+    def cancel(self, message: str) -> End | None:
         """Cancel the running goal (stop, lease...); None if there is none."""
-        return self._end(CANCELLED, message, stop=True)
+        return self._end(CANCELLED, message, stop=True, exit=exits.CANCELLED)
 
-    def abort(self, message: str) -> Optional[End]:
+    def abort(self, message: str, exit: str = exits.ABORTED) -> End | None:
         """Abort the running goal; None if there is none."""
-        return self._end(ABORTED, message, stop=True)
+        return self._end(ABORTED, message, stop=True, exit=exit)
 
-    def reset(self, message: str) -> Optional[End]:
+    def reset(self, message: str) -> End | None:
         """Time started again (sim restart): abort the goal and forget the pose."""
         end = self.abort(message)
         self.pose = None
         return end
 
-    def on_pose(self, pose: PoseSample) -> tuple[Optional[tuple[float, float]], Optional[End]]:
+    def on_pose(self, pose: PoseSample) -> tuple[tuple[float, float] | None, End | None]:
         """Take a pose: the (v, omega) to command (None when idle), and the End if the goal ended."""
+        self._lag(pose.t)
         self.pose = pose
         run = self._run
         if run is None:
             return None, None
+        left = self.area.outside(pose.x, pose.y)
+        if left is not None:
+            return (0.0, 0.0), self.abort(f"left the field: {left}")
         if run.settle_from is None:
             cmd = self._step(run, pose)
             if cmd is not None:
                 self._cmd = controllers.limit(*cmd, self.params.max_turn_speed, self.wheels)
                 return self._cmd, None
-            run.settle_from, self._cmd = pose.t, (0.0, 0.0)
-            run.remaining = 0.0 if run.remaining is not None else None
-        if pose.t - run.settle_from >= self.params.settle_time:
-            return (0.0, 0.0), self._end(SUCCEEDED, "arrived", stop=True)
+            self._stop(run, pose.t)
+        assert run.settle_from is not None and run.exit is not None  # stopped
+        if pose.t - run.settle_from >= self.params.rest_time:
+            result, message = verdict(run.goal, run.origin, pose, run.exit)
+            if result == SUCCEEDED or not self._retry(run, pose):
+                return (0.0, 0.0), self._end(result, message, stop=True, exit=run.exit)
+            return self.on_pose(pose)
         return (0.0, 0.0), None
 
-    def check(self, now: float) -> Optional[End]:
-        """Periodic checks: abort on a stale pose or no progress for too long."""
-        run, p = self._run, self.params
-        if run is None:
+    def check(self, now: float) -> End | None:
+        """Periodic checks: abort on a stale pose or no progress for too long; stop at the time-out."""
+        run, p, pose = self._run, self.params, self.pose
+        if run is None or pose is None:  # a goal runs only from a pose
             return None
-        if now - self.pose.t > p.stale_after:
-            return self.abort(f"pose stale: none for {now - self.pose.t:.2f} s")
+        if now - pose.t > p.stale_after:
+            return self.abort(f"pose stale: none for {now - pose.t:.2f} s")
         doubt = self.uncertain()
         if doubt is not None:
             return self.abort(doubt)
-        step = p.progress_angle if run.goal.state == TURNING_TO_HEADING else p.progress_distance
+        if run.goal.state == MOVING_STRAIGHT and run.goal.distance is None and now - run.start_t >= p.straight_max_time:
+            message = f"move_straight without a distance stops after straight_max_time = {p.straight_max_time:g} s"
+            return self.abort(message, exits.TIMEOUT)
+        if run.settle_from is None and now >= run.deadline:
+            run.exit = exits.TIMEOUT
+            self._stop(run, pose.t)  # zero from the next pose on, then the error is re-checked
+        angular = run.goal.state == TURNING_TO_HEADING or run.turning
+        step = p.progress_angle if angular else p.progress_distance
         if run.settle_from is not None or run.best is None or run.progress >= run.best + step:
             run.best, run.best_t = run.progress, now
         elif now - run.best_t > p.progress_timeout:
-            return self.abort(f"no progress for {now - run.best_t:.1f} s")
+            return self.abort(f"no progress for {now - run.best_t:.1f} s", exits.STALLED)
         return None
 
     def feedback(self, now: float) -> Feedback:
@@ -212,67 +319,191 @@ class GoalMachine:
         )
 
     # ------------------------------------------------------------ internals
-    def _end(self, result: str, message: str, stop: bool) -> Optional[End]:
+    def _lag(self, t: float) -> None:
+        """Follow the robot's rates from the commands: a stop coasts about rate x stop_lead.
+
+        Modelled rather than measured: encoder rates are too coarse at the low speeds of an arrival.
+        """
+        dt = 0.0 if self.pose is None else max(t - self.pose.t, 0.0)
+        a = 1.0 if self.params.stop_lead <= 0.0 else min(1.0, dt / self.params.stop_lead)
+        self._rate = (
+            self._rate[0] + a * (self._cmd[0] - self._rate[0]),
+            self._rate[1] + a * (self._cmd[1] - self._rate[1]),
+        )
+
+    def _end(self, result: str, message: str, stop: bool, exit: str) -> End | None:
         if self._run is None:
             return None
         self._run = None
         if stop:
             self._cmd = (0.0, 0.0)
-        self.state, self.result, self.message = STOPPED, result, message
-        return End(self.goal_id, result, message, stop)
+        self.state, self.result, self.exit, self.message = STOPPED, result, exit, message
+        return End(self.goal_id, result, message, stop, exit)
+
+    def _stop(self, run: _Run, t: float) -> None:
+        """The move ends (run.exit says why): zero from now on, the error re-checked after rest_time."""
+        run.settle_from, self._cmd = t, (0.0, 0.0)
+        run.exit = run.exit or exits.WITHIN_TOLERANCE
+        run.remaining = 0.0 if run.remaining is not None else None
+
+    def _retry(self, run: _Run, pose: PoseSample) -> bool:
+        """Move again after a re-check over the tolerance (a late fix moved the pose), up to `retries` times.
+
+        Only a move that ended at its target (within_tolerance, passed) is corrected, a path from its last point;
+        a position is corrected straight on (forwards or back), never by turning toward the point.
+        """
+        if run.exit not in (exits.WITHIN_TOLERANCE, exits.PASSED) or run.retries >= self.params.retries:
+            return False
+        if run.goal.state == MOVING_STRAIGHT:
+            return False
+        run.retries += 1
+        run.settle_from, run.exit, run.turning = None, None, False
+        if run.goal.points:
+            run.index = len(run.goal.points) - 1
+            self._aim(run, pose)
+            run.locked = True
+        run.small.reset()
+        run.big.reset()
+        return True
 
     def _aim(self, run: _Run, pose: PoseSample) -> None:
         """Target the current point: a fresh controller, and the old progress invalidated."""
         x, y = run.goal.points[run.index]
-        reverse_ok = self.params.controller == "polar"
-        run.target = controllers.make_target(pose, x, y, run.goal.speed, reverse_ok)
-        run.controller = controllers.make(self.params.controller)
+        if run.goal.state == MOVING_TO_POSE:
+            run.target = Target(x, y, run.goal.heading, run.goal.speed, lead=run.goal.lead)
+            run.controller = controllers.make(self.params.pose_controller)
+        else:
+            reverse_ok = self.params.controller == "polar"
+            run.target = controllers.make_target(pose, x, y, run.goal.speed, reverse_ok)
+            run.controller = controllers.make(self.params.controller)
         run.best = None
+        run.small.reset()
+        run.big.reset()
 
-    def _step(self, run: _Run, pose: PoseSample) -> Optional[tuple[float, float]]:
-        """The command for this pose; None once arrived. Updates feedback and progress."""
-        if run.goal.state == TURNING_TO_HEADING:
-            return self._step_turn(run, pose)
-        if run.goal.state == MOVING_STRAIGHT:
+    def _step(self, run: _Run, pose: PoseSample) -> tuple[float, float] | None:
+        """The command for this pose; None once the move ends (run.exit says why). Updates feedback and progress."""
+        goal, p = run.goal, self.params
+        if goal.state == MOVING_STRAIGHT:
             return self._step_straight(run, pose)
-        return self._step_points(run, pose)
+        if goal.state == TURNING_TO_HEADING:
+            cmd = self._step_turn(run, pose, goal.heading, goal.tolerance, goal.speed)
+        else:
+            cmd = self._step_points(run, pose)
+            if run.index + 1 < len(goal.points):
+                return cmd
+        if cmd is None:
+            return None
+        dist, turn = final_error(goal, run.origin, pose)
+        # Both bands are followed on every pose, so that each keeps its own time held.
+        settled = run.small.update(pose.t, dist <= p.settle_error and turn <= p.settle_heading_error)
+        near = run.big.update(pose.t, dist <= p.big_error and turn <= p.big_heading_error)
+        if settled or near:
+            run.exit = exits.SETTLED if settled else exits.BIG_ERROR
+            return None
+        return cmd
 
-    def _step_points(self, run: _Run, pose: PoseSample) -> Optional[tuple[float, float]]:
-        p, lead, v = self.params, self.params.stop_lead, self._cmd[0]
-        px = pose.x + v * math.cos(pose.theta) * lead  # [m] predicted position
-        py = pose.y + v * math.sin(pose.theta) * lead
-        while True:
-            target = run.target
-            dist = math.hypot(target.x - pose.x, target.y - pose.y)
-            inside = min(dist, math.hypot(target.x - px, target.y - py)) <= run.goal.tolerance
-            last = run.index + 1 == len(run.goal.points)
-            # The last point is reached once it no longer lies ahead, within APPROACH_CONE of the
-            # direction of travel, of the predicted position: driving on would not bring it closer.
-            travel = pose.theta + (math.pi if target.reverse else 0.0)
-            off = abs(wrap_angle(math.atan2(target.y - py, target.x - px) - travel))
-            if not inside or (last and off < APPROACH_CONE):
+    def _point_tolerance(self, run: _Run, i: int) -> float:
+        goal = run.goal
+        if goal.point_tolerances:
+            return goal.point_tolerances[i]
+        return goal.tolerance if i + 1 == len(goal.points) else self.params.waypoint_tolerance
+
+    def _step_points(self, run: _Run, pose: PoseSample) -> tuple[float, float] | None:
+        p, goal, v = self.params, run.goal, self._rate[0]
+        px = pose.x + v * math.cos(pose.theta) * p.stop_lead  # [m] position predicted at the stop
+        py = pose.y + v * math.sin(pose.theta) * p.stop_lead
+        last = len(goal.points) - 1
+        for _ in range(MAX_SWITCHES):  # intermediate points: passed once within their tolerance
+            target = _aimed(run)
+            near = min(math.hypot(target.x - pose.x, target.y - pose.y), math.hypot(target.x - px, target.y - py))
+            if run.index == last or near > self._point_tolerance(run, run.index):
                 break
-            if last:
-                return None
             run.index += 1  # switch: the old target's distance and progress no longer count
             self._aim(run, pose)
-        start = run.goal.points[run.index - 1] if run.index else (run.origin.x, run.origin.y)
+        target = _aimed(run)
+        dist = math.hypot(target.x - pose.x, target.y - pose.y)
+        start = goal.points[run.index - 1] if run.index else (run.origin.x, run.origin.y)
         seg_heading = math.atan2(target.y - start[1], target.x - start[0])
         bearing = wrap_angle(math.atan2(target.y - pose.y, target.x - pose.x) - pose.theta)
         run.remaining = dist + run.rest[run.index]
         run.heading_error = wrap_angle(bearing + math.pi) if target.reverse else bearing
         run.cross_track = _lateral(start[0], start[1], seg_heading, pose.x, pose.y)
+        assert run.controller is not None  # made with the target
+        if run.index < last:
+            run.progress = -dist
+            return self._through(run, pose, target, dist)
+        if run.turning:
+            return self._step_turn(run, pose, goal.heading, goal.heading_tolerance, p.turn_speed)
         run.progress = -dist
-        return run.controller(pose, target, p)
+        if dist <= goal.tolerance and math.hypot(target.x - px, target.y - py) <= goal.tolerance:
+            if goal.state != MOVING_TO_POSE:
+                run.exit = exits.WITHIN_TOLERANCE
+                return None
+            run.turning, run.best = True, None  # at the point: turn in place to the heading
+            return self._step_turn(run, pose, goal.heading, goal.heading_tolerance, p.turn_speed)
+        lateral = dist * math.sin(bearing)  # [m] of the point off the robot's heading line
+        if dist > 2.0 * p.lock_distance:
+            run.locked = False
+        elif dist <= p.lock_distance and abs(lateral) <= goal.tolerance / 2.0:
+            run.locked = True
+        if run.locked:
+            return self._locked(run, pose, target)
+        v, omega = run.controller(pose, target, p)
+        if run.index > 0 and dist > p.lock_distance and math.cos(run.heading_error or 0.0) > 0.0:
+            # A path's last leg: the turn onto it blends in, as at the points before.
+            v = math.copysign(max(abs(v), p.through_speed), -1.0 if target.reverse else 1.0)
+        return v, omega
 
-    def _step_turn(self, run: _Run, pose: PoseSample) -> Optional[tuple[float, float]]:
+    def _locked(self, run: _Run, pose: PoseSample, target: Target) -> tuple[float, float] | None:
+        """Close to the final point: drive straight on, not turning toward the point, braking into it abeam."""
         p, goal = self.params, run.goal
-        err = wrap_angle(goal.heading - pose.theta)
-        run.remaining, run.heading_error, run.progress = abs(err), err, -abs(err)
-        omega = turn_command(err, self._cmd[1], goal.speed, goal.tolerance, p.turn_decel, p.min_turn_speed, p.stop_lead)
-        return None if omega is None else (0.0, omega)
+        along = (target.x - pose.x) * math.cos(pose.theta) + (target.y - pose.y) * math.sin(pose.theta)  # [m]
+        ahead = along - self._rate[0] * p.stop_lead  # [m] predicted along-track error at the stop
+        if ahead * (self._cmd[0] or along) <= 0.0:  # the stop is predicted at or past the point abeam: stop now
+            lateral = _lateral(pose.x, pose.y, pose.theta, target.x, target.y)  # [m]
+            inside = math.hypot(ahead, lateral) <= goal.tolerance  # the predicted stop
+            if goal.state != MOVING_TO_POSE:
+                run.exit = exits.WITHIN_TOLERANCE if inside else exits.PASSED
+                return None
+            run.exit = None if inside else exits.PASSED
+            run.turning, run.best = True, None  # as close as it gets: the heading is still to be reached
+            return self._step_turn(run, pose, goal.heading, goal.heading_tolerance, p.turn_speed)
+        # Braking to reach the tolerance's edge at the speed whose coast ends on the point: the stop there lands close.
+        edge = goal.tolerance / p.stop_lead if p.stop_lead > 0.0 else goal.speed  # [m/s]
+        speed = math.sqrt(edge**2 + 2.0 * p.decel * max(abs(along) - goal.tolerance, 0.0))
+        return math.copysign(max(p.min_speed, min(speed, goal.speed)), ahead), 0.0
 
-    def _step_straight(self, run: _Run, pose: PoseSample) -> Optional[tuple[float, float]]:
+    def _through(self, run: _Run, pose: PoseSample, target: Target, dist: float) -> tuple[float, float]:
+        """An intermediate point: steer with the controller, keeping a speed the next turn can be taken at."""
+        p, goal = self.params, run.goal
+        assert run.controller is not None and run.heading_error is not None
+        _, omega = run.controller(pose, target, p)
+        here, after = goal.points[run.index], goal.points[run.index + 1]
+        corner = abs(wrap_angle(math.atan2(after[1] - here[1], after[0] - here[0]) - math.atan2(target.y - pose.y, target.x - pose.x)))
+        v_corner = max(p.through_speed, abs(goal.speed) * max(0.0, math.cos(corner)))  # [m/s] at the point
+        cap = min(abs(goal.speed), math.sqrt(v_corner**2 + 2.0 * p.decel * dist))
+        ahead = math.cos(run.heading_error)  # a point behind (missed) is turned to in place
+        v = max(p.through_speed if ahead > 0.0 else 0.0, cap * max(0.0, ahead))
+        return (-v if target.reverse else v), omega
+
+    def _step_turn(self, run: _Run, pose: PoseSample, heading: float, tolerance: float, speed: float) -> tuple[float, float] | None:
+        p = self.params
+        err = wrap_angle(heading - pose.theta)
+        rate = self._rate[1]  # [rad/s]
+        ahead = err - rate * p.stop_lead  # [rad] predicted error at the stop
+        run.heading_error, run.progress = err, -abs(err)
+        if run.goal.state == TURNING_TO_HEADING:
+            run.remaining = abs(err)
+        if abs(err) <= tolerance and abs(ahead) <= tolerance:
+            run.exit = run.exit or exits.WITHIN_TOLERANCE  # a move_to_pose that passed its point says so
+            return None
+        omega = turn_command(err, rate, speed, tolerance, p.turn_decel, p.min_turn_speed, p.stop_lead)
+        if omega is None:  # the coast is predicted to reach the heading: within it, or past it
+            run.exit = run.exit or (exits.WITHIN_TOLERANCE if abs(ahead) <= tolerance else exits.PASSED)
+            return None
+        return 0.0, omega
+
+    def _step_straight(self, run: _Run, pose: PoseSample) -> tuple[float, float] | None:
         p, goal, o = self.params, run.goal, run.origin
         sign = math.copysign(1.0, goal.speed)
         travelled = sign * ((pose.x - o.x) * math.cos(o.theta) + (pose.y - o.y) * math.sin(o.theta))
@@ -286,7 +517,8 @@ class GoalMachine:
             return goal.speed, omega
         left = goal.distance - travelled
         run.remaining = max(left, 0.0)
-        ahead = left - abs(self._cmd[0]) * p.stop_lead  # [m] predicted left after the lead
+        ahead = left - abs(self._rate[0]) * p.stop_lead  # [m] predicted left after the lead
         if ahead <= 0.0:
+            run.exit = exits.WITHIN_TOLERANCE if ahead >= -goal.tolerance else exits.PASSED
             return None
         return sign * profile_speed(ahead, p.decel, p.min_speed, abs(goal.speed)), omega

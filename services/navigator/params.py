@@ -1,4 +1,5 @@
 """The navigator's tunables: the `[navigator]` config section (documented in config/default.toml)."""
+
 from __future__ import annotations
 
 from typing import Annotated, Literal, get_args
@@ -12,12 +13,16 @@ Limit = Annotated[float, Meta(gt=0.0)]  # inf turns the check off
 
 ControllerName = Literal["pid", "polar", "proportional"]
 CONTROLLERS: tuple[str, ...] = get_args(ControllerName)
+PoseControllerName = Literal["polar", "boomerang"]
+POSE_CONTROLLERS: tuple[str, ...] = get_args(PoseControllerName)
 
 
 class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """Speeds, tolerances, checks and controller gains of the navigator."""
 
     controller: ControllerName = "pid"  # point tracker: pid (seed 003), polar (seed 002), proportional (seed 000)
+    pose_controller: PoseControllerName = "boomerang"  # move_to_pose: boomerang (LemLib carrot) or polar (seed 002)
+    lead: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.6  # [-] boomerang: carrot distance behind the goal per metre to it
     speed: Pos = 0.2  # [m/s] forward speed of a goal that names none
     max_speed: Pos = 0.3  # [m/s] forward speed limit; faster requests are clamped
     min_speed: NonNeg = 0.03  # [m/s] slowest forward command while moving (above the motor deadband)
@@ -27,10 +32,21 @@ class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     min_turn_speed: NonNeg = 0.4  # [rad/s] slowest turn command while turning (above the motor deadband)
     turn_decel: Pos = 4.0  # [rad/s^2] braking into a target heading
     tolerance: Pos = 0.01  # [m] goal position tolerance of a goal that names none
-    heading_tolerance: Pos = 0.0175  # [rad] heading tolerance of a turn that names none (1 deg)
-    stop_lead: NonNeg = 0.06  # [s] arrival is judged on the pose predicted this far ahead (motor lag)
-    settle_time: NonNeg = 0.2  # [s] after arriving, zero is held this long before the goal succeeds
-    progress_timeout: Pos = 5.0  # [s] a goal without progress for this long aborts
+    heading_tolerance: Pos = 0.0175  # [rad] heading tolerance of a turn or pose that names none (1 deg: above the fused heading noise)
+    waypoint_tolerance: Pos = 0.05  # [m] follow_path: tolerance of an intermediate point that names none (seed 002)
+    through_speed: NonNeg = 0.08  # [m/s] follow_path: slowest speed through an intermediate point (0: may stop)
+    lock_distance: NonNeg = 0.08  # [m] this close to the final point the robot stops turning toward it
+    stop_lead: NonNeg = 0.06  # [s] a stop is predicted to coast this long at the current rate (motor lag)
+    rest_time: NonNeg = 0.2  # [s] after a move stops, zero is held this long, then the error is re-checked
+    retries: Annotated[int, Meta(ge=0, le=10)] = 2  # moves again this many times at most while the re-check is over the tolerance
+    settle_error: Pos = 0.02  # [m] a position error held under this for settle_time ends the move (settled)
+    settle_heading_error: Pos = 0.035  # [rad] likewise for a heading error (2 deg)
+    settle_time: Pos = 0.5  # [s]
+    big_error: Pos = 0.05  # [m] a position error held under this for big_time ends the move (big_error)
+    big_heading_error: Pos = 0.09  # [rad] likewise for a heading error (5 deg)
+    big_time: Pos = 1.5  # [s]
+    goal_timeout: NonNeg = 0.0  # [s] a goal that names no timeout stops after this long (timeout); 0: never
+    progress_timeout: Pos = 5.0  # [s] a goal without progress for this long aborts (stalled)
     progress_distance: Pos = 0.01  # [m] the least gain toward a position goal that counts as progress
     progress_angle: Pos = 0.02  # [rad] the least gain toward a heading that counts as progress
     stale_after: Pos = 0.5  # [s] a goal aborts when the newest pose is older than this
@@ -47,8 +63,10 @@ class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     pid_heading_limit: Pos = 1.0  # [rad] PID: forward speed falls linearly to zero at this heading error
     k_rho: Gain = 3.0  # [1/s] polar: forward speed per metre to the goal (> 0)
     k_alpha: Gain = 8.0  # [1/s] polar: turn rate per radian of bearing error
-    k_beta: Gain = -1.5  # [1/s] polar: turn rate per radian of approach-heading error (< 0)
+    k_beta: Gain = -3.0  # [1/s] polar: turn rate per radian of approach-heading error (< 0)
     prop_speed_gain: Pos = 2.0  # [1/s] proportional: forward speed per metre to the goal
     prop_heading_gain: Pos = 4.0  # [1/s] proportional: turn rate per radian of bearing error
     straight_heading_gain: Pos = 4.0  # [1/s] move_straight: turn rate per radian off the line heading
     straight_track_gain: Pos = 10.0  # [1/m] move_straight: heading correction per metre of cross-track error
+    straight_max_time: Pos = 30.0  # [s] move_straight without a distance ends (aborted) after this long
+    max_path_points: Annotated[int, Meta(ge=1, le=10_000)] = 10_000  # [points] longer follow_path requests are refused

@@ -6,10 +6,10 @@ The remaining distance is the one predicted `lead` seconds ahead at the measured
 rate, so the motor lag does not carry the robot past the target: the turn stops
 where the prediction reaches the target, and the coast takes it the rest of the way.
 """
+
 from __future__ import annotations
 
 import math
-from typing import Optional
 
 
 def profile_speed(remaining: float, decel: float, low: float, high: float) -> float:
@@ -17,9 +17,7 @@ def profile_speed(remaining: float, decel: float, low: float, high: float) -> fl
     return max(low, min(high, math.sqrt(2.0 * decel * max(remaining, 0.0))))
 
 
-def turn_command(
-    error: float, omega: float, speed: float, tolerance: float, decel: float, low: float, lead: float
-) -> Optional[float]:
+def turn_command(error: float, omega: float, speed: float, tolerance: float, decel: float, low: float, lead: float) -> float | None:
     """Turn rate [rad/s] for a heading `error` [rad] while turning at `omega`; None once arrived.
 
     Arrived: the heading predicted `lead` [s] ahead reaches the target (the coast takes

@@ -11,9 +11,10 @@ the samples taken before the robot first moves. The encoders carry the heading a
 each compass sample pulls it a fraction `compass_gain` of the way (a complementary
 filter), so odom stays continuous (REP-105) while its heading no longer drifts.
 """
+
 from __future__ import annotations
 
-from typing import NamedTuple, Optional
+from typing import NamedTuple
 
 from zenav.common.geometry import wrap_angle
 
@@ -42,26 +43,26 @@ class HeadingParams(NamedTuple):
 class Imu(NamedTuple):
     """The gyro's own integrated heading and bias, and the newest lateral acceleration."""
 
-    t: Optional[float] = None  # [s] newest sample
+    t: float | None = None  # [s] newest sample
     rate: float = 0.0  # [rad/s] yaw rate at t, bias removed; 0 while still
     angle: float = 0.0  # [rad] gyro heading integrated up to t, unwrapped
     bias: float = 0.0  # [rad/s] learned while still
     still_samples: int = 0  # samples averaged into the bias so far
     pending: tuple[float, ...] = ()  # [rad/s] newest still samples, not yet in the bias
     accel_y: float = 0.0  # [m/s^2] lateral (centripetal) acceleration at t, body frame
-    ref: Optional[float] = None  # [rad] gyro heading at the previous odometry step
+    ref: float | None = None  # [rad] gyro heading at the previous odometry step
 
     def angle_at(self, t: float) -> float:
         """The gyro heading at time t [s], extrapolated from the newest sample."""
-        return self.angle + self.rate * (t - self.t)
+        return self.angle if self.t is None else self.angle + self.rate * (t - self.t)
 
 
 class Compass(NamedTuple):
     """The newest compass heading, in the odom frame."""
 
-    t: Optional[float] = None  # [s] newest sample
+    t: float | None = None  # [s] newest sample
     heading: float = 0.0  # [rad] odom frame
-    offset: Optional[float] = None  # [rad] map heading of the odom x axis, fixed at the start
+    offset: float | None = None  # [rad] map heading of the odom x axis, fixed at the start
     samples: int = 0  # samples averaged into the offset
     fresh: bool = False  # not yet applied to the pose
 
@@ -114,7 +115,14 @@ def compass_sample(c: Compass, t: float, heading: float, theta: float, at_start:
 
 
 def heading_step(
-    imu: Imu, compass: Compass, theta: float, t0: float, t: float, dt: float, enc_dtheta: float, v: float,
+    imu: Imu,
+    compass: Compass,
+    theta: float,
+    t0: float,
+    t: float,
+    dt: float,
+    enc_dtheta: float,
+    v: float,
     p: HeadingParams,
 ) -> tuple[Imu, Compass, HeadingStep]:
     """The heading change over the encoder step ending at t [s] (dt [s] long, speed v [m/s]).
@@ -126,7 +134,7 @@ def heading_step(
     if p.source == "encoders":
         return imu, compass, enc
     if p.source == "compass":
-        if compass.fresh:
+        if compass.fresh and compass.t is not None:
             # The sample's heading carried to t with the encoders' rate, blended in by the gain.
             g = p.compass_gain
             innovation = wrap_angle(compass.heading + enc.omega * (t - compass.t) - (theta + enc_dtheta))

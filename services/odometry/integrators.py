@@ -6,12 +6,12 @@ travelled, (a, b): x += d*a, y += d*b, and the derivatives of a and b by dtheta;
 applies it and returns the Jacobians that carry the covariance. Every (a, b) is a
 rotation of a vector that depends on dtheta only, so d(a, b)/dtheta_old = (-b, a).
 """
+
 from __future__ import annotations
 
 import math
-from typing import Callable, NamedTuple
-
-import numpy as np
+from collections.abc import Callable
+from typing import NamedTuple
 
 from zenav.common.geometry import wrap_angle
 
@@ -81,13 +81,13 @@ class Step(NamedTuple):
     x: float  # [m]
     y: float  # [m]
     theta: float  # [rad] wrapped
-    F: np.ndarray  # 3x3: d(x, y, theta)_new / d(x, y, theta)_old
-    G: np.ndarray  # 3x2: d(x, y, theta)_new / d(d, dtheta)
+    F: tuple[tuple[float, float, float], ...]  # 3x3 rows: d(x, y, theta)_new / d(x, y, theta)_old
+    G: tuple[tuple[float, float], ...]  # 3x2 rows: d(x, y, theta)_new / d(d, dtheta)
 
 
 def step(x: float, y: float, theta: float, d: float, dtheta: float, integrator: Integrator) -> Step:
     """Advance the pose by travel d [m] and heading change dtheta [rad]."""
     a, b, da, db = integrator(theta, dtheta)
-    F = np.array([[1.0, 0.0, -d * b], [0.0, 1.0, d * a], [0.0, 0.0, 1.0]])
-    G = np.array([[a, d * da], [b, d * db], [0.0, 1.0]])
+    F = ((1.0, 0.0, -d * b), (0.0, 1.0, d * a), (0.0, 0.0, 1.0))
+    G = ((a, d * da), (b, d * db), (0.0, 1.0))
     return Step(x + d * a, y + d * b, wrap_angle(theta + dtheta), F, G)

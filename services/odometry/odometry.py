@@ -6,12 +6,11 @@ happened. The covariance carries a per-wheel noise model (variance of a wheel's
 travel = k * |travel|) and the heading source's noise through the integrator's
 Jacobians.
 """
+
 from __future__ import annotations
 
 import math
-from typing import NamedTuple, Optional
-
-import numpy as np
+from typing import NamedTuple
 
 from zenav.common import messages as m
 from zenav.common.config import Robot
@@ -40,12 +39,19 @@ class Params(NamedTuple):
 
 
 def make_params(
-    robot: Robot, integrator: str, k_left: float, k_right: float, reset_factor: float, heading: hd.HeadingParams,
+    robot: Robot,
+    integrator: str,
+    k_left: float,
+    k_right: float,
+    reset_factor: float,
+    heading: hd.HeadingParams,
     stall_limits: tuple[float, float, float],
 ) -> Params:
     """Params from the nominal robot; reset_factor times the max wheel speed is impossible;
     stall_limits: (min_speed [rad/s], min_ticks, min_time [s]) of a silent encoder (stall.py)."""
     ticks = robot.ticks_per_rev
+    if ticks is None:
+        raise ValueError("the robot's ticks_per_rev is unknown (Settings takes it from the scenario)")
     return Params(
         metres_per_tick=math.pi * robot.wheel_diameter / ticks,
         track=robot.track_width,
@@ -61,7 +67,7 @@ def make_params(
 class OdometryState(NamedTuple):
     """Everything the odometry remembers between samples."""
 
-    t: Optional[float] = None  # [s] newest encoder sample; None: no baseline yet
+    t: float | None = None  # [s] newest encoder sample; None: no baseline yet
     t0: float = 0.0  # [s] first sample: heading sensors count as missing only from t0 + timeout
     left: int = 0  # [ticks] left count at t
     right: int = 0  # [ticks]
@@ -81,20 +87,40 @@ def tick_delta(new: int, old: int) -> int:
 
 
 def _propagate(
-    cov: tuple[float, ...], st: integrators.Step, h: hd.HeadingStep, p: Params, d_left: float, d_right: float,
+    cov: tuple[float, ...],
+    st: integrators.Step,
+    h: hd.HeadingStep,
+    p: Params,
+    d_left: float,
+    d_right: float,
     unmeasured: tuple[float, float],
 ) -> tuple[float, ...]:
-    """P' = F P F^T + J Q J^T + var g g^T: state, wheels (and travel no encoder saw), heading source."""
-    P = np.asarray(cov).reshape(3, 3)
-    F, G = st.F.copy(), st.G
+    """P' = F P F^T + J Q J^T + var g g^T: state, wheels (and travel no encoder saw), heading source.
+
+    3x3 work in plain floats (numpy's per-call cost is larger than the arithmetic here)."""
+    (g00, g01), (g10, g11), (g20, g21) = st.G
+    (f00, f01, f02), (f10, f11, f12), (f20, f21, f22) = st.F
     # dtheta = (1 - keep) (heading - theta_old) + ...: that share of the old heading drops out
-    F[:, 2] -= (1.0 - h.keep) * G[:, 1]
+    drop = 1.0 - h.keep
+    f02, f12, f22 = f02 - drop * g01, f12 - drop * g11, f22 - drop * g21
     w = h.enc_weight / p.track
-    J = G @ np.array([[0.5, 0.5], [-w, w]])  # d pose / d (d_left, d_right)
-    Q = np.diag([p.k_left * abs(d_left) + unmeasured[0] ** 2, p.k_right * abs(d_right) + unmeasured[1] ** 2])
-    g = G[:, 1:2]
-    P = F @ P @ F.T + J @ Q @ J.T + h.var * (g @ g.T)
-    return tuple((0.5 * (P + P.T)).ravel().tolist())
+    q_l = p.k_left * abs(d_left) + unmeasured[0] ** 2  # [m^2] left travel
+    q_r = p.k_right * abs(d_right) + unmeasured[1] ** 2  # [m^2] right travel
+    # J = G [[0.5, 0.5], [-w, w]]: d pose / d (d_left, d_right); g = G[:, 1]: d pose / d heading
+    l0, l1, l2 = 0.5 * g00 - w * g01, 0.5 * g10 - w * g11, 0.5 * g20 - w * g21
+    r0, r1, r2 = 0.5 * g00 + w * g01, 0.5 * g10 + w * g11, 0.5 * g20 + w * g21
+    v = h.var
+    p00, p01, p02, p10, p11, p12, p20, p21, p22 = cov
+    a00, a01, a02 = f00 * p00 + f01 * p10 + f02 * p20, f00 * p01 + f01 * p11 + f02 * p21, f00 * p02 + f01 * p12 + f02 * p22
+    a10, a11, a12 = f10 * p00 + f11 * p10 + f12 * p20, f10 * p01 + f11 * p11 + f12 * p21, f10 * p02 + f11 * p12 + f12 * p22
+    a20, a21, a22 = f20 * p00 + f21 * p10 + f22 * p20, f20 * p01 + f21 * p11 + f22 * p21, f20 * p02 + f21 * p12 + f22 * p22
+    c00 = a00 * f00 + a01 * f01 + a02 * f02 + q_l * l0 * l0 + q_r * r0 * r0 + v * g01 * g01
+    c01 = a00 * f10 + a01 * f11 + a02 * f12 + q_l * l0 * l1 + q_r * r0 * r1 + v * g01 * g11
+    c02 = a00 * f20 + a01 * f21 + a02 * f22 + q_l * l0 * l2 + q_r * r0 * r2 + v * g01 * g21
+    c11 = a10 * f10 + a11 * f11 + a12 * f12 + q_l * l1 * l1 + q_r * r1 * r1 + v * g11 * g11
+    c12 = a10 * f20 + a11 * f21 + a12 * f22 + q_l * l1 * l2 + q_r * r1 * r2 + v * g11 * g21
+    c22 = a20 * f20 + a21 * f21 + a22 * f22 + q_l * l2 * l2 + q_r * r2 * r2 + v * g21 * g21
+    return (c00, c01, c02, c01, c11, c12, c02, c12, c22)  # symmetric: the upper triangle mirrored
 
 
 def command(s: OdometryState, left: float, right: float) -> OdometryState:
@@ -102,7 +128,7 @@ def command(s: OdometryState, left: float, right: float) -> OdometryState:
     return s._replace(watch=stall.command(s.watch, left, right))
 
 
-def update(s: OdometryState, p: Params, left: int, right: int, t: float) -> tuple[OdometryState, Optional[m.Odom], str]:
+def update(s: OdometryState, p: Params, left: int, right: int, t: float) -> tuple[OdometryState, m.Odom | None, str]:
     """One encoder sample (cumulative ticks, time t [s]): new state, odom or None, event.
 
     A wheel commanded to turn whose encoder shows nothing (s.watch.silent) adds the
@@ -115,23 +141,30 @@ def update(s: OdometryState, p: Params, left: int, right: int, t: float) -> tupl
         return s, None, STALE
     n_left, n_right = tick_delta(left, s.left), tick_delta(right, s.right)
     watch, unmeasured, _ = stall.step(s.watch, p.stall, t, dt, (n_left, n_right))
-    s = s._replace(watch=watch)
     limit = p.max_tick_rate * dt + 1.0  # one tick of quantisation always passes
     if abs(n_left) > limit or abs(n_right) > limit:
-        return s._replace(t=t, left=left, right=right, t_moved=t), None, RESET
+        return s._replace(t=t, left=left, right=right, t_moved=t, watch=watch), None, RESET
     d_left, d_right = n_left * p.metres_per_tick, n_right * p.metres_per_tick
     d = (d_left + d_right) / 2.0
-    imu, compass, h = hd.heading_step(
-        s.imu, s.compass, s.theta, s.t0, t, dt, (d_right - d_left) / p.track, d / dt, p.heading
-    )
+    imu, compass, h = hd.heading_step(s.imu, s.compass, s.theta, s.t0, t, dt, (d_right - d_left) / p.track, d / dt, p.heading)
     st = integrators.step(s.x, s.y, s.theta, d, h.dtheta, p.integrator)
     cov = _propagate(s.cov, st, h, p, d_left, d_right, unmeasured)
+    t_moved = s.t_moved
     if n_left or n_right:
-        s, imu = s._replace(t_moved=t), hd.moved(imu)
-    state = s._replace(t=t, left=left, right=right, x=st.x, y=st.y, theta=st.theta, cov=cov, imu=imu, compass=compass)
+        t_moved, imu = t, hd.moved(imu)
+    state = s._replace(
+        t=t, left=left, right=right, x=st.x, y=st.y, theta=st.theta, cov=cov, imu=imu, compass=compass, watch=watch, t_moved=t_moved
+    )
     odom = m.Odom(
-        t=t, x=st.x, y=st.y, theta=st.theta, v=d / dt, omega=h.omega, cov=cov,
-        unmeasured_left=unmeasured[0], unmeasured_right=unmeasured[1],
+        t=t,
+        x=st.x,
+        y=st.y,
+        theta=st.theta,
+        v=d / dt,
+        omega=h.omega,
+        cov=cov,
+        unmeasured_left=unmeasured[0],
+        unmeasured_right=unmeasured[1],
     )
     return state, odom, FALLBACK if h.fallback else OK
 

@@ -1,7 +1,9 @@
 """The odometry service: wheel encoders (and the chosen heading sensor) to `odom`."""
+
 from __future__ import annotations
 
-from typing import Annotated, Literal, Optional
+from collections.abc import Callable
+from typing import Annotated, Any, Literal
 
 from msgspec import Meta, Struct
 
@@ -72,6 +74,7 @@ class Odometry(Service):
 
     name = "odometry"
     config_type = OdometryConfig
+    cfg: OdometryConfig
 
     def __init__(self, settings: Settings, bus: Bus, clock: Clock) -> None:
         super().__init__(settings, bus, clock)
@@ -80,7 +83,7 @@ class Odometry(Service):
 
     def on_start(self) -> None:
         # Heading sensors are subscribed only when the configured source reads them.
-        handlers = {"sensors/imu": self.on_imu, "sensors/compass": self.on_compass}
+        handlers: dict[str, Callable[[Any], Any]] = {"sensors/imu": self.on_imu, "sensors/compass": self.on_compass}
         for suffix in SOURCE_TOPICS[self.cfg.heading_source]:
             self.subscribe(suffix, keys.TOPICS[suffix], handlers[suffix])
 
@@ -95,7 +98,7 @@ class Odometry(Service):
 
     @subscribe("sensors/encoders")
     @publish("odom")
-    def on_encoders(self, msg: m.Encoders) -> Optional[m.Odom]:
+    def on_encoders(self, msg: m.Encoders) -> m.Odom | None:
         """One encoder sample: an odom pose, or None (baseline, dropped, reset)."""
         was = self.state.watch.silent
         self.state, odom, event = od.update(self.state, self.params, msg.left, msg.right, msg.t)

@@ -6,10 +6,11 @@ at its commanded speed and `min_time` has passed without one tick; from then on 
 travel it was commanded is reported as unmeasured, so the odometry's covariance (and
 the localizer's) grows by it instead of trusting a count that says "still".
 """
+
 from __future__ import annotations
 
 import math
-from typing import NamedTuple, Optional
+from typing import NamedTuple
 
 
 class StallParams(NamedTuple):
@@ -24,7 +25,7 @@ class Watch(NamedTuple):
     """Per wheel (left, right): since when it has been commanded but silent, and how far it was told to turn."""
 
     cmd: tuple[float, float] = (0.0, 0.0)  # [rad/s] newest command
-    since: tuple[Optional[float], Optional[float]] = (None, None)  # [s]
+    since: tuple[float | None, float | None] = (None, None)  # [s]
     owed: tuple[float, float] = (0.0, 0.0)  # [rad] commanded turn since then
     silent: tuple[bool, bool] = (False, False)  # each encoder silent at the newest step
 
@@ -45,10 +46,11 @@ def step(w: Watch, p: StallParams, t: float, dt: float, ticks: tuple[int, int]) 
         if ticks[i] != 0 or abs(cmd) < p.min_speed:
             since[i], owed[i] = None, 0.0
             continue
-        if since[i] is None:
-            since[i] = t - dt
+        start = since[i]
+        if start is None:
+            start = since[i] = t - dt
         owed[i] += abs(cmd) * dt
-        if owed[i] * p.ticks_per_rad >= p.min_ticks and t - since[i] >= p.min_time:
+        if owed[i] * p.ticks_per_rad >= p.min_ticks and t - start >= p.min_time:
             silent[i] = True
             unmeasured[i] = abs(cmd) * dt * p.radius
     flags = (silent[0], silent[1])

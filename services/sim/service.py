@@ -1,20 +1,22 @@
-"""The sim service: steps the world at the sensor rate, publishes clock, truth and sensors."""
+"""The sim service: steps the world model (zenav.world) at the sensor rate, publishes clock, truth and sensors."""
+
 from __future__ import annotations
 
 import math
 import time
 from typing import Annotated
 
-import numpy as np
 from msgspec import Meta, Struct
 
+from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common import scenarios
 from zenav.common.bus import Bus, Query
 from zenav.common.clock import Clock, ScaledWallClock
-from zenav.common.config import Settings
+from zenav.common.config import Camera, Settings
 from zenav.common.runtime import Service, on_liveliness, query, subscribe, timer
-from zenav.services.sim import physics, sensors
+from zenav.services.sim.camera import FieldCamera, Shutter
+from zenav.world import faults, sensors
+from zenav.world.sim import SimRobot
 
 
 class SimConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
@@ -27,6 +29,7 @@ class SimConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     command_timeout: Annotated[float, Meta(gt=0.0, le=60.0)] = 0.5  # [s] sim time without motors/wheels before the wheels stop
     max_burst: Annotated[int, Meta(ge=1, le=10_000)] = 50  # [steps] most steps one tick catches up before resyncing
     encoder_start: m.Ticks = 0  # [ticks] count both encoders read at start (to exercise the int32 wrap)
+    camera: bool = False  # render the overhead camera's frames ([camera]) on zenav/field/camera/frame
 
 
 class Sim(Service):
@@ -38,16 +41,19 @@ class Sim(Service):
     def __init__(self, settings: Settings, bus: Bus, clock: Clock) -> None:
         super().__init__(settings, bus, clock)
         self.scen = settings.scenario
-        self.world = physics.world(settings.robot, self.scen)
         self.rate = self.scen.sensor_rate_hz  # [Hz] physics steps and sensor samples
         self.step_period = 1.0 / self.rate  # [s] of the scheduling clock, the tick timer's period
-        self.rng = np.random.default_rng(settings.deployment.seed)
-        self.state = physics.teleport(physics.State(), self.cfg.x0, self.cfg.y0, self.cfg.theta0)
+        c = self.cfg
+        self.bot = SimRobot(settings.robot, self.scen, settings.deployment.seed, c.x0, c.y0, c.theta0, c.encoder_start)
         self.steps = 0  # steps taken: sim time is steps / rate, never read from the wall
         self.base = 0.0  # [s] scheduling-clock time of step 0 (moves forward on a resync)
         self.cmd = (0.0, 0.0)  # [rad/s] wheel commands (left, right)
         self.cmd_t: float | None = None  # [s] sim time the command arrived; None: wheels stopped
-        self.frozen_left: int | None = None  # [ticks] what the left encoder reads while an encoder_frozen fault lasts
+        self.hold = faults.EncoderHold()  # the left count while an encoder_frozen fault lasts
+        self.shutter: Shutter | None = None
+        if c.camera:
+            cam = settings.section("camera", Camera)
+            self.shutter = Shutter(FieldCamera(cam, settings.deployment.seed, cam.robots.get(self.robot)), self._send_frame)
         self.count("overruns", 0)
         self.count("command_timeouts", 0)
 
@@ -55,6 +61,14 @@ class Sim(Service):
     def make_clock(cls, settings: Settings) -> Clock:
         """The sim owns time: wall time scaled by the realtime factor."""
         return ScaledWallClock(settings.section(cls.name, SimConfig).rtf)
+
+    def _send_frame(self, frame: m.CameraFrame) -> None:
+        """Publish a frame on the field's key (on the shutter's thread)."""
+        self.bus.publish(keys.field_key("camera/frame"), codec.encode(frame))
+
+    def on_stop(self) -> None:
+        if self.shutter is not None:
+            self.shutter.close()
 
     def on_start(self) -> None:
         self.base = self.clock.now()
@@ -79,10 +93,9 @@ class Sim(Service):
     @query("sim/reset")
     def reset(self, req: m.SimReset, q: Query) -> m.PoseStamped:
         if req.seed is not None:
-            self.rng = np.random.default_rng(req.seed)
-        self.state = physics.teleport(self.state, req.x, req.y, req.theta)
+            self.bot.reseed(req.seed)
+        s = self.bot.teleport(req.x, req.y, req.theta)
         self.cmd, self.cmd_t = (0.0, 0.0), None
-        s = self.state
         self.log.info("reset to (%.3f, %.3f, %.3f)%s", s.x, s.y, s.theta, f" seed {req.seed}" if req.seed is not None else "")
         return m.PoseStamped(t=self.t, x=s.x, y=s.y, theta=s.theta)
 
@@ -106,30 +119,34 @@ class Sim(Service):
             # Like a real motor board: no command for a while, stop the wheels.
             self.cmd, self.cmd_t = (0.0, 0.0), None
             self.count("command_timeouts")
-        self.state = s = physics.step(self.state, self.world, *self.cmd, self.step_period, self.rng)
+        s = self.bot.step(*self.cmd, self.step_period)
         self.steps += 1
-        tpr, start = self.scen.ticks_per_rev, self.cfg.encoder_start
-        gyro_z, accel_x, accel_y = sensors.imu(s, self.scen, self.rng)
         wall = time.time()  # the sample's instant on the host: `clock` carries it (latency is measured from it)
-        faults = scenarios.active(self.scen.faults, t)
-        stamp = t + scenarios.FUTURE_OFFSET if "future_stamp" in faults else t
-        copies = 2 if "duplicate" in faults else 1
-        left = sensors.encoder_ticks(s.angle_left, tpr, start)
-        if "encoder_frozen" in faults:
-            self.frozen_left = left if self.frozen_left is None else self.frozen_left
-            left = self.frozen_left
-        else:
-            self.frozen_left = None
-        encoders = m.Encoders(t=stamp, left=left, right=sensors.encoder_ticks(s.angle_right, tpr, start))
-        imu = m.Imu(t=stamp, gyro_z=gyro_z, accel_x=accel_x, accel_y=accel_y)
-        for _ in range(copies):
+        fx = faults.at(self.scen, t)
+        left, right = self.bot.encoders()
+        encoders = m.Encoders(t=fx.stamp, left=self.hold.apply(fx, left), right=right)
+        gyro_z, accel_x, accel_y = self.bot.imu()
+        imu = m.Imu(t=fx.stamp, gyro_z=gyro_z, accel_x=accel_x, accel_y=accel_y)
+        for _ in range(fx.copies):
             self.publish("sensors/encoders", encoders)
-            if "gyro_dead" not in faults:
+            if fx.imu:
                 self.publish("sensors/imu", imu)
         # The control path's sample first; the clock and the truth of the same t after it.
         self.publish("clock", m.Clock(t=t, rtf=self.cfg.rtf, wall=wall))
-        self.publish("sim/truth", m.Truth(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega))
-        # Compass samples fall on the steps where its own schedule crosses a period.
-        ratio = self.scen.compass_rate_hz / self.rate
-        if math.floor(self.steps * ratio + 1e-6) > math.floor((self.steps - 1) * ratio + 1e-6):
-            self.publish("sensors/compass", m.Compass(t=stamp, heading=sensors.compass(s, self.scen, self.rng)))
+        truth = m.Truth(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega)
+        self.publish("sim/truth", truth)
+        if sensors.due(self.steps, self.scen.compass_rate_hz, self.rate):
+            self.publish("sensors/compass", m.Compass(t=fx.stamp, heading=self.bot.compass()))
+        if self.shutter is not None:
+            self.shoot(truth)
+
+    def shoot(self, truth: m.Truth) -> None:
+        """A camera frame of this step, when one is due (drawn and sent on the shutter's thread)."""
+        assert self.shutter is not None
+        outcome = self.shutter.take(truth)
+        if outcome is not None:
+            self.count(f"frames_{outcome}")
+        if self.shutter.error:
+            self.count("frames_failed")
+            self.warn("frame", f"camera frame failed: {self.shutter.error}")
+            self.shutter.error = ""

@@ -1,26 +1,38 @@
-"""The VPS service: the simulated overhead camera, delivering late fixes on `vps/pose`."""
+"""The VPS service: late fixes on `vps/pose`, from the world model's overhead camera (zenav.world.vps) or the field camera's frames."""
+
 from __future__ import annotations
 
-from typing import Annotated
+import statistics
+from collections import deque
+from typing import Annotated, Literal
 
 import msgspec
 from msgspec import Meta, Struct
 
+from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common import scenarios
-from zenav.common.runtime import Service, subscribe, timer
+from zenav.common.config import Camera as CameraConfig
+from zenav.common.runtime import Service, timer
+from zenav.services.vps.calibration import Calibration
+from zenav.services.vps.frames import FrameError, check_fits
+from zenav.services.vps.reader import Reader
+from zenav.world import faults
+from zenav.world.vps import Camera, Delivery, DeliveryQueue, make_rng
 
-from .camera import Camera, DeliveryQueue, make_rng
+TIMING_WINDOW = 50  # frames whose median pipeline and detection times diag reports
 
 
 class VpsConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
-    """The [vps] section (the camera's errors are the scenario's)."""
+    """The [vps] section (the synthetic camera's errors are the scenario's; the real one is [camera])."""
 
     delivery_period: Annotated[float, Meta(gt=0.0, le=1.0)] = 0.005  # [s] how often fixes that are due are sent
+    stamp: Literal["capture", "none"] = "capture"  # a fix's t: its capture time, or (none) the time it is sent
+    source: Literal["synthetic", "camera"] = "synthetic"  # synthetic: sim/truth plus the scenario's errors; camera: tags in frames
 
 
 class Vps(Service):
-    """Samples `sim/truth` at the scenario's VPS rate and publishes each fix after its latency."""
+    """Publishes each fix after its latency: sampled from `sim/truth` at the scenario's VPS rate (synthetic),
+    or read from every frame on zenav/field/camera/frame for every robot in [camera] robots (camera)."""
 
     name = "vps"
     config_type = VpsConfig
@@ -29,28 +41,75 @@ class Vps(Service):
         super().__init__(*args)
         self.delivery_period = self.cfg.delivery_period
         self.camera = Camera(self.settings.scenario, make_rng(self.settings.deployment.seed))
-        self.queue = DeliveryQueue()
-        self._last_t = -1.0  # [s] newest truth sample
+        self.queues: dict[str, DeliveryQueue] = {self.robot: DeliveryQueue()}
+        self._last_t = -1.0  # [s] newest truth sample or frame
+        self.reader: Reader | None = None
+        if self.cfg.source == "camera":
+            cam = self.settings.section("camera", CameraConfig)
+            check_fits(cam, self.limits)
+            self.reader = Reader(cam, Calibration.load(cam.calibration))
+            self.link_delay = cam.link_delay  # [s]
+            self.queues = {robot: DeliveryQueue() for robot in cam.robots}
+            self.timing: dict[str, deque[float]] = {k: deque(maxlen=TIMING_WINDOW) for k in ("pipeline_ms_p50", "detect_ms_p50")}
 
-    @subscribe("sim/truth")
+    def key(self, suffix: str) -> str:
+        """Field-level topics live under zenav/field/, the rest under this robot."""
+        return keys.field_key(suffix) if suffix in keys.FIELD_TOPICS else super().key(suffix)
+
+    def on_start(self) -> None:
+        if self.reader is None:
+            self.subscribe("sim/truth", m.Truth, self.on_truth)
+        else:
+            self.subscribe("camera/frame", m.CameraFrame, self.on_frame)
+
+    def _restarted(self, t: float) -> None:
+        if t < self._last_t:
+            self.count("truth_restarts")  # the sim started again: its pending fixes are void
+            for q in self.queues.values():
+                q.clear()
+        self._last_t = t
+
     def on_truth(self, msg: m.Truth) -> None:
         """One truth sample: a capture when one is due."""
-        if msg.t < self._last_t:
-            self.count("truth_restarts")  # the sim started again: its pending fixes are void
-            self.queue.clear()
-        self._last_t = msg.t
+        self._restarted(msg.t)
         d = self.camera.capture(msg)
         if d is not None:
-            self.queue.push(d)
+            self.queues[self.robot].push(d)
             self.count("fixes_captured")
+
+    def on_frame(self, msg: m.CameraFrame) -> None:
+        """One camera frame: each robot tag in it becomes a fix, sent after the link delay."""
+        assert self.reader is not None
+        self._restarted(msg.t)
+        try:
+            got = self.reader.read(msg)
+        except FrameError as e:
+            self.count("frames_refused")
+            self.warn("frame", f"refused a camera frame: {e}")
+            return
+        now = self.clock.now()
+        self.count("frames")
+        self.count("tags_unknown", got.located.unknown)
+        self.count("tags_duplicate", got.located.duplicates)
+        self.count("tags_wrong_size", got.located.wrong_size)
+        for robot, fix in got.fixes:
+            self.queues[robot].push(Delivery(now + self.link_delay, msg.seq, fix))
+            self.count("fixes_captured")
+        self.timing["pipeline_ms_p50"].append((now - msg.t) * 1e3)  # exposure's middle to detection done, stack clock
+        self.timing["detect_ms_p50"].append(got.detect_time * 1e3)
+        for name, window in self.timing.items():
+            self.counters.values[name] = round(statistics.median(window))
 
     @timer("delivery_period")
     def deliver(self, now: float) -> None:
         """Publish every fix whose delivery time has come."""
-        for d in self.queue.pop_due(now):
-            fix = d.fix
-            faults = scenarios.active(self.settings.scenario.faults, fix.t)
-            if "future_stamp" in faults:
-                fix = msgspec.structs.replace(fix, t=fix.t + scenarios.FUTURE_OFFSET)
-            for _ in range(2 if "duplicate" in faults else 1):
-                self.publish("vps/pose", fix)
+        for robot, queue in self.queues.items():
+            for d in queue.pop_due(now):
+                fx = faults.at(self.settings.scenario, d.fix.t if self.cfg.stamp == "capture" else now)
+                fix = msgspec.structs.replace(d.fix, t=fx.stamp)
+                for _ in range(fx.copies):
+                    if robot == self.robot:
+                        self.publish("vps/pose", fix)
+                    else:
+                        self.bus.publish(keys.key(robot, "vps/pose"), codec.encode(fix))
+                        self.count("msgs_out")

@@ -1,29 +1,38 @@
 """A small slice of `zenav bench --quick`, end to end: every section measured briefly, the report written."""
+
 from __future__ import annotations
 
 import dataclasses
 
-from zenav.tools import bench, bench_report
+from tests.support.bench import headings, sections
+from zenav.bench import plan, report
+from zenav.bench.accuracy import Spec
+from zenav.bench.run import run
 
 TINY = dataclasses.replace(
-    bench.QUICK,
-    raw_window=1.0, latency_window=2.0, sweep_window=2.0, rates=(100.0,), robots=(1,), speed_rtfs=(3.0,),
+    plan.QUICK,
+    raw_window=1.0,
+    latency_window=2.0,
+    sweep_window=2.0,
+    rates=(100.0,),
+    robots=(1,),
+    speed_rtfs=(3.0,),
     speed_harnesses=("in-process",),
-    modes=("ekf",), scenarios=("default",), laps=0.25, controllers=(bench.Spec().controller,), kinematic_seeds=1, limit=None,
+    modes=("ekf",),
+    scenarios=("default",),
+    laps=0.25,
+    controllers=(Spec().controller,),
+    kinematic_seeds=1,
+    limit=None,
 )
 
 
 def test_a_tiny_bench_writes_the_report_with_its_sections(tmp_path):
     lines: list[str] = []
-    res = bench.run(TINY, tmp_path, "zenav bench (test slice)", say=lines.append)
-    path = bench_report.write(res, tmp_path)
+    res = run(TINY, tmp_path, "zenav bench (test slice)", say=lines.append)
+    path = report.write(res, tmp_path)
     text = path.read_text()
-    headings = [line.split(" (")[0] for line in text.splitlines() if line.startswith("#")]
-    assert headings == [
-        "# zenav benchmark", "## Targets", "## Latency", "### Services as Zenoh peers", "## Cost", "### Sensor rate",
-        "### Robots on one router",
-        "## Speed of simulation", "## Localization accuracy", "### default", "## Navigation",
-    ]
+    assert headings(text) == sections("default")
     for png in ("latency.png", "run_ekf.png"):
         assert (tmp_path / png).stat().st_size > 10_000
     # the measurements are real: chains went through all five services, the robot drove and was localized

@@ -1,4 +1,5 @@
 """sim + motor + odometry on a real router: a test drives a 1 m square through cmd_vel."""
+
 from __future__ import annotations
 
 import math
@@ -18,9 +19,19 @@ TURN_TOLERANCE = math.radians(2.0)  # [rad] a turn is done this close to its hea
 
 # A world that is exactly the nominal robot: no error source at all.
 PERFECT = dict(
-    wheel_radius_err_left=0.0, wheel_radius_err_right=0.0, track_width_err=0.0, slip_sigma=0.0,
-    load_radius_err=0.0, ticks_per_rev=100_000, motor_deadband=0.0, gyro_bias_dps=0.0, gyro_noise_dps=0.0,
-    gyro_scale_err=0.0, accel_bias=0.0, accel_noise=0.0, compass_noise_deg=0.0,
+    wheel_radius_err_left=0.0,
+    wheel_radius_err_right=0.0,
+    track_width_err=0.0,
+    slip_sigma=0.0,
+    load_radius_err=0.0,
+    ticks_per_rev=100_000,
+    motor_deadband=0.0,
+    gyro_bias_dps=0.0,
+    gyro_noise_dps=0.0,
+    gyro_scale_err=0.0,
+    accel_bias=0.0,
+    accel_noise=0.0,
+    compass_noise_deg=0.0,
 )
 
 

@@ -1,4 +1,5 @@
 """The navigator's contract through a real router: a zenoh+msgpack client, the CLI, the path trial."""
+
 from __future__ import annotations
 
 import math
@@ -7,12 +8,15 @@ import sys
 
 import pytest
 
-from tests.system.rawclient import RawClient
+from tests.support.rawclient import RawClient
 
 RTF = 1.0  # realtime: six services share one process (one GIL) here
 # One process's GIL can stall the pose for half a second on a busy 2-core machine; these
 # tests are about the query API and the path, so a pose may be older before a goal aborts.
-NAV = {"stale_after": 2.0}
+# The final re-check judges the fused pose, which late VPS fixes move by a centimetre or two:
+# a 3 cm default tolerance keeps these API tests about the API (the path trial checks the truth).
+NAV = {"stale_after": 2.0, "tolerance": 0.03}
+TRIAL = {"stale_after": 2.0}  # the path trial at the default tolerance
 PATH = [[1.0, 0.0], [1.0, 1.0]]  # seed 002's path trial from (0, 0, 0)
 
 
@@ -78,7 +82,7 @@ def test_cli_goto_wait_and_exit_codes(raw, router):
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_path_trial(make_stack, router, seed):
     """Seed 002's trial in the `default` scenario; its real robot: 11.4 cm mean, 3.9 cm sd."""
-    make_stack(["sim", "motor", "odometry", "vps", "localizer", "navigator"], sim={"rtf": RTF}, deployment={"seed": seed}, navigator=NAV)
+    make_stack(["sim", "motor", "odometry", "vps", "localizer", "navigator"], sim={"rtf": RTF}, deployment={"seed": seed}, navigator=TRIAL)
     c = RawClient(router)
     try:
         c.follow("sim/truth")

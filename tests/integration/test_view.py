@@ -1,4 +1,5 @@
 """`zenav view`: a Foxglove WebSocket client receives the robot live (advertise -> subscribe -> message frames)."""
+
 from __future__ import annotations
 
 import json
@@ -13,11 +14,11 @@ import time
 import pytest
 from websockets.sync.client import connect
 
-from tests.integration.test_record_replay import stderr_lines
+from tests.support.procs import reaped, stderr_lines
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.bus import ZenohBus
-from zenav.common.stack import free_port
+from zenav.stack.inprocess import free_port
 from zenav.tools.view import View
 
 SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]  # the SDK's current name, and the older one
@@ -95,8 +96,13 @@ def receive(port: int, topics: set[str], timeout: float = 30.0) -> tuple[dict[st
 
 def test_a_foxglove_client_receives_the_robot_live(view, robot):
     wanted = {
-        "/zenav/r1/pose", "/zenav/r1/nav/state",
-        "/zenav/r1/viz/truth", "/zenav/r1/viz/odom", "/zenav/r1/viz/pose", "/zenav/r1/viz/tf", "/zenav/r1/viz/scene",
+        "/zenav/r1/pose",
+        "/zenav/r1/nav/state",
+        "/zenav/r1/viz/truth",
+        "/zenav/r1/viz/odom",
+        "/zenav/r1/viz/pose",
+        "/zenav/r1/viz/tf",
+        "/zenav/r1/viz/scene",
     }
     channels, payloads = receive(view.port, wanted)
     # the wire topics, mirrored as JSON with their schema
@@ -109,8 +115,10 @@ def test_a_foxglove_client_receives_the_robot_live(view, robot):
     assert json.loads(payloads["/zenav/r1/nav/state"][-1])["state"] == "FOLLOWING_PATH"
     # what the 3D panel draws, in Foxglove's schemas
     expected = {
-        "/zenav/r1/viz/truth": "foxglove.PoseInFrame", "/zenav/r1/viz/odom": "foxglove.PoseInFrame",
-        "/zenav/r1/viz/pose": "foxglove.PoseInFrame", "/zenav/r1/viz/tf": "foxglove.FrameTransforms",
+        "/zenav/r1/viz/truth": "foxglove.PoseInFrame",
+        "/zenav/r1/viz/odom": "foxglove.PoseInFrame",
+        "/zenav/r1/viz/pose": "foxglove.PoseInFrame",
+        "/zenav/r1/viz/tf": "foxglove.FrameTransforms",
         "/zenav/r1/viz/scene": "foxglove.SceneUpdate",
     }
     for topic, schema in expected.items():
@@ -124,13 +132,9 @@ def test_the_view_command_serves_until_ctrl_c(router, robot):
         [sys.executable, "-m", "zenav.cli", "view", "--connect", router, "--port", str(port)], stderr=subprocess.PIPE, text=True
     )
     lines = stderr_lines(proc)
-    try:
+    with reaped(proc):
         assert f"zenav view of robot r1 on ws://127.0.0.1:{port}" in lines.get(timeout=30)
         _, payloads = receive(port, {"/zenav/r1/viz/scene", "/zenav/r1/sim/truth"})
         assert json.loads(payloads["/zenav/r1/sim/truth"][0])["v"] == 0.1
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=30) == 0
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()

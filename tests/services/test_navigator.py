@@ -1,88 +1,18 @@
-"""The navigator service on the in-memory bus with a manual clock, driving a kinematic robot."""
+"""The navigator service on the in-memory bus with a manual clock, driving the world's robot."""
+
 import math
 
 import msgpack
 import pytest
 
-from zenav.common import codec, keys
+from tests.support.navigator import Rig, reply
+from zenav.common import codec
 from zenav.common import messages as m
 from zenav.common.app import main
 from zenav.common.bus import MemoryBus
 from zenav.common.clock import ManualClock, SimClock
 from zenav.common.config import ConfigError, Settings
 from zenav.services.navigator.service import Navigator
-
-DT = 0.01  # [s] pose period
-LAG = 0.05  # [s] motor time constant (the default scenario's)
-
-
-class Rig:
-    """A navigator and a kinematic robot that follows its cmd_vel with a first-order lag."""
-
-    def __init__(self, **cfg):
-        self.bus, self.clock = MemoryBus(), ManualClock(100.0)
-        self.nav = Navigator(Settings.load(None, navigator=cfg), self.bus, self.clock)
-        self.nav.start()
-        self.x = self.y = self.theta = 0.0
-        self.cmd = (0.0, 0.0)  # last cmd_vel (v, omega)
-        self.vel = (0.0, 0.0)  # actual (v, omega)
-        self.moving = True  # False: the wheels are stuck, the commands do nothing
-        self.bus.subscribe("zenav/r1/cmd_vel", self._on_cmd)
-
-    def _on_cmd(self, key, data):
-        msg = codec.decode(data, m.CmdVel)
-        self.cmd = (msg.v, msg.omega)
-
-    def pose(self):
-        v, w = self.vel
-        msg = m.Pose(t=self.clock.now(), x=self.x, y=self.y, theta=self.theta, v=v, omega=w)
-        self.bus.publish("zenav/r1/pose", codec.encode(msg))
-        self.nav.drain()
-
-    def step(self, n=1, poses=True):
-        for _ in range(n):
-            if self.moving:
-                gain = 1.0 - math.exp(-DT / LAG)
-                self.vel = tuple(a + (c - a) * gain for a, c in zip(self.vel, self.cmd))
-                v, w = self.vel
-                self.x += v * math.cos(self.theta + w * DT / 2) * DT
-                self.y += v * math.sin(self.theta + w * DT / 2) * DT
-                self.theta = math.remainder(self.theta + w * DT, 2 * math.pi)
-            self.clock.advance(DT)
-            if poses:
-                self.pose()
-            else:
-                self.nav.drain()
-
-    def query(self, suffix, payload=None, params=None):
-        q = self.bus.query(keys.key("r1", suffix), codec.encode(payload) if payload is not None else b"", params)
-        self.nav.drain()
-        return q
-
-    def run_until(self, q, max_s=60.0):
-        """Step until the query has its reply (bounded)."""
-        for _ in range(round(max_s / DT)):
-            if q.replies:
-                break
-            self.step()
-        return reply(q)
-
-    def published(self, suffix):
-        return [codec.decode(d, keys.TOPICS[suffix]) for k, d in self.bus.published if k == keys.key("r1", suffix)]
-
-
-def reply(q, typ=m.GoalReply):
-    [(ok, data)] = q.replies
-    assert q.finished
-    return codec.decode(data, typ if ok else m.ErrorReply)
-
-
-@pytest.fixture
-def rig():
-    r = Rig()
-    r.pose()
-    yield r
-    r.nav.close()
 
 
 def test_move_to_point_waits_and_arrives_stopped(rig):
@@ -226,11 +156,7 @@ def test_stale_pose_aborts_and_stops(rig):
 def test_no_progress_aborts(rig):
     rig.moving = False
     q = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "wait": True})
-    for _ in range(700):
-        if q.replies:
-            break
-        rig.step()
-    rep = reply(q)
+    rep = rig.run_until(q, max_s=7.0)
     assert rep.result == "aborted" and "no progress" in rep.message and rig.cmd == (0.0, 0.0)
     assert 5.0 <= rig.clock.now() - 100.0 <= 5.2
 
@@ -406,3 +332,121 @@ def test_help(capsys):
     with pytest.raises(SystemExit) as e:
         main(Navigator, ["--help"])
     assert e.value.code == 0 and "zenav-navigator" in capsys.readouterr().out
+
+
+def long_path(n, y=0.0):
+    return {"points": [[1.0 * (i + 1) / n, y] for i in range(n)]}
+
+
+def test_stop_is_dispatched_before_queued_long_paths(rig):
+    path = codec.encode(long_path(10_000))
+    held = [rig.bus.query("zenav/r1/nav/follow_path", path) for _ in range(15)]
+    stop = rig.bus.query("zenav/r1/nav/stop")
+    assert rig.nav.drain(limit=1) == 1
+    assert reply(stop, m.StopReply).state == "STOPPED" and not any(q.replies for q in held)
+    assert rig.published("cmd_vel")[-1] == m.CmdVel(t=0.0, v=0.0, omega=0.0)
+    rig.nav.drain()
+    assert [reply(q).goal_id for q in held] == list(range(1, 16))
+
+
+def test_a_10k_point_path_is_followed_from_its_first_point(rig):
+    rep = reply(rig.query("nav/follow_path", long_path(10_000)))
+    assert rep.state == "FOLLOWING_PATH"
+    rig.step(5)
+    fb = rig.nav.machine.feedback(rig.clock.now())
+    # Points 0.1 mm apart: those within the 5 cm waypoint tolerance (about 500) are passed at once, no more.
+    assert fb.distance_remaining == pytest.approx(1.0 - rig.x, abs=1e-3) and 0 < fb.next_point < 1000
+
+
+def test_a_path_over_the_configured_length_is_refused_naming_the_limit():
+    r = Rig(max_path_points=100)
+    r.pose()
+    err = reply(r.query("nav/follow_path", long_path(101)))
+    assert err.error == "invalid_argument" and "max_path_points = 100" in err.message
+    assert reply(r.query("nav/follow_path", long_path(100))).state == "FOLLOWING_PATH"
+    r.nav.close()
+
+
+def test_a_wildcard_get_reaches_only_the_read_only_queries(rig):
+    rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0})
+    rig.step(10)
+    q = rig.query("**")
+    replies = {ok for ok, _ in q.replies}
+    assert rig.nav.machine.state == "MOVING_TO_POINT" and replies == {True, False}
+    [status] = [codec.decode(d, m.StatusReply) for ok, d in q.replies if ok]
+    assert status.state == "MOVING_TO_POINT"
+    assert rig.nav.counters.values["wildcard_refused"] == 7  # six goals and stop
+
+
+@pytest.mark.parametrize(
+    "suffix, payload, words",
+    [
+        ("nav/move_to_point", {"x": 3.5, "y": 0.0}, "x_max = 3.0"),
+        ("nav/move_to_point", {"x": 0.0, "y": -1.5}, "y_min = -1.0"),
+        ("nav/follow_path", {"points": [[1.0, 0.0], [1.0, 4.0]]}, "points[1]"),
+        ("nav/move_straight", {"speed": -0.1, "distance": 1.5}, "x_min = -1.0"),
+    ],
+)
+def test_a_target_outside_the_field_is_refused_naming_the_bound(rig, suffix, payload, words):
+    err = reply(rig.query(suffix, payload))
+    assert err.error == "invalid_argument" and words in err.message
+    assert rig.nav.machine.state == "STOPPED"
+
+
+def test_the_field_can_be_turned_off():
+    r = Rig(field={"enabled": False})
+    r.pose()
+    assert reply(r.query("nav/move_to_point", {"x": 30.0, "y": 0.0})).state == "MOVING_TO_POINT"
+    r.nav.close()
+
+
+def test_leaving_the_field_aborts_the_goal_and_stops(rig):
+    q = rig.query("nav/move_straight", {"speed": 0.3, "wait": True})
+    rig.step(10)
+    rig.x = 3.05  # pushed over the edge
+    rig.step()
+    rep = reply(q)
+    assert rep.result == "aborted" and rep.message.startswith("left the field") and rig.cmd == (0.0, 0.0)
+
+
+def test_move_straight_without_a_distance_ends_after_the_time_limit():
+    r = Rig(straight_max_time=2.0)
+    r.pose()
+    q = r.query("nav/move_straight", {"speed": 0.1, "wait": True})
+    rep = r.run_until(q, max_s=3.0)
+    assert rep.result == "aborted" and "straight_max_time = 2 s" in rep.message and r.cmd == (0.0, 0.0)
+    assert 2.0 <= r.clock.now() - 100.0 <= 2.1
+    r.nav.close()
+
+
+def test_diag_reports_error_while_the_motor_is_gone(rig):
+    token = rig.bus.token("zenav/r1/alive/motor")
+    rig.step(2)
+    assert rig.nav.status == "ok"
+    token.undeclare()
+    rig.nav.drain()
+    assert rig.nav.status == "error" and "motor" in rig.nav.status_message
+    err = reply(rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0}))
+    assert err.error == "unavailable" and "motor" in err.message
+    rig.bus.token("zenav/r1/alive/motor")
+    rig.step()
+    assert rig.nav.status == "ok" and reply(rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0})).goal_id == 1
+
+
+def test_diag_reports_error_while_a_goal_is_wanted_without_a_pose():
+    r = Rig()
+    assert reply(r.query("nav/move_to_point", {"x": 1.0, "y": 0.0})).error == "unavailable"
+    r.step(10, poses=False)
+    diag = r.nav.diag(r.clock.now())
+    assert diag.status == "error" and "no pose" in diag.message
+    r.step()  # a pose comes: the goal can be driven again
+    assert r.nav.status == "ok"
+    r.nav.close()
+
+
+def test_a_stale_pose_under_a_running_goal_is_an_error_until_poses_return(rig):
+    rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0})
+    rig.step(60, poses=False)
+    assert rig.nav.machine.result == "aborted" and rig.nav.status == "error" and "stale" in rig.nav.status_message
+    rig.step()
+    assert rig.nav.status == "ok"

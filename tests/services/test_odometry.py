@@ -1,9 +1,10 @@
 """The odometry service on the in-memory bus with a manual clock."""
+
 import math
 
 import pytest
 
-from zenav.common import codec, keys
+from tests.support.rig import Rig
 from zenav.common import messages as m
 from zenav.common.app import main
 from zenav.common.bus import MemoryBus
@@ -16,51 +17,37 @@ DT = 0.01
 
 
 def make(clock=None, **odometry):
-    bus, clock = MemoryBus(), clock or ManualClock()
-    svc = Odometry(Settings.load(None, odometry=odometry), bus, clock)
-    svc.start()
-    svc.drain()
-    return svc, bus, clock
+    return Rig(Odometry, clock=clock, odometry=odometry)
 
 
-def odoms(bus):
-    return [codec.decode(d, m.Odom) for k, d in bus.published if k == keys.key("r1", "odom")]
-
-
-def diag(svc, bus, clock):
-    clock.advance(1.0)
-    svc.drain()
-    return [codec.decode(d, m.Diag) for k, d in bus.published if k == keys.key("r1", "diag/odometry")][-1]
-
-
-def put(bus, suffix, msg):
-    bus.publish(f"zenav/r1/{suffix}", codec.encode(msg))
+def diag(rig):
+    rig.advance(1.0)
+    return rig.got("diag/odometry")[-1]
 
 
 def ticks(angle):
     return math.floor(angle / (2.0 * math.pi) * TPR)
 
 
-def drive(svc, bus, clock, seconds, v, omega, gyro_bias=0.0, compass_offset=None, imu=True, start=(0.0, 0.0, 0.0)):
+def drive(rig, seconds, v, omega, gyro_bias=0.0, compass_offset=None, imu=True, start=(0.0, 0.0, 0.0)):
     """Publish encoder (and IMU, compass) samples of a constant (v, omega); returns the wheel angles."""
     al, ar, heading = start
     wl, wr = (v - omega * L / 2) / R, (v + omega * L / 2) / R
     for _ in range(round(seconds / DT)):
-        t = clock.advance(DT)
+        t = rig.clock.advance(DT)
         al, ar, heading = al + wl * DT, ar + wr * DT, heading + omega * DT
         if imu:
-            put(bus, "sensors/imu", m.Imu(t=t, gyro_z=omega + gyro_bias, accel_x=0.0, accel_y=v * omega))
+            rig.put("sensors/imu", m.Imu(t=t, gyro_z=omega + gyro_bias, accel_x=0.0, accel_y=v * omega))
         if compass_offset is not None and round(t / DT) % 10 == 0:
-            put(bus, "sensors/compass", m.Compass(t=t, heading=heading + compass_offset))
-        put(bus, "sensors/encoders", m.Encoders(t=t, left=ticks(al), right=ticks(ar)))
-        svc.drain()
+            rig.put("sensors/compass", m.Compass(t=t, heading=heading + compass_offset))
+        rig.put("sensors/encoders", m.Encoders(t=t, left=ticks(al), right=ticks(ar)))
     return al, ar, heading
 
 
 def test_one_odom_per_encoder_sample_with_its_t():
-    svc, bus, clock = make(heading_source="encoders")
-    drive(svc, bus, clock, 1.0, 0.2, 0.0)
-    out = odoms(bus)
+    rig = make(heading_source="encoders")
+    drive(rig, 1.0, 0.2, 0.0)
+    out = rig.got("odom")
     assert len(out) == 99  # the first sample is the baseline
     assert [o.t for o in out] == pytest.approx([(i + 2) * DT for i in range(99)])
     assert all(o.frame == "odom" and len(o.cov) == 9 for o in out)
@@ -69,78 +56,74 @@ def test_one_odom_per_encoder_sample_with_its_t():
 
 def test_only_the_heading_source_topics_are_subscribed():
     for source, expect_in in (("encoders", 100), ("gyro", 200), ("compass", 110)):
-        svc, bus, clock = make(heading_source=source)
-        drive(svc, bus, clock, 1.0, 0.2, 0.0, compass_offset=0.0)
-        assert svc.counters.values["msgs_in"] == expect_in, source
-        svc.close()
+        rig = make(heading_source=source)
+        drive(rig, 1.0, 0.2, 0.0, compass_offset=0.0)
+        assert rig.svc.counters.values["msgs_in"] == expect_in, source
+        rig.close()
 
 
 def test_duplicate_and_out_of_order_samples_are_counted_stale():
-    svc, bus, clock = make(heading_source="encoders")
-    drive(svc, bus, clock, 0.5, 0.2, 0.0)
-    n = len(odoms(bus))
-    put(bus, "sensors/encoders", m.Encoders(t=clock.t, left=999, right=999))
-    put(bus, "sensors/encoders", m.Encoders(t=clock.t - 0.2, left=0, right=0))
-    svc.drain()
-    assert len(odoms(bus)) == n and svc.counters.values["dropped_stale"] == 2
+    rig = make(heading_source="encoders")
+    drive(rig, 0.5, 0.2, 0.0)
+    n = len(rig.got("odom"))
+    rig.put("sensors/encoders", m.Encoders(t=rig.t, left=999, right=999))
+    rig.put("sensors/encoders", m.Encoders(t=rig.t - 0.2, left=0, right=0))
+    assert len(rig.got("odom")) == n and rig.svc.counters.values["dropped_stale"] == 2
 
 
 def test_encoder_reset_rebaselines_and_is_counted():
-    svc, bus, clock = make(heading_source="encoders")
-    drive(svc, bus, clock, 0.5, 0.2, 0.0)
-    x = odoms(bus)[-1].x
-    put(bus, "sensors/encoders", m.Encoders(t=clock.advance(DT), left=0, right=0))  # the counters restarted
-    put(bus, "sensors/encoders", m.Encoders(t=clock.advance(DT), left=2, right=2))
-    svc.drain()
-    assert svc.counters.values["encoder_resets"] == 1
-    assert odoms(bus)[-1].x == pytest.approx(x + 2 * math.pi * 2 * R / TPR)
+    rig = make(heading_source="encoders")
+    drive(rig, 0.5, 0.2, 0.0)
+    x = rig.got("odom")[-1].x
+    rig.put("sensors/encoders", m.Encoders(t=rig.clock.advance(DT), left=0, right=0))  # the counters restarted
+    rig.put("sensors/encoders", m.Encoders(t=rig.clock.advance(DT), left=2, right=2))
+    assert rig.svc.counters.values["encoder_resets"] == 1
+    assert rig.got("odom")[-1].x == pytest.approx(x + 2 * math.pi * 2 * R / TPR)
 
 
 def test_gyro_source_with_bias_learnt_at_rest():
-    svc, bus, clock = make(heading_source="gyro")
+    rig = make(heading_source="gyro")
     bias = math.radians(0.5)
-    drive(svc, bus, clock, 1.0, 0.0, 0.0, gyro_bias=bias)
-    drive(svc, bus, clock, math.pi, 0.0, 0.5, gyro_bias=bias)
+    drive(rig, 1.0, 0.0, 0.0, gyro_bias=bias)
+    drive(rig, math.pi, 0.0, 0.5, gyro_bias=bias)
     # 314 samples of 0.5 rad/s; the trapezoid rule lags half a sample while the rate steps up
-    assert odoms(bus)[-1].theta == pytest.approx(0.5 * 3.14 - 0.5 * 0.5 * DT, abs=1e-6)
-    assert diag(svc, bus, clock).status == "ok"
+    assert rig.got("odom")[-1].theta == pytest.approx(0.5 * 3.14 - 0.5 * 0.5 * DT, abs=1e-6)
+    assert diag(rig).status == "ok"
 
 
 def test_gyro_silent_degrades_to_encoders():
-    svc, bus, clock = make(heading_source="gyro")
-    drive(svc, bus, clock, 0.5, 0.2, 0.0)
-    drive(svc, bus, clock, 1.0, 0.2, 0.3, imu=False, start=(0.5 * 0.2 / R, 0.5 * 0.2 / R, 0.0))
-    assert svc.counters.values["heading_fallback"] > 0
-    d = diag(svc, bus, clock)
+    rig = make(heading_source="gyro")
+    drive(rig, 0.5, 0.2, 0.0)
+    drive(rig, 1.0, 0.2, 0.3, imu=False, start=(0.5 * 0.2 / R, 0.5 * 0.2 / R, 0.0))
+    assert rig.svc.counters.values["heading_fallback"] > 0
+    d = diag(rig)
     assert d.status == "degraded" and "gyro" in d.message
     # the last rate (0) is held for imu_timeout = 0.1 s, then the encoders' heading: 0.9 x 0.3 rad
-    assert odoms(bus)[-1].theta == pytest.approx(0.27, abs=0.01)
+    assert rig.got("odom")[-1].theta == pytest.approx(0.27, abs=0.01)
 
 
 def test_compass_source_at_full_gain_is_absolute_in_the_odom_frame():
-    svc, bus, clock = make(heading_source="compass", compass_gain=1.0)
-    drive(svc, bus, clock, 1.0, 0.0, 0.0, compass_offset=2.0)  # the robot faces 2 rad in the map
-    drive(svc, bus, clock, 2.0, 0.1, 0.4, compass_offset=2.0)
-    o = odoms(bus)[-1]
-    assert svc.state.compass.offset == pytest.approx(2.0)
+    rig = make(heading_source="compass", compass_gain=1.0)
+    drive(rig, 1.0, 0.0, 0.0, compass_offset=2.0)  # the robot faces 2 rad in the map
+    drive(rig, 2.0, 0.1, 0.4, compass_offset=2.0)
+    o = rig.got("odom")[-1]
+    assert rig.svc.state.compass.offset == pytest.approx(2.0)
     assert o.theta == pytest.approx(0.8, abs=1e-6)  # the latest compass sample is exact at t
     assert o.cov[8] == pytest.approx(0.05**2, rel=0.01)
 
 
 def test_sim_restart_starts_a_new_baseline():
-    clock = SimClock()
-    svc, bus, _ = make(clock, heading_source="encoders")
-    put(bus, "clock", m.Clock(t=50.0))
+    rig = make(SimClock(), heading_source="encoders")
+    rig.put("clock", m.Clock(t=50.0))
     for i in range(5):
-        put(bus, "sensors/encoders", m.Encoders(t=50.0 + i * DT, left=100 * i, right=100 * i))
-    put(bus, "clock", m.Clock(t=0.01))  # the sim restarted: time and counters start again
+        rig.put("sensors/encoders", m.Encoders(t=50.0 + i * DT, left=100 * i, right=100 * i))
+    rig.put("clock", m.Clock(t=0.01))  # the sim restarted: time and counters start again
     for i in range(1, 4):
-        put(bus, "sensors/encoders", m.Encoders(t=i * DT, left=i, right=i))
-    svc.drain()
-    last = odoms(bus)[-1]
+        rig.put("sensors/encoders", m.Encoders(t=i * DT, left=i, right=i))
+    last = rig.got("odom")[-1]
     assert last.t == pytest.approx(0.03) and last.x == pytest.approx(2 * math.pi * 2 * R / TPR)
-    assert svc.counters.values["dropped_stale"] == 0
-    svc.close()
+    assert rig.svc.counters.values["dropped_stale"] == 0
+    rig.close()
 
 
 @pytest.mark.parametrize("key, value", [("integrator", "rk5"), ("heading_source", "sun"), ("noise_k_left", -1.0)])

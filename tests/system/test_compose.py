@@ -1,71 +1,27 @@
 """`docker compose up`: the whole stack in containers, driven from the host through the published port."""
+
 from __future__ import annotations
 
 import math
 import os
-import shutil
-import subprocess
-import sys
 import threading
 import time
-from pathlib import Path
 
 import pytest
 import zenoh
 
-from tests.system.rawclient import RawClient
-from zenav.common.keys import SERVICES
-from zenav.common.stack import free_port
+from tests.support.docker import IMAGE, REPO, build_images, compose_command, run
+from tests.support.rawclient import RawClient
+from zenav.services import NAMES
+from zenav.stack.inprocess import free_port
 
 pytestmark = [pytest.mark.docker, pytest.mark.timeout(900)]
 
-REPO = Path(__file__).resolve().parents[2]
-BASE = os.environ.get("ZENAV_BASE", "zenav-base:bookworm")  # built by docker/build-base-image.sh if absent
-IMAGE = "zenav:test"
 START_TIMEOUT = 120.0  # [s] compose up to every liveliness token
 GOAL = (0.5, 0.0)  # [m] map frame
 GOAL_TOLERANCE = 0.10  # [m] the navigator's tolerance plus localization error
 STOP_WITHIN = 1.0  # [s] kill of the navigator to a stopped robot
 STOPPED_SPEED = 0.02  # [m/s] |truth v| that counts as stopped
-
-
-def compose_command() -> list[str]:
-    """`docker compose` (v2) if present, else `docker-compose` (v1); skip if neither."""
-    if subprocess.run(["docker", "compose", "version"], capture_output=True).returncode == 0:
-        return ["docker", "compose"]
-    if shutil.which("docker-compose"):
-        return ["docker-compose"]
-    pytest.skip("neither `docker compose` nor `docker-compose` is installed")
-
-
-@pytest.fixture(scope="module")
-def engine():
-    """A docker SDK client of an engine that answers; skip otherwise."""
-    docker = pytest.importorskip("docker", reason="the docker Python SDK is not installed (pip install docker)")
-    if not shutil.which("docker"):
-        pytest.skip("the docker command is not installed")
-    # Asked with the CLI first: the SDK leaks a socket when no engine answers.
-    version = subprocess.run(["docker", "version", "--format", "{{.Server.Version}}"], capture_output=True, text=True)
-    if version.returncode != 0:
-        pytest.skip(f"no Docker engine answers: {version.stderr.strip()}")
-    client = docker.from_env()
-    yield client
-    client.close()
-
-
-def run(cmd: list[str], env: dict | None = None, timeout: float = 600) -> None:
-    """Run a build or compose command; fail with its output if it fails."""
-    proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=timeout)
-    assert proc.returncode == 0, f"{' '.join(cmd)} exited {proc.returncode}:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
-
-
-def build_images(engine) -> float:
-    """Build the base image if absent and the zenav image from this checkout; its size [MB]."""
-    if BASE == "zenav-base:bookworm":
-        run([str(REPO / "docker" / "build-base-image.sh"), BASE], timeout=1200)
-    env = {**os.environ, "ZENAV_IMAGE": IMAGE, "ZENAV_BASE": BASE, "PYTHON": sys.executable}
-    run([str(REPO / "docker" / "build-image.sh")], env=env)
-    return engine.images.get(IMAGE).attrs["Size"] / 1e6
 
 
 class Tokens:
@@ -123,7 +79,7 @@ def test_compose_stack_drives_the_robot_and_survives_a_crash(engine):
         run([*cmd, "up", "--detach", "--no-build"], env=env)
         client = RawClient(f"tcp/127.0.0.1:{port}")
         tokens = Tokens(client)
-        tokens.wait(lambda alive: alive >= set(SERVICES), START_TIMEOUT - (time.monotonic() - t0))
+        tokens.wait(lambda alive: alive >= set(NAMES), START_TIMEOUT - (time.monotonic() - t0))
         start_s = time.monotonic() - t0
         client.follow("sim/truth", keep=True)
         client.follow("pose")
@@ -131,7 +87,8 @@ def test_compose_stack_drives_the_robot_and_survives_a_crash(engine):
         client.wait_nav_ready(timeout=30)
 
         # a goal through the published port: the reply says succeeded, the truth agrees
-        ok, reply = client.query("nav/move_to_point", {"x": GOAL[0], "y": GOAL[1], "wait": True}, timeout=60)
+        # 3 cm: the final re-check judges a fused pose that late fixes move (this test is about the deployment)
+        ok, reply = client.query("nav/move_to_point", {"x": GOAL[0], "y": GOAL[1], "tolerance": 0.03, "wait": True}, timeout=60)
         assert ok, reply
         assert reply["result"] == "succeeded", reply
         truth = client.wait(lambda latest: speed(latest) < STOPPED_SPEED, timeout=5)["sim/truth"]
@@ -139,7 +96,7 @@ def test_compose_stack_drives_the_robot_and_survives_a_crash(engine):
         assert goal_error < GOAL_TOLERANCE, truth
 
         # the navigator crashes while driving: the robot stops within 1 s, the navigator comes back
-        ok, reply = client.query("nav/move_to_point", {"x": 3.0, "y": 0.0}, timeout=10)
+        ok, reply = client.query("nav/move_to_point", {"x": 2.5, "y": 0.0}, timeout=10)
         assert ok, reply
         client.wait(lambda latest: speed(latest) > 0.05, timeout=10)
         (navigator,) = engine.containers.list(filters={"label": [in_project, "com.docker.compose.service=navigator"]})

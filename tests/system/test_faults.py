@@ -1,4 +1,5 @@
 """Faults injected for real: kill -9 each service mid-goal, and restart the router."""
+
 from __future__ import annotations
 
 import math
@@ -11,11 +12,11 @@ import time
 
 import pytest
 
-from tests.system import goals
-from tests.system.test_up import service_pid
-from zenav.common.client import Client, ClientError
-from zenav.common.keys import SERVICES
-from zenav.common.stack import free_port
+from tests.support import goals
+from tests.support.procs import Stack, service_pid
+from zenav.common.client import Client, ZenavError
+from zenav.services import NAMES
+from zenav.stack.inprocess import free_port
 
 pytestmark = pytest.mark.system
 
@@ -26,41 +27,10 @@ RESTART_WITHIN = 2.0  # [s] wall time for the launcher to bring the service back
 NEEDED_FOR_MOTION = ("navigator", "motor", "localizer", "odometry")
 
 
-class Stack:
-    """`zenav up` as a process tree, with a client on its router."""
-
-    def __init__(self, tmp, extra=(), connect=None, duration: float = 600.0) -> None:
-        self.endpoint = connect or f"tcp/127.0.0.1:{free_port()}"
-        where = ["--connect", self.endpoint] if connect else ["--listen", self.endpoint]
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "zenav.cli", "up", *where, "--log-dir", str(tmp), "--duration", str(duration), *extra],
-            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        )
-        self.client = Client("r1", self.endpoint)
-        self.truth = self.client.latest("sim/truth")
-        self.nav = self.client.latest("nav/state")
-        self.speeds: list[tuple[float, float]] = []  # (t, |v|) of every truth sample
-        self.client.subscribe("sim/truth", lambda msg: self.speeds.append((msg.t, abs(msg.v))))
-
-    def diag(self, name):
-        return self.client.latest(f"diag/{name}")
-
-    def close(self) -> str:
-        self.client.close()
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-        try:
-            out, _ = self.proc.communicate(timeout=60)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            out, _ = self.proc.communicate()
-        return out
-
-
 @pytest.fixture(scope="module")
 def stack(tmp_path_factory):
     s = Stack(tmp_path_factory.mktemp("faults"))
-    s.client.wait_alive(SERVICES, timeout=90)
+    s.client.wait_alive(NAMES, timeout=90)
     yield s
     print(s.close())
 
@@ -80,8 +50,9 @@ class TokenEvents:
 
     def wait_gone_and_back(self, timeout: float) -> None:
         """Block until the token went away and came back after that."""
+
         def back() -> bool:
-            return False in self.events and True in self.events[self.events.index(False):]
+            return False in self.events and True in self.events[self.events.index(False) :]
 
         with self.cond:
             assert self.cond.wait_for(back, timeout), f"token events: {self.events}"
@@ -92,9 +63,9 @@ class TokenEvents:
 
 def start_goal(stack: Stack) -> int:
     """A long goal away from where the robot is; returns its id once the robot moves."""
-    goals.wait_ready(stack.client, stack.client, timeout=30)
+    goals.wait_ready(stack.client, timeout=30)
     tr = stack.truth.wait(timeout=10)
-    x = -1.5 if tr.x > 0 else 1.5
+    x = -0.75 if tr.x > 0.75 else 2.5  # inside the default [field] (-1 to 3 m), at least 1.5 m away
     rep = stack.client.query("nav/move_to_point", {"x": x, "y": tr.y}, timeout=10)
     stack.truth.wait(lambda t: abs(t.v) > 0.1, timeout=20)
     return rep.goal_id
@@ -102,7 +73,7 @@ def start_goal(stack: Stack) -> int:
 
 @pytest.mark.parametrize("name", ["navigator", "motor", "localizer", "odometry", "vps", "sim"])
 def test_kill_9_mid_goal(stack, name):
-    stack.client.wait_alive(SERVICES, timeout=30)
+    stack.client.wait_alive(NAMES, timeout=30)
     stack.diag(name).wait(timeout=10)
     goal = start_goal(stack)
     old_pid = service_pid(name, stack.endpoint)
@@ -125,13 +96,13 @@ def test_kill_9_mid_goal(stack, name):
             st = stack.nav.wait(lambda s: s.goal_id == goal and s.result is not None, timeout=10)
             assert st.result == "aborted" and st.message, st
     if name == "sim":  # the world restarted at t = 0: the whole stack follows, a goal works again
-        stack.client.wait_alive(SERVICES, timeout=30)
+        stack.client.wait_alive(NAMES, timeout=30)
         stack.client.latest("pose").wait(lambda p: p.t < 5.0, timeout=20)
-        rep = goals.move_to_point(stack.client, stack.client, 0.3, 0.0, timeout=60)
+        rep = goals.move_to_point(stack.client, 0.3, 0.0, timeout=60)
         assert rep.result == "succeeded", rep
     try:
         stack.client.query("nav/stop", timeout=5)
-    except ClientError:
+    except ZenavError:
         pass
 
 
@@ -148,7 +119,7 @@ def test_router_restart(tmp_path):
     assert "listening" in router.stderr.readline()
     stack = Stack(tmp_path, connect=endpoint)
     try:
-        stack.client.wait_alive(SERVICES, timeout=90)
+        stack.client.wait_alive(NAMES, timeout=90)
         start_goal(stack)
         sim_stops = stopped_by_sim(stack.diag("sim").wait(timeout=5))
         before = stack.truth.msg  # the last truth before the kill
@@ -159,7 +130,7 @@ def test_router_restart(tmp_path):
         router = subprocess.Popen(router_cmd, stderr=subprocess.PIPE, text=True)
         assert "listening" in router.stderr.readline()
         back = time.monotonic()  # services may be back already: they retry every 0.5 s at most
-        stack.client.wait_alive(SERVICES, timeout=30)
+        stack.client.wait_alive(NAMES, timeout=30)
         reconnected = time.monotonic() - back
         after = stack.truth.wait(lambda t: t.t > before.t + 3.0, timeout=10)
         # the sim stopped its wheels by itself: the motor's token went with the router
@@ -167,8 +138,10 @@ def test_router_restart(tmp_path):
         moved = math.hypot(after.x - before.x, after.y - before.y)
         assert moved < 0.10, f"robot moved {moved:.2f} m during a 3 s outage"
         stack.diag("sim").wait(lambda d: stopped_by_sim(d) > sim_stops, timeout=10)
-        print(f"router restart: all services back {reconnected:.2f} s after the router listened; "
-              f"robot moved {moved * 100:.1f} cm from t={before.t:.2f} (v={before.v:.3f}) to t={after.t:.2f}")
+        print(
+            f"router restart: all services back {reconnected:.2f} s after the router listened; "
+            f"robot moved {moved * 100:.1f} cm from t={before.t:.2f} (v={before.v:.3f}) to t={after.t:.2f}"
+        )
         assert reconnected <= 2.0, f"services back {reconnected:.2f} s after the router"
     finally:
         out = stack.close()

@@ -7,6 +7,7 @@ stand-in sessions declaring what the services would (a subscriber on cmd_vel,
 queryables on nav/*), then the six real services run under it as processes, and
 (docker suite) as the compose deployment.
 """
+
 from __future__ import annotations
 
 import json
@@ -15,41 +16,49 @@ import os
 import signal
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 
 import pytest
 import zenoh
 
-from tests.system import goals
-from tests.system import test_compose as compose
+from tests.support import docker as compose
+from tests.support import goals
+from tests.support.matching import Inbox, publish, wait_matching
 from zenav.common.bus import ZenohBus, zenoh_config
-from zenav.common.client import Client, ClientError
-from zenav.common.keys import QUERIES, SERVICES, TOPICS
-from zenav.common.stack import free_port
+from zenav.common.client import Client, Unavailable
+from zenav.common.keys import QUERIES
+from zenav.services import NAMES
+from zenav.stack.inprocess import free_port
 
 pytestmark = pytest.mark.system
 
 REPO = Path(__file__).resolve().parents[2]
-USERS = (*SERVICES, "operator", "viewer")
+USERS = (*NAMES, "operator-r1", "viewer")
 ROBOT = "zenav/r1"
 ROUTER_UP = 30.0  # [s] for the router process to accept a login
 REFUSED_WITHIN = 5.0  # [s] a refused login must fail by then
-QUIET = 0.5  # [s] a denied message must not arrive after the allowed ones did
 STACK_UP = 90.0  # [s] for six service processes to log in and declare their tokens
 GOAL = (0.3, 0.0)  # [m] map frame
 GOAL_TOLERANCE = 0.15  # [m] the navigator's tolerance plus localization error
 
 # Who may publish each topic and serve each query (the contract's tables).
 PUBLISHER = {
-    "clock": "sim", "sim/truth": "sim", "sensors/encoders": "sim", "sensors/imu": "sim",
-    "sensors/compass": "sim", "vps/pose": "vps", "odom": "odometry", "pose": "localizer",
-    "localizer/fixes": "localizer", "cmd_vel": "navigator", "nav/state": "navigator",
-    "motors/wheels": "motor", **{f"diag/{s}": s for s in SERVICES},
+    "clock": "sim",
+    "sim/truth": "sim",
+    "sensors/encoders": "sim",
+    "sensors/imu": "sim",
+    "sensors/compass": "sim",
+    "vps/pose": "vps",
+    "odom": "odometry",
+    "pose": "localizer",
+    "localizer/fixes": "localizer",
+    "cmd_vel": "navigator",
+    "nav/state": "navigator",
+    "motors/wheels": "motor",
+    **{f"diag/{s}": s for s in NAMES},
 }
 SERVER = {q: "localizer" if q.startswith("localizer/") else "sim" if q == "sim/reset" else "navigator" for q in QUERIES}
-engine = compose.engine  # the Docker engine fixture of the compose test
 
 
 def client_config(endpoint: str, config_file: str | None, timeout: float) -> zenoh.Config:
@@ -95,7 +104,10 @@ def secure_router(tmp_path_factory):
     env = {k: v for k, v in os.environ.items() if k != "ZENOH_CONFIG"}
     proc = subprocess.Popen(
         [sys.executable, "-m", "zenav.cli", "router", "--listen", endpoint, "--zenoh-config", str(secrets / "router.json5")],
-        env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
     )
     try:
         Deployment(endpoint, secrets).login("viewer", timeout=ROUTER_UP).close()  # retries until the router is up
@@ -120,56 +132,15 @@ def services(secure_router):
         name: subprocess.Popen(
             [sys.executable, "-m", f"zenav.services.{name}", "--connect", endpoint],
             env={**os.environ, "ZENOH_CONFIG": str(secrets / f"{name}.json5")},
-            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
         )
-        for name in SERVICES
+        for name in NAMES
     }
     yield procs
     for name, proc in procs.items():
         print(f"--- {name}\n{stop(proc)[-2000:]}")  # shown when a test fails
-
-
-class Inbox:
-    """(key, payload) of every sample a subscriber receives."""
-
-    def __init__(self) -> None:
-        self.cond = threading.Condition()
-        self.got: set[tuple[str, str]] = set()
-
-    def on_sample(self, s: zenoh.Sample) -> None:
-        with self.cond:
-            self.got.add((str(s.key_expr), s.payload.to_bytes().decode()))
-            self.cond.notify_all()
-
-    def settle(self, expected: set[tuple[str, str]], timeout: float = 10.0) -> set[tuple[str, str]]:
-        """Wait until `expected` arrived, then QUIET more seconds for anything else."""
-        with self.cond:
-            self.cond.wait_for(lambda: expected <= self.got, timeout)
-            self.cond.wait_for(lambda: False, QUIET)  # a denied sample would be here by now
-            return set(self.got)
-
-
-def wait_matching(entity: zenoh.Publisher | zenoh.Querier, timeout: float = 10.0) -> None:
-    """Block until a publisher (querier) knows a subscriber (queryable) it matches.
-
-    So a sample or query that does not arrive was refused by the router, not
-    filtered out by its sender for want of a receiver.
-    """
-    seen = threading.Event()
-    listener = entity.declare_matching_listener(lambda status: status.matching and seen.set())
-    try:
-        if not (entity.matching_status.matching or seen.wait(timeout)):
-            raise TimeoutError(f"nothing matches {entity.key_expr} after {timeout} s")
-    finally:
-        listener.undeclare()
-
-
-def publish(session: zenoh.Session, key: str, payload: str) -> None:
-    """Put once the sender knows a subscriber of `key`."""
-    pub = session.declare_publisher(key)
-    wait_matching(pub)
-    pub.put(payload)
-    pub.undeclare()
 
 
 def replied(session: zenoh.Session, suffix: str) -> bool:
@@ -189,7 +160,7 @@ def test_a_client_without_a_login_cannot_open_a_session(deployment):
     assert time.monotonic() - t0 < REFUSED_WITHIN
 
 
-@pytest.mark.parametrize("user, password", [("operator", "wrong"), ("intruder", "anything")])
+@pytest.mark.parametrize("user, password", [("operator-r1", "wrong"), ("intruder", "anything")])
 def test_a_wrong_password_or_an_unknown_user_is_refused(deployment, tmp_path, user, password):
     conf = tmp_path / "client.json5"
     conf.write_text(json.dumps({"transport": {"auth": {"usrpwd": {"user": user, "password": password}}}}))
@@ -201,7 +172,7 @@ def test_a_wrong_password_or_an_unknown_user_is_refused(deployment, tmp_path, us
 
 def test_a_non_operator_can_watch_but_cannot_move_the_robot(deployment):
     motor, viewer, navigator = deployment.login("motor"), deployment.login("viewer"), deployment.login("navigator")
-    localizer, operator = deployment.login("localizer"), deployment.login("operator")
+    localizer, operator = deployment.login("localizer"), deployment.login("operator-r1")
     commands, poses = Inbox(), Inbox()
     motor.declare_subscriber(f"{ROBOT}/cmd_vel", commands.on_sample)
     viewer.declare_subscriber(f"{ROBOT}/pose", poses.on_sample)
@@ -216,7 +187,7 @@ def test_a_non_operator_can_watch_but_cannot_move_the_robot(deployment):
     publish(localizer, f"{ROBOT}/pose", "localizer")
     assert poses.settle({(f"{ROBOT}/pose", "localizer")}) == {(f"{ROBOT}/pose", "localizer")}
 
-    for user, sender in (("viewer", viewer), ("operator", operator), ("navigator", navigator)):
+    for user, sender in (("viewer", viewer), ("operator-r1", operator), ("navigator", navigator)):
         publish(sender, f"{ROBOT}/cmd_vel", user)
     assert commands.settle({(f"{ROBOT}/cmd_vel", "navigator")}) == {(f"{ROBOT}/cmd_vel", "navigator")}
 
@@ -230,9 +201,9 @@ def test_each_topic_reaches_subscribers_only_from_its_publisher(deployment):
     deployment.login("viewer").declare_subscriber(f"{ROBOT}/**", inbox.on_sample)
     for user in USERS:
         sender = deployment.login(user)
-        for topic in TOPICS:
+        for topic in PUBLISHER:  # the sim stack's topics (the secure deployment has no driver)
             publish(sender, f"{ROBOT}/{topic}", user)
-    expected = {(f"{ROBOT}/{topic}", PUBLISHER[topic]) for topic in TOPICS}
+    expected = {(f"{ROBOT}/{topic}", PUBLISHER[topic]) for topic in PUBLISHER}
     assert inbox.settle(expected) == expected
 
 
@@ -244,14 +215,14 @@ def test_only_operators_query_nav_set_pose_and_reset_anyone_reads_the_pose(deplo
     for user in USERS:
         session = deployment.login(user)
         answered = {suffix for suffix in QUERIES if replied(session, suffix)}
-        assert answered == (set(QUERIES) if user == "operator" else {"localizer/pose"}), user
+        assert answered == (set(QUERIES) if user == "operator-r1" else {"localizer/pose"}), user
 
 
 def test_only_the_navigator_serves_nav_queries(deployment):
     """A session of any other user cannot answer nav/* (and so hijack the goals)."""
     for user in USERS:
         deployment.login(user).declare_queryable(f"{ROBOT}/nav/status", lambda q, u=user: q.reply(q.key_expr, u))
-    querier = deployment.login("operator").declare_querier(
+    querier = deployment.login("operator-r1").declare_querier(
         f"{ROBOT}/nav/status", target=zenoh.QueryTarget.ALL, consolidation=zenoh.ConsolidationMode.NONE, timeout=3.0
     )
     wait_matching(querier)
@@ -260,32 +231,31 @@ def test_only_the_navigator_serves_nav_queries(deployment):
 
 
 def test_only_a_service_declares_its_liveliness_and_only_operators_hold_leases(deployment):
-    # Each user declares every service's token under a robot id of its own name.
+    # Each user declares every service's token under a robot id of its own name, and a lease on r1.
     tokens = []  # a token lives as long as its handle
     for user in USERS:
         session = deployment.login(user)
-        for key in (*(f"zenav/{user}/alive/{svc}" for svc in SERVICES), f"zenav/{user}/lease/goal"):
+        for key in (*(f"zenav/{user}/alive/{svc}" for svc in NAMES), f"zenav/r1/lease/{user}"):
             tokens.append(session.liveliness().declare_token(key))
     inbox = Inbox()
     deployment.login("viewer").liveliness().declare_subscriber("zenav/**", inbox.on_sample, history=True)
-    expected = {*((f"zenav/{s}/alive/{s}", "") for s in SERVICES), ("zenav/operator/lease/goal", "")}
+    expected = {*((f"zenav/{s}/alive/{s}", "") for s in NAMES), ("zenav/r1/lease/operator-r1", "")}
     assert inbox.settle(expected) == expected
 
 
 def test_the_services_run_under_the_acl_and_only_an_operator_drives(deployment, services):
     viewer = Client("r1", bus=ZenohBus(deployment.login("viewer")))
-    operator = Client("r1", bus=ZenohBus(deployment.login("operator")))
-    viewer.wait_alive(SERVICES, timeout=STACK_UP)
-    for svc in SERVICES:  # each publishes its own diag
+    operator = Client("r1", bus=ZenohBus(deployment.login("operator-r1")))
+    viewer.wait_alive(NAMES, timeout=STACK_UP)
+    for svc in NAMES:  # each publishes its own diag
         viewer.latest(f"diag/{svc}").wait(timeout=STACK_UP)
     viewer.latest("pose").wait(timeout=STACK_UP)
     assert viewer.query("localizer/pose").t >= 0.0
 
-    with pytest.raises(ClientError) as refused:
+    with pytest.raises(Unavailable):  # no reply: the router dropped the query
         viewer.query("nav/move_to_point", {"x": GOAL[0], "y": GOAL[1]})
-    assert refused.value.code == "unavailable"  # no reply: the router dropped the query
 
-    reply = goals.move_to_point(operator, viewer, *GOAL, timeout=STACK_UP)
+    reply = goals.move_to_point(operator, *GOAL, timeout=STACK_UP)
     assert reply.result == "succeeded", reply
     truth = viewer.latest("sim/truth").wait(timeout=5.0)
     assert math.hypot(truth.x - GOAL[0], truth.y - GOAL[1]) < GOAL_TOLERANCE
@@ -301,20 +271,27 @@ def test_the_secure_compose_deployment(engine, tmp_path):
     subprocess.run(["sh", str(REPO / "docker" / "make-secrets.sh"), "-d", str(secrets)], check=True, capture_output=True, timeout=30)
     port = free_port()
     env = {**os.environ, "ZENAV_IMAGE": compose.IMAGE, "ZENAV_PORT": str(port), "ZENAV_SECRETS": str(secrets)}
-    cmd = [*compose_command, "--project-name", f"zenavsecure{os.getpid()}", "--file", str(REPO / "docker-compose.yml"),
-           "--file", str(REPO / "docker" / "secure" / "compose.yml")]
-    dep = Deployment(f"tcp/127.0.0.1:{port}", secrets)
+    cmd = [
+        *compose_command,
+        "--project-name",
+        f"zenavsecure{os.getpid()}",
+        "--file",
+        str(REPO / "docker-compose.yml"),
+        "--file",
+        str(REPO / "docker" / "secure" / "compose.yml"),
+    ]
+    dep = Deployment(f"tls/127.0.0.1:{port}", secrets)
     try:
         compose.run([*cmd, "up", "--detach", "--no-build"], env=env)
         viewer = Client("r1", bus=ZenohBus(dep.login("viewer", timeout=ROUTER_UP)))
-        operator = Client("r1", bus=ZenohBus(dep.login("operator")))
+        operator = Client("r1", bus=ZenohBus(dep.login("operator-r1")))
         with pytest.raises(zenoh.ZError):
             zenoh.open(client_config(dep.endpoint, None, 1.0))
-        viewer.wait_alive(SERVICES, timeout=STACK_UP)
+        viewer.wait_alive(NAMES, timeout=STACK_UP)
         viewer.latest("pose").wait(timeout=STACK_UP)
-        with pytest.raises(ClientError):
+        with pytest.raises(Unavailable):
             viewer.query("nav/move_to_point", {"x": GOAL[0], "y": GOAL[1]})
-        reply = goals.move_to_point(operator, viewer, *GOAL, timeout=STACK_UP)
+        reply = goals.move_to_point(operator, *GOAL, timeout=STACK_UP)
         assert reply.result == "succeeded", reply
     finally:
         dep.close()

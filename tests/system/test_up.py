@@ -1,4 +1,5 @@
 """`zenav up` as real processes through its router, seen by a zenoh + msgpack client."""
+
 from __future__ import annotations
 
 import math
@@ -7,28 +8,15 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 
-from tests.system.rawclient import RawClient
-from zenav.common.keys import SERVICES
-from zenav.common.stack import free_port
+from tests.support.procs import service_pid
+from tests.support.rawclient import RawClient
+from zenav.services import NAMES
+from zenav.stack.inprocess import free_port
 
 pytestmark = pytest.mark.system
-
-
-def service_pid(name: str, endpoint: str) -> int:
-    """The pid of the service process started with this router endpoint."""
-    for d in Path("/proc").iterdir():
-        if d.name.isdigit():
-            try:
-                cmd = (d / "cmdline").read_bytes().split(b"\0")
-            except OSError:
-                continue
-            if f"zenav.services.{name}".encode() in cmd and endpoint.encode() in cmd:
-                return int(d.name)
-    raise LookupError(name)
 
 
 @pytest.fixture(params=["client", "peer"])
@@ -36,9 +24,25 @@ def up(tmp_path, request):
     """`zenav up` with the services as router clients, or as peers that also link directly."""
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "zenav.cli", "up", "--listen", endpoint, "--log-dir", str(tmp_path), "--set", "sim.rtf=2.0",
-         "--duration", "240", "--zenoh-mode", request.param],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        [
+            sys.executable,
+            "-m",
+            "zenav.cli",
+            "up",
+            "--listen",
+            endpoint,
+            "--log-dir",
+            str(tmp_path),
+            "--set",
+            "sim.rtf=2.0",
+            "--duration",
+            "240",
+            "--zenoh-mode",
+            request.param,
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
     )
     client = RawClient(endpoint)
     yield proc, client, endpoint
@@ -60,9 +64,9 @@ def test_up_serves_the_contract_to_a_plain_client(up, tmp_path):
     for suffix in ("sim/truth", "odom", "motors/wheels"):
         c.follow(suffix, keep=True)
     # every service's token and diag
-    c.wait(lambda latest: all(f"diag/{s}" in latest for s in SERVICES), timeout=90)
-    assert c.alive() == set(SERVICES)
-    for s in SERVICES:
+    c.wait(lambda latest: all(f"diag/{s}" in latest for s in NAMES), timeout=90)
+    assert c.alive() == set(NAMES)
+    for s in NAMES:
         d = c.latest[f"diag/{s}"]
         assert d["service"] == s and {"msgs_in", "msgs_out", "bad_input", "dropped_stale"} <= set(d["counters"])
     # drive with cmd_vel (t = 0: a client without the stack clock), watch odom follow truth

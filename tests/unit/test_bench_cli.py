@@ -1,12 +1,13 @@
 """`zenav bench` arguments: the plan they select and the command the report names."""
+
 from __future__ import annotations
 
 import argparse
 
 import pytest
 
+from zenav.bench import plan
 from zenav.cli import bench as cli
-from zenav.tools import bench
 
 
 def parse(*argv: str) -> argparse.Namespace:
@@ -15,18 +16,18 @@ def parse(*argv: str) -> argparse.Namespace:
     return parser.parse_args(["bench", *argv])
 
 
-def test_defaults_write_the_full_report_to_docs_bench():
+def test_defaults_write_the_full_report_to_a_scratch_directory():
     args = parse()
-    assert (args.quick, args.only, str(args.out), args.func) == (False, None, "docs/bench", cli.run)
-    assert cli.command_line(args) == "zenav bench --out docs/bench"
+    assert (args.quick, args.only, str(args.out), args.func) == (False, None, "bench-report", cli.run)
+    assert cli.command_line(args) == "zenav bench --out bench-report"
 
 
 def test_quick_and_sections_are_named_in_the_command():
     args = parse("--quick", "--only", "latency", "--only", "cost", "--rtf", "2", "--out", "/tmp/b")
     assert cli.command_line(args) == "zenav bench --quick --only latency --only cost --rtf 2 --out /tmp/b"
-    plan = bench.only(bench.QUICK, args.only)
-    assert plan.sections == ("latency", "cost") and plan.limit == 120.0
-    assert bench.only(bench.FULL, None).sections == bench.SECTIONS
+    chosen = plan.only(plan.QUICK, args.only)
+    assert chosen.sections == ("latency", "cost") and chosen.limit == 120.0
+    assert plan.only(plan.FULL, None).sections == plan.SECTIONS
 
 
 def test_an_unknown_section_is_refused(capsys):

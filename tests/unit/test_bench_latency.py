@@ -1,14 +1,13 @@
-"""The latency arithmetic of the bench: stages add up to end to end, percentiles, /proc reading."""
+"""The latency arithmetic of the bench: stages add up to end to end, and percentiles."""
+
 from __future__ import annotations
 
 import math
-import os
 
 import pytest
 
+from zenav.bench.latency import CHAIN, END_TO_END, STAGES, ChainRecorder, Stats
 from zenav.common import messages as m
-from zenav.tools.bench_latency import CHAIN, END_TO_END, STAGES, ChainRecorder, Stats
-from zenav.tools.bench_proc import read_proc
 
 
 class FakeClient:
@@ -26,7 +25,7 @@ def test_stages_split_end_to_end_exactly(monkeypatch):
     rec = ChainRecorder(client)
     rec.recording = True
     wall = [1000.0]
-    monkeypatch.setattr("zenav.tools.bench_latency.time.time", lambda: wall[0])
+    monkeypatch.setattr("zenav.bench.latency.time.time", lambda: wall[0])
     steps = {"sensors/encoders": 0.001, "odom": 0.002, "pose": 0.0005, "cmd_vel": 0.0007, "motors/wheels": 0.0004}  # [s]
     for t in (0.01, 0.02, 0.03):
         client.callbacks["clock"](m.Clock(t=t, wall=wall[0]))
@@ -62,11 +61,3 @@ def test_stats_percentiles_and_empty():
     assert st.p50 == pytest.approx(50.5) and st.p99 == pytest.approx(99.01)
     empty = Stats.of([])
     assert empty.n == 0 and math.isnan(empty.p50)
-
-
-def test_read_proc_sees_this_process_work():
-    before = read_proc(os.getpid())
-    sum(i * i for i in range(2_000_000))  # burn some CPU
-    after = read_proc(os.getpid())
-    assert after.cpu > before.cpu
-    assert 10 * 2**20 < after.rss < 10 * 2**30

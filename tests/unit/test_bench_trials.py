@@ -1,12 +1,14 @@
 """Scoring a recorded run: localization error after the warm-up, goal errors against the truth."""
+
 from __future__ import annotations
 
 import math
 
 import pytest
 
+from zenav.bench.scoring import score
+from zenav.bench.trials import GoalEnd, Recorder, Trial
 from zenav.common import messages as m
-from zenav.tools.bench_trials import GoalEnd, Recorder, Trial, score
 
 
 class FakeClient:
@@ -40,12 +42,15 @@ def test_score_skips_the_warm_up_and_measures_the_rest():
 
 def test_goal_errors_use_the_truth_when_the_goal_ended():
     client, rec = recorder_driving_east()
-    trial = Trial(rec, [
-        GoalEnd("point", (0.5, 0.0), "succeeded", 0.0, 5.0),
-        GoalEnd("point", (9.0, 9.0), "aborted", 5.0, 6.0, "no progress"),
-        GoalEnd("turn", (0.5,), "succeeded", 6.0, 7.55),
-        GoalEnd("path", (1.0, 0.0), "succeeded", 0.0, 9.0),
-    ])
+    trial = Trial(
+        rec,
+        [
+            GoalEnd("point", (0.5, 0.0), "succeeded", 0.0, 5.0),
+            GoalEnd("point", (9.0, 9.0), "aborted", 5.0, 6.0, "no progress"),
+            GoalEnd("turn", (0.5,), "succeeded", 6.0, 7.55),
+            GoalEnd("path", (1.0, 0.0), "succeeded", 0.0, 9.0),
+        ],
+    )
     assert trial.errors("point") == [pytest.approx(0.0, abs=1e-9)]
     assert trial.errors("turn") == [pytest.approx(0.255)]
     assert trial.errors("path") == [pytest.approx(0.1)]
@@ -58,7 +63,15 @@ def test_fixes_carry_the_time_the_localizer_received_them():
     client.callbacks["vps/pose"](fix)
     client.callbacks["vps/pose"](m.VpsPose(t=0.6, x=0.06, y=0.0, theta=0.06))  # never reached the localizer
     client.callbacks["localizer/fixes"](
-        m.Fix(t=0.5, t_arrival=0.81, latency=0.31, replay_depth=31, innovation=(0.0, 0.0, 0.0), mahalanobis_d2=0.1,
-              accepted=True, reason="accepted")
+        m.Fix(
+            t=0.5,
+            t_arrival=0.81,
+            latency=0.31,
+            replay_depth=31,
+            innovation=(0.0, 0.0, 0.0),
+            mahalanobis_d2=0.1,
+            accepted=True,
+            reason="accepted",
+        )
     )
     assert rec.fixes() == [(0.81, fix)]

@@ -1,5 +1,7 @@
 """Configuration: defaults in code, documented in config/default.toml, bad values fail fast."""
+
 import re
+from importlib.resources import files
 from pathlib import Path
 
 import msgspec
@@ -7,12 +9,12 @@ import pytest
 
 from zenav import services
 from zenav.common.app import parse_sets
-from zenav.common.config import ConfigError, Deployment, Robot, Settings
+from zenav.common.config import Camera, ConfigError, Deployment, Robot, Settings
 from zenav.common.keys import SERVICES
 from zenav.common.scenarios import PRESETS, Scenario
 
 DEFAULT_TOML = Path(__file__).resolve().parents[2] / "config" / "default.toml"
-SECTION_TYPES = {"deployment": Deployment, "robot": Robot, **{n: services.load(n).config_type for n in SERVICES}}
+SECTION_TYPES = {"deployment": Deployment, "robot": Robot, "camera": Camera, **{n: services.load(n).config_type for n in SERVICES}}
 
 
 def documented_keys(text: str) -> dict[str, set[str]]:
@@ -100,3 +102,21 @@ def test_set_overrides_parse_toml_values():
 def test_scenario_is_typed():
     with pytest.raises(msgspec.ValidationError):
         msgspec.convert({"ticks_per_rev": 0}, Scenario)
+
+
+@pytest.mark.parametrize(
+    "name, source", [("default.toml", DEFAULT_TOML), ("foxglove-layout.json", DEFAULT_TOML.parents[1] / "docs" / "foxglove-layout.json")]
+)
+def test_the_package_ships_the_documented_files(name, source):
+    shipped = files("zenav") / "data" / name
+    assert shipped.read_text() == source.read_text()
+
+
+@pytest.mark.parametrize(
+    "values, words",
+    [({"pid_gains": [20, 12, 0, 0]}, "pid_gains"), ({"baud": 12}, "baud"), ({"sensor_rate": 0.0}, "sensor_rate")],
+)
+def test_driver_section_refuses_bad_values(values, words):
+    typ = services.load("driver").config_type
+    with pytest.raises(ConfigError, match=rf"\[driver\].*{words}"):
+        Settings.load(None, driver=values).section("driver", typ)

@@ -5,20 +5,30 @@ another exception; a value the contract forbids (wrong type, NaN, inf, out of
 range, too long, missing, unknown in a request) must fail. Deterministic
 (derandomized), so CI sees the same payloads on every run.
 """
+
 from __future__ import annotations
 
 import math
 import time
-from typing import Optional
 
 import msgspec.inspect as mi
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tests.unit.test_fuzz_payloads import (
-    ALL_TYPES, FUZZ, REQUEST_TYPES, TOPIC_TYPES, Case, bounds, encode, ids, leaks_unicode_error, malformed, malformed_params,
-    minimal, not_utf8_payloads, raw_map, text_sites,
+from tests.support.fuzz import (
+    ALL_TYPES,
+    FUZZ,
+    REQUEST_TYPES,
+    TOPIC_TYPES,
+    Case,
+    encode,
+    ids,
+    malformed,
+    malformed_params,
+    minimal,
+    not_utf8_payloads,
+    raw_map,
 )
 from zenav.common import codec
 
@@ -45,7 +55,7 @@ def check(typ: type, case: Case) -> None:
     assert not case.must_fail, f"{case.kind}: accepted {msg!r}"
 
 
-def check_params(typ: type, params: dict[str, str], names: Optional[str]) -> None:
+def check_params(typ: type, params: dict[str, str], names: str | None) -> None:
     """Selector parameters give a valid request or a BadInput naming the problem."""
     try:
         req = codec.from_params(params, typ)
@@ -78,7 +88,7 @@ def test_malformed_selector_params_are_bad_input(typ):
 
     @settings(FUZZ, max_examples=PARAMS_PER_TYPE // BATCH)
     @given(st.lists(malformed_params(typ), min_size=BATCH, max_size=BATCH))
-    def run(cases: list[tuple[dict[str, str], Optional[str]]]) -> None:
+    def run(cases: list[tuple[dict[str, str], str | None]]) -> None:
         for params, names in cases:
             check_params(typ, params, names)
         checked.extend(cases)
@@ -101,31 +111,10 @@ def float_sites(t: mi.Type) -> list:
     return []
 
 
-def unbounded_float(t: mi.Type) -> bool:
-    """Whether a float somewhere in `t` has no bounds (and so lets NaN and inf in)."""
-    if isinstance(t, mi.FloatType):
-        return bounds(t) == (None, None)
-    if isinstance(t, mi.UnionType):
-        return any(unbounded_float(u) for u in t.types)
-    if isinstance(t, (mi.ListType, mi.VarTupleType)):
-        return unbounded_float(t.item_type)
-    if isinstance(t, mi.DictType):
-        return unbounded_float(t.value_type)
-    return False
+NAN_TYPES = TOPIC_TYPES + REQUEST_TYPES
 
 
-def nan_cases(types: list[type]) -> list:
-    """One parameter per type; those with unbounded float fields fail until common/messages.py bounds them."""
-    out = []
-    for typ in types:
-        gaps = [f.encode_name for f in mi.type_info(typ).fields if unbounded_float(f.type)]
-        reason = f"common/messages.py: unbounded float fields take NaN/inf: {', '.join(gaps)}"
-        marks = [pytest.mark.xfail(strict=True, raises=pytest.fail.Exception, reason=reason)] if gaps else []
-        out.append(pytest.param(typ, marks=marks, id=typ.__name__))
-    return out
-
-
-@pytest.mark.parametrize("typ", nan_cases(TOPIC_TYPES + REQUEST_TYPES))
+@pytest.mark.parametrize("typ", NAN_TYPES, ids=ids(NAN_TYPES))
 @pytest.mark.parametrize("x", [math.nan, math.inf, -math.inf], ids=["nan", "inf", "-inf"])
 def test_nan_and_inf_are_bad_input_in_every_float_field(typ, x):
     info = mi.type_info(typ)
@@ -184,20 +173,7 @@ def test_huge_declared_lengths_fail_fast(typ):
             assert time.perf_counter() - t0 < FAST
 
 
-def utf8_cases() -> list:
-    """One parameter per type; those with text to decode fail while codec.decode lets UnicodeDecodeError out."""
-    leaks = leaks_unicode_error()
-    out = []
-    for typ in ALL_TYPES:
-        info = mi.type_info(typ)
-        has_text = info.forbid_unknown_fields or any(text_sites(f.type) for f in info.fields)
-        reason = "common/codec.py: decode lets msgspec's UnicodeDecodeError out"
-        marks = [pytest.mark.xfail(strict=True, raises=UnicodeDecodeError, reason=reason)] if leaks and has_text else []
-        out.append(pytest.param(typ, marks=marks, id=typ.__name__))
-    return out
-
-
-@pytest.mark.parametrize("typ", utf8_cases())
+@pytest.mark.parametrize("typ", ALL_TYPES, ids=ids(ALL_TYPES))
 def test_text_that_is_not_utf8_is_bad_input(typ):
     """In a str field, a map key, an Any value, or an unknown key (ignored by topics and replies)."""
     *in_fields, unknown_key = not_utf8_payloads(typ)

@@ -1,17 +1,17 @@
 """The default mode: delayed-fix EKF with replay, gating, recovery, calibration, set_pose."""
+
 import math
 
 import numpy as np
 import pytest
 
+from zenav.bench.studies.localizer import drive_square, evaluate
 from zenav.common import messages as m
 from zenav.common.config import Robot
 from zenav.common.geometry import Pose2, wrap_angle
 from zenav.common.scenarios import scenario
 from zenav.services.localizer.base import LocalizerConfig
 from zenav.services.localizer.ekf import Ekf
-from zenav.services.localizer.evaluate import evaluate
-from zenav.services.localizer.synthetic import drive_square
 
 ROBOT = Robot(ticks_per_rev=360)
 COV = (0.02**2, 0.0, 0.0, 0.0, 0.02**2, 0.0, 0.0, 0.0, 0.035**2)

@@ -1,4 +1,5 @@
 """The EKF's pure model functions and the gyro integral."""
+
 import math
 
 import numpy as np

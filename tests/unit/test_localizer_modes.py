@@ -1,15 +1,15 @@
 """The baseline modes (dead reckoning, seed 003's and seed 001's rules) and the scoring."""
+
 import math
 
 import pytest
 
+from zenav.bench.studies.localizer import drive_square, evaluate
 from zenav.common import messages as m
 from zenav.common.config import ConfigError, Robot, Settings
 from zenav.common.scenarios import scenario
 from zenav.services.localizer.base import MODES, LocalizerConfig
-from zenav.services.localizer.evaluate import evaluate
 from zenav.services.localizer.modes import make_mode
-from zenav.services.localizer.synthetic import drive_square
 
 ROBOT = Robot(ticks_per_rev=360)
 

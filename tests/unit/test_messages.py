@@ -1,4 +1,5 @@
 """The wire format: every message type is a plain msgpack map with string keys."""
+
 import math
 
 import msgpack
@@ -89,12 +90,31 @@ def test_selector_parameters_convert_text():
 
 def test_every_contract_key_is_registered():
     assert set(keys.TOPICS) >= {
-        "clock", "sim/truth", "sensors/encoders", "sensors/imu", "sensors/compass", "vps/pose", "odom", "pose",
-        "cmd_vel", "motors/wheels", "nav/state", "localizer/fixes",
+        "clock",
+        "sim/truth",
+        "sensors/encoders",
+        "sensors/imu",
+        "sensors/compass",
+        "vps/pose",
+        "odom",
+        "pose",
+        "cmd_vel",
+        "motors/wheels",
+        "nav/state",
+        "localizer/fixes",
     } | {f"diag/{s}" for s in keys.SERVICES}
     assert set(keys.QUERIES) == {
-        "nav/move_to_point", "nav/turn_to_heading", "nav/turn_to_point", "nav/move_straight", "nav/follow_path",
-        "nav/stop", "nav/status", "localizer/pose", "localizer/set_pose", "sim/reset",
+        "nav/move_to_point",
+        "nav/move_to_pose",
+        "nav/turn_to_heading",
+        "nav/turn_to_point",
+        "nav/move_straight",
+        "nav/follow_path",
+        "nav/stop",
+        "nav/status",
+        "localizer/pose",
+        "localizer/set_pose",
+        "sim/reset",
     }
 
 

@@ -1,4 +1,5 @@
 """Inverse kinematics and the wheel command limits."""
+
 import math
 
 import pytest

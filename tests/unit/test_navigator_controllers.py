@@ -1,4 +1,5 @@
 """The point trackers on a pure kinematic robot (no noise, no lag)."""
+
 import math
 
 import pytest
@@ -85,13 +86,28 @@ def test_stable_gains_pass_the_strong_condition():
     check_polar_gains(p.k_rho, p.k_alpha, p.k_beta)
 
 
-@pytest.mark.parametrize("gains", [(0.0, 8.0, -1.5), (3.0, 8.0, 0.5), (3.0, 3.0, -1.5), (-1.0, 8.0, -1.5)])
-def test_unstable_gains_are_refused_naming_them(gains):
+@pytest.mark.parametrize(
+    "gains, equation",
+    [
+        ((0.0, 8.0, -1.5), "eq. 8"),
+        ((3.0, 8.0, 0.5), "eq. 8"),
+        ((-1.0, 8.0, -1.5), "eq. 8"),
+        ((3.0, 2.9, -0.1), "eq. 8"),  # meets eq. 9's margin (0.92 > 0) but k_alpha < k_rho: the linearised system is unstable
+        ((3.0, 3.5, -1.5), "eq. 9"),  # meets eq. 8 but not the strong condition
+    ],
+)
+def test_unstable_gains_are_refused_naming_them_and_the_equation(gains, equation):
     with pytest.raises(ValueError) as e:
         check_polar_gains(*gains)
     text = str(e.value)
-    assert all(f"{n}={g}" in text for n, g in zip(("k_rho", "k_alpha", "k_beta"), gains))
-    assert "k_alpha + 5/3 k_beta - 2/pi k_rho > 0" in text
+    assert all(f"{n}={g:g}" in text for n, g in zip(("k_rho", "k_alpha", "k_beta"), gains))
+    assert f"seed 002 {equation}" in text
+
+
+def test_the_boomerang_carrot_slides_onto_the_goal():
+    far = controllers.carrot(PoseSample(0.0, 0.0, 0.0, 0.0), 1.0, 0.0, math.pi / 2, 0.5)
+    assert far == pytest.approx((1.0, -0.5))  # half the distance behind the goal along its heading
+    assert controllers.carrot(PoseSample(0.0, 1.0, 0.0, 0.0), 1.0, 0.0, 0.0, 0.5) == pytest.approx((1.0, 0.0))
 
 
 def test_limit_keeps_the_curvature_under_the_wheel_and_turn_limits():

@@ -1,8 +1,10 @@
 """The goal state machine: transitions, results, checks and path switching."""
+
 import math
 
 import pytest
 
+from zenav.common.config import Field
 from zenav.services.navigator import goals
 from zenav.services.navigator.controllers import PoseSample, Wheelbase, sigmas
 from zenav.services.navigator.goals import Goal, GoalMachine, Refused
@@ -36,20 +38,20 @@ def test_refused_without_a_pose_or_with_a_stale_one():
         machine().start(to_point(1.0, 0.0), 0.6)
 
 
-def test_arrival_settles_at_zero_then_succeeds():
-    mc = machine(settle_time=0.2)
-    assert mc.start(to_point(0.005, 0.0), 0.0) is None  # already within tolerance, ahead
+def test_arrival_rests_at_zero_then_succeeds():
+    mc = machine(rest_time=0.2)
+    assert mc.start(to_point(0.005, 0.0), 0.0) is None  # already within tolerance: the move ends at once
     assert mc.state == goals.MOVING_TO_POINT and mc.goal_id == 1 and mc.result is None
-    cmd, end = mc.on_pose(PoseSample(0.01, 0.0101, 0.0, 0.0))  # now past it: arrived
+    cmd, end = mc.on_pose(PoseSample(0.01, 0.0101, 0.0, 0.0))  # zero is held
     assert cmd == (0.0, 0.0) and end is None and mc.active
     cmd, end = mc.on_pose(PoseSample(0.22, 0.0101, 0.0, 0.0))
-    assert cmd == (0.0, 0.0) and end == goals.End(1, goals.SUCCEEDED, "arrived", stop=True)
-    assert mc.state == goals.STOPPED and mc.result == goals.SUCCEEDED and not mc.active
+    assert cmd == (0.0, 0.0) and end == goals.End(1, goals.SUCCEEDED, "arrived", stop=True, exit="within_tolerance")
+    assert mc.state == goals.STOPPED and mc.result == goals.SUCCEEDED and mc.exit == "within_tolerance" and not mc.active
 
 
-def test_a_point_inside_tolerance_but_ahead_is_driven_to():
+def test_a_point_outside_tolerance_is_driven_to():
     mc = machine()
-    mc.start(to_point(0.008, 0.0), 0.0)
+    mc.start(to_point(0.02, 0.0), 0.0)
     cmd, end = mc.on_pose(PoseSample(0.01, 0.0, 0.0, 0.0))
     assert cmd[0] > 0 and end is None
 
@@ -58,7 +60,7 @@ def test_preemption_is_a_handover():
     mc = machine()
     mc.start(to_point(1.0, 0.0), 0.0)
     end = mc.start(to_point(0.0, 1.0), 0.1)
-    assert end == goals.End(1, goals.CANCELLED, "preempted by goal 2", stop=False)
+    assert end == goals.End(1, goals.CANCELLED, "preempted by goal 2", stop=False, exit="cancelled")
     assert mc.goal_id == 2 and mc.state == goals.MOVING_TO_POINT and mc.result is None
 
 
@@ -67,7 +69,7 @@ def test_cancel_and_abort_stop(how, result):
     mc = machine()
     mc.start(to_point(1.0, 0.0), 0.0)
     end = getattr(mc, how)("why")
-    assert end == goals.End(1, result, "why", stop=True) and mc.message == "why"
+    assert end == goals.End(1, result, "why", stop=True, exit=result) and mc.message == "why"
     assert mc.on_pose(PoseSample(0.1, 0.0, 0.0, 0.0)) == (None, None)
 
 
@@ -178,3 +180,59 @@ def test_straight_steers_back_to_the_line():
     mc = machine()
     mc.start(Goal(goals.MOVING_STRAIGHT, speed=-0.1, tolerance=0.01), 0.0)
     assert mc.on_pose(PoseSample(0.01, -0.1, 0.02, 0.0))[0][1] > 0  # reversing: the other way
+
+
+def test_path_rest_is_the_length_after_each_point():
+    assert goals.path_rest(((0.0, 0.0), (3.0, 4.0), (3.0, 5.0))) == [6.0, 1.0, 0.0]
+    assert goals.path_rest(((2.0, 2.0),)) == [0.0]
+    many = tuple((0.001 * i, 0.0) for i in range(10_001))
+    rest = goals.path_rest(many)
+    assert len(rest) == 10_001 and rest[0] == pytest.approx(10.0) and rest[5000] == pytest.approx(5.0)
+
+
+def test_bunched_points_are_passed_a_bounded_number_per_pose():
+    mc = machine()
+    n = 3 * goals.MAX_SWITCHES
+    mc.start(Goal(goals.FOLLOWING_PATH, points=((0.001, 0.0),) * n + ((1.0, 0.0),), speed=0.2, tolerance=0.01), 0.0)
+    assert mc.feedback(0.0).next_point == goals.MAX_SWITCHES
+    mc.on_pose(PoseSample(0.01, 0.0, 0.0, 0.0))
+    assert mc.feedback(0.01).next_point == 2 * goals.MAX_SWITCHES
+
+
+FIELD = Field(x_min=-1.0, x_max=3.0, y_min=-1.0, y_max=3.0)
+
+
+@pytest.mark.parametrize(
+    "goal, words",
+    [
+        (to_point(3.5, 0.0), "x, y: 3.5 m is outside the field ([field] x_max = 3.0)"),
+        (Goal(goals.FOLLOWING_PATH, points=((0.0, 1.0), (0.0, -2.0)), speed=0.2), "points[1]: -2 m"),
+        (Goal(goals.MOVING_STRAIGHT, speed=-0.1, distance=1.5), "distance: the end is outside"),
+    ],
+)
+def test_targets_outside_the_field_name_the_bound(goal, words):
+    assert words in goals.outside(goal, PoseSample(0.0, 0.0, 0.0, 0.0), FIELD)
+
+
+def test_targets_inside_the_field_or_without_an_end_pass():
+    pose = PoseSample(0.0, 0.0, 0.0, 0.0)
+    for goal in (to_point(3.0, -1.0), Goal(goals.MOVING_STRAIGHT, speed=0.1), Goal(goals.TURNING_TO_HEADING, heading=1.0)):
+        assert goals.outside(goal, pose, FIELD) is None
+    assert goals.outside(to_point(30.0, 0.0), pose, Field(enabled=False)) is None
+
+
+def test_a_pose_outside_the_field_aborts_the_goal():
+    mc = GoalMachine(Params(), WHEELS, FIELD)
+    mc.on_pose(PoseSample(0.0, 2.9, 0.0, 0.0))
+    mc.start(Goal(goals.MOVING_STRAIGHT, speed=0.2), 0.0)
+    cmd, end = mc.on_pose(PoseSample(0.01, 3.01, 0.0, 0.0))
+    assert cmd == (0.0, 0.0) and end.result == goals.ABORTED and end.stop and end.message.startswith("left the field")
+
+
+def test_move_straight_without_a_distance_has_a_time_limit():
+    mc = machine(straight_max_time=1.0)
+    mc.start(Goal(goals.MOVING_STRAIGHT, speed=0.2), 0.0)
+    mc.on_pose(PoseSample(0.9, 0.18, 0.0, 0.0))
+    assert mc.check(0.95) is None
+    end = mc.check(1.0)
+    assert end.result == goals.ABORTED and "straight_max_time" in end.message

@@ -1,4 +1,5 @@
 """The decelerating turn profile, on a robot whose turn rate lags the command."""
+
 import math
 
 import pytest

@@ -1,4 +1,5 @@
 """The pose integrators against the closed form of circular arcs, and their Jacobians."""
+
 import math
 
 import numpy as np
@@ -31,8 +32,11 @@ def position_error(name, s, turn, n, start=(0.3, -0.2, 0.7)):
 
 # (label, travel [m], turn [rad], steps): 1 m at 0.2 m/s turning at 0.5 rad/s sampled at
 # 100 Hz, then the same arc at 10 Hz, then a tight curve with coarse steps.
-ARCS = [("1 m, 2.5 rad, 500 steps (100 Hz)", 1.0, 2.5, 500), ("1 m, 2.5 rad, 50 steps (10 Hz)", 1.0, 2.5, 50),
-        ("0.5 m, 3 pi/2 rad, 12 steps", 0.5, 1.5 * math.pi, 12)]
+ARCS = [
+    ("1 m, 2.5 rad, 500 steps (100 Hz)", 1.0, 2.5, 500),
+    ("1 m, 2.5 rad, 50 steps (10 Hz)", 1.0, 2.5, 50),
+    ("0.5 m, 3 pi/2 rad, 12 steps", 0.5, 1.5 * math.pi, 12),
+]
 
 
 def test_error_table_on_known_arcs():
@@ -42,7 +46,7 @@ def test_error_table_on_known_arcs():
     print(f"{'arc':34}" + "".join(f"{name:>12}" for name in NAMES))
     for label, errs in rows.items():
         print(f"{label:34}" + "".join(f"{errs[name]:12.2e}" for name in NAMES))
-    for (label, s, turn, n), errs in zip(ARCS, rows.values()):
+    for (_label, s, turn, n), errs in zip(ARCS, rows.values()):
         h = turn / n  # heading change per step [rad]
         chord = 2.0 * s / turn * math.sin(turn / 2.0)  # [m] start to end
         assert errs["arc"] < 1e-12
@@ -81,16 +85,17 @@ def test_rk4_is_the_seed_formula():
     k10, k11, k12 = v * math.cos(th + t / 2 * k02), v * math.sin(th + t / 2 * k02), omega
     k20, k21, k22 = v * math.cos(th + t / 2 * k12), v * math.sin(th + t / 2 * k12), omega
     k30, k31, k32 = v * math.cos(th + t * k22), v * math.sin(th + t * k22), omega
-    seed = (x + t / 6 * (k00 + 2 * (k10 + k20) + k30), y + t / 6 * (k01 + 2 * (k11 + k21) + k31),
-            th + t / 6 * (k02 + 2 * (k12 + k22) + k32))
+    seed = (
+        x + t / 6 * (k00 + 2 * (k10 + k20) + k30),
+        y + t / 6 * (k01 + 2 * (k11 + k21) + k31),
+        th + t / 6 * (k02 + 2 * (k12 + k22) + k32),
+    )
     ours = ig.step(x, y, th, v * t, omega * t, ig.rk4)
     assert (ours.x, ours.y, ours.theta) == pytest.approx(seed, abs=1e-15)
 
 
 @pytest.mark.parametrize("name", NAMES)
-@pytest.mark.parametrize(
-    "theta, d, dtheta", [(0.3, 0.05, 0.2), (-2.9, 0.01, -0.003), (1.0, -0.02, 0.0), (2.0, 0.0, 0.4)]
-)
+@pytest.mark.parametrize("theta, d, dtheta", [(0.3, 0.05, 0.2), (-2.9, 0.01, -0.003), (1.0, -0.02, 0.0), (2.0, 0.0, 0.4)])
 def test_jacobians_match_finite_differences(name, theta, d, dtheta):
     f = ig.INTEGRATORS[name]
 

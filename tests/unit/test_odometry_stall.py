@@ -1,4 +1,5 @@
 """A wheel commanded to turn whose encoder shows nothing is reported silent, and its travel unmeasured."""
+
 import pytest
 
 from zenav.services.odometry import stall

@@ -1,4 +1,5 @@
 """The odometry state machine: ticks to poses, robustness, covariance and heading sources."""
+
 import math
 
 import numpy as np
@@ -16,9 +17,18 @@ DT = 0.01  # [s] 100 Hz
 
 def params(source="encoders", integrator="arc", weights=(1.0, 1.0, 0.0), k=1e-4, robot=ROBOT, compass_gain=1.0):
     heading = hd.HeadingParams(
-        source=source, weights=weights, gyro_var_rate=5e-4, accel_var_rate=1e-2, compass_var=0.05**2,
+        source=source,
+        weights=weights,
+        gyro_var_rate=5e-4,
+        accel_var_rate=1e-2,
+        compass_var=0.05**2,
         compass_gain=compass_gain,
-        still_time=0.5, still_rate=0.02, bias_time=5.0, accel_min_speed=0.05, imu_timeout=0.1, compass_timeout=0.5,
+        still_time=0.5,
+        still_rate=0.02,
+        bias_time=5.0,
+        accel_min_speed=0.05,
+        imu_timeout=0.1,
+        compass_timeout=0.5,
     )
     return od.make_params(robot, integrator, k, k, 3.0, heading, (2.0, 5.0, 0.3))
 

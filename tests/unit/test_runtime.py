@@ -1,59 +1,37 @@
 """The service runtime on the in-memory bus with a manual clock."""
+
 import math
 
 import msgpack
 import pytest
 
+from tests.support.echo import Echo
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.bus import MemoryBus
 from zenav.common.clock import ManualClock, SimClock
 from zenav.common.config import Settings
-from zenav.common.runtime import QueryError, Service, on_liveliness, publish, query, subscribe, timer
+from zenav.common.runtime import Service, query, subscribe
 
 
-class Echo(Service):
-    name = "motor"
-
-    def __init__(self, *a):
-        super().__init__(*a)
-        self.ticks = []
-        self.held = None
-
-    @subscribe("cmd_vel")
-    @publish("motors/wheels")
-    def on_cmd(self, msg: m.CmdVel) -> m.Wheels:
-        if msg.v > 100:
-            raise RuntimeError("boom")
-        return m.Wheels(t=msg.t, left=msg.v, right=msg.omega)
-
-    @timer(0.5)
-    def tick(self, now: float) -> None:
-        self.ticks.append(now)
-
-    @on_liveliness("navigator")
-    @publish("motors/wheels")
-    def navigator_presence(self, alive: bool):
-        self.navigator_alive = alive
-        return None if alive else m.Wheels(t=0.0, left=0.0, right=0.0)
-
-    @query("localizer/set_pose")
-    def set_pose(self, req: m.SetPose, q):
-        if req.x == 13.0:
-            raise QueryError("unavailable", "unlucky")
-        if req.x == 7.0:
-            self.held = q  # answered later
-            return None
-        return m.PoseStamped(t=0.0, x=req.x or 0.0, y=req.y or 0.0, theta=0.0)
-
-
-@pytest.fixture
-def svc():
-    bus, clock = MemoryBus(), ManualClock()
+def started(clock):
+    """A started Echo on a MemoryBus and `clock`: yields (service, bus, clock), then closes it."""
+    bus = MemoryBus()
     s = Echo(Settings.load(None), bus, clock)
     s.start()
     yield s, bus, clock
     s.close()
+
+
+@pytest.fixture
+def svc():
+    yield from started(ManualClock())
+
+
+@pytest.fixture
+def sim_svc():
+    """Echo on a SimClock: its time comes from the clock topic."""
+    yield from started(SimClock())
 
 
 def published(bus, suffix):
@@ -72,9 +50,15 @@ def test_handler_output_is_published(svc):
 
 @pytest.mark.parametrize(
     "payload",
-    [b"\xc1", b"", msgpack.packb([1, 2]), msgpack.packb({"t": 1.0, "v": "fast", "omega": 0.0}),
-     msgpack.packb({"t": 1.0, "v": math.nan, "omega": 0.0}), msgpack.packb({"t": 1.0, "v": 1e300, "omega": 0.0}),
-     msgpack.packb({"t": 1.0, "omega": 0.0})],
+    [
+        b"\xc1",
+        b"",
+        msgpack.packb([1, 2]),
+        msgpack.packb({"t": 1.0, "v": "fast", "omega": 0.0}),
+        msgpack.packb({"t": 1.0, "v": math.nan, "omega": 0.0}),
+        msgpack.packb({"t": 1.0, "v": 1e300, "omega": 0.0}),
+        msgpack.packb({"t": 1.0, "omega": 0.0}),
+    ],
 )
 def test_bad_input_is_counted_and_dropped(svc, payload):
     s, bus, _ = svc
@@ -137,7 +121,7 @@ def test_liveliness_token_while_up():
     s = Echo(Settings.load(None, deployment={"robot": "bot_7"}), bus, ManualClock())
     assert bus.alive() == []
     s.start()
-    assert bus.alive() == ["zenav/bot_7/alive/motor"]
+    assert bus.alive() == ["zenav/bot_7/alive/motor", f"zenav/bot_7/instance/motor/{s.instance}"]
     s.close()
     assert bus.alive() == []
 
@@ -177,16 +161,12 @@ def test_deferred_reply(svc):
     assert q.replies == [] and s.held is q
 
 
-def test_sim_clock_service_follows_clock_topic():
-    bus = MemoryBus()
-    clock = SimClock()
-    s = Echo(Settings.load(None), bus, clock)
-    s.start()
+def test_sim_clock_service_follows_clock_topic(sim_svc):
+    s, bus, clock = sim_svc
     assert not clock.ready
     bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=12.0, rtf=1.0)))
     s.drain()
     assert clock.ready and 12.0 <= clock.now() <= 12.06
-    s.close()
 
 
 def test_liveliness_handler_runs_in_the_worker(svc):
@@ -218,10 +198,8 @@ def test_clock_restart_reschedules_timers_and_calls_the_hook():
     s.close()
 
 
-def test_a_message_from_the_future_is_dropped_and_later_ones_still_served():
-    bus, clock = MemoryBus(), SimClock()
-    s = Echo(Settings.load(None), bus, clock)
-    s.start()
+def test_a_message_from_the_future_is_dropped_and_later_ones_still_served(sim_svc):
+    s, bus, clock = sim_svc
     cmd = "zenav/r1/cmd_vel"
     bus.publish(cmd, codec.encode(m.CmdVel(t=1e6, v=0.1, omega=0.0)))  # before any tick: nothing to judge by
     bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=10.0, rtf=1.0)))
@@ -231,4 +209,152 @@ def test_a_message_from_the_future_is_dropped_and_later_ones_still_served():
     s.drain()
     assert [w.t for w in published(bus, "motors/wheels")] == [1e6, 10.5, 10.02]
     assert s.counters.values["dropped_future"] == 1
+
+
+class Lanes(Service):
+    """Records the order its handlers run in."""
+
+    name = "navigator"
+
+    def __init__(self, *a):
+        super().__init__(*a)
+        self.order = []
+
+    @query("nav/follow_path")
+    def follow(self, req: m.FollowPath, q):
+        self.order.append("follow")
+        return m.StopReply(state="FOLLOWING_PATH")
+
+    @query("nav/stop", priority=True)
+    def stop_now(self, req: m.Empty, q):
+        self.order.append("stop")
+        return m.StopReply(state="STOPPED")
+
+    @query("nav/status", acts=False)
+    def status_query(self, req: m.Empty, q):
+        self.order.append("status")
+        return m.StopReply(state="STOPPED")
+
+    @subscribe("pose")
+    def on_pose(self, msg: m.Pose) -> None:
+        self.order.append("pose")
+
+
+def lanes(**limits):
+    bus, clock = MemoryBus(), ManualClock()
+    s = Lanes(Settings.load(None, limits=limits), bus, clock)
+    s.start()
+    return s, bus
+
+
+def test_a_priority_query_is_taken_before_everything_queued():
+    s, bus = lanes()
+    path = codec.encode({"points": [[0.1 * i, 0.0] for i in range(100)]})
+    held = [bus.query("zenav/r1/nav/follow_path", path) for _ in range(15)]
+    bus.publish("zenav/r1/pose", codec.encode(m.Pose(t=0.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
+    stop = bus.query("zenav/r1/nav/stop")
+    assert s.drain(limit=1) == 1
+    assert s.order == ["stop"] and stop.replies and not any(q.replies for q in held)
+    s.drain()
+    assert s.order == ["stop"] + ["follow"] * 15 + ["pose"]
     s.close()
+
+
+def test_an_acting_query_refuses_a_wildcard_and_a_read_only_one_answers_it():
+    s, bus = lanes()
+    q = bus.query("zenav/r1/**")
+    s.drain()
+    assert sorted(s.order) == ["status"]  # neither stop nor follow_path ran
+    errors = [codec.decode(d, m.ErrorReply) for ok, d in q.replies if not ok]
+    assert len(errors) == 2 and all(e.error == "invalid_argument" for e in errors)
+    assert {e.message.rsplit(" ", 1)[-1] for e in errors} == {"zenav/r1/nav/stop", "zenav/r1/nav/follow_path"}
+    assert [codec.decode(d, m.StopReply).state for ok, d in q.replies if ok] == ["STOPPED"]
+    assert s.counters.values["wildcard_refused"] == 2
+    exact = bus.query("zenav/r1/nav/stop")
+    s.drain()
+    assert exact.replies[0][0] and s.order[-1] == "stop"
+    s.close()
+
+
+def test_oversize_input_is_refused_before_it_is_queued():
+    s, bus = lanes(max_payload=4096, max_params=1024)
+    bus.publish("zenav/r1/pose", b"\x00" * 5000)
+    q1 = bus.query("zenav/r1/nav/follow_path", b"\x91" * 5000)
+    q2 = bus.query("zenav/r1/nav/follow_path", params={"points": "[" * 2000})
+    assert s._inbox.qsize() == 0 and s.counters.values["oversize"] == 3
+    for q, words in ((q1, "max_payload = 4096"), (q2, "max_params = 1024")):
+        [(ok, data)] = q.replies
+        err = codec.decode(data, m.ErrorReply)
+        assert not ok and q.finished and err.error == "invalid_argument" and words in err.message
+    s.drain()
+    assert s.order == [] and s.counters.values["bad_input"] == 0
+    s.close()
+
+
+def test_the_queue_is_bounded_in_bytes():
+    s, bus = lanes(queue_bytes=1 << 16, max_payload=40_000)
+    path = codec.encode({"points": [[0.5, 0.25]] * 1500})  # about 28 kB
+    qs = [bus.query("zenav/r1/nav/follow_path", path) for _ in range(3)]
+    assert s._inbox.qsize() == 2 and s.counters.values["dropped_overflow"] == 1
+    assert codec.decode(qs[2].replies[0][1], m.ErrorReply).error == "unavailable"
+    stop = bus.query("zenav/r1/nav/stop")  # the priority lane is not held up by the bytes
+    s.drain(limit=1)
+    assert stop.replies[0][0]
+    s.close()
+
+
+def test_a_watch_runs_its_handler_in_the_worker(svc):
+    s, bus, _ = svc
+    seen = []
+    handle = s.watch("zenav/r1/lease/me", seen.append)
+    tok = bus.token("zenav/r1/lease/me")
+    assert seen == []  # callbacks only enqueue
+    s.drain()
+    tok.undeclare()
+    s.drain()
+    assert seen == [True, False]
+    handle.undeclare()
+    bus.token("zenav/r1/lease/me")
+    s.drain()
+    assert seen == [True, False]
+
+
+def tick(bus, s, t, rtf=1.0):
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=t, rtf=rtf)))
+    s.drain()
+
+
+def test_implausible_clock_ticks_are_refused_and_counted(sim_svc):
+    s, bus, clock = sim_svc
+    tick(bus, s, 10.0)
+    tick(bus, s, 10.01)
+    tick(bus, s, 10.02, rtf=200.0)  # an absurd rtf
+    tick(bus, s, 20.0)  # ten seconds ahead of a tick just taken
+    assert clock.now() < 10.1 and s.counters.values["clock_refused"] == 2
+    tick(bus, s, 10.03)
+    assert 10.03 <= clock.now() < 10.1
+    tick(bus, s, 2.0)  # far back: the sim restarted
+    assert s.counters.values["clock_resets"] == 1 and clock.now() < 2.1
+
+
+def test_a_run_of_agreeing_refused_ticks_is_a_new_timeline(sim_svc):
+    s, bus, clock = sim_svc
+    tick(bus, s, 1.0)
+    for i in range(25):
+        tick(bus, s, 100.0 + 0.01 * i, rtf=5.0)
+        if clock.now() >= 100.0:
+            break
+    assert clock.now() >= 100.0 and s.counters.values["clock_refused"] == 19 and s.counters.values["clock_resets"] == 1
+
+
+def test_a_sample_stamped_ahead_of_the_sim_clock_by_more_than_a_tick_is_dropped(sim_svc):
+    s, bus, clock = sim_svc
+    cmd = "zenav/r1/cmd_vel"
+    tick(bus, s, 10.0)
+    tick(bus, s, 10.01)
+    bus.publish(cmd, codec.encode(m.CmdVel(t=10.02, v=0.1, omega=0.0)))  # the next tick's sample: fine
+    bus.publish(cmd, codec.encode(m.CmdVel(t=10.91, v=0.1, omega=0.0)))  # 0.9 s ahead
+    bus.publish(cmd, codec.encode(m.CmdVel(t=10.02, v=0.1, omega=0.0)))
+    s.drain()
+    assert [w.t for w in published(bus, "motors/wheels")] == [10.02, 10.02]
+    assert s.counters.values["dropped_future"] == 1

@@ -1,4 +1,5 @@
 """The recording format: topics, keys, and a self-contained JSON Schema per message type."""
+
 from __future__ import annotations
 
 import json

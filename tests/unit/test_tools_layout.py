@@ -1,4 +1,5 @@
 """docs/foxglove-layout.json names only topics and fields that `zenav view` and `zenav record` provide."""
+
 from __future__ import annotations
 
 import json
@@ -45,7 +46,7 @@ def test_every_topic_and_field_exists():
             continue
         topic = max((t for t in keys.TOPICS if rest == t or rest.startswith(t + ".")), key=len, default=None)
         assert topic is not None, path
-        field = rest[len(topic) + 1:]
+        field = rest[len(topic) + 1 :]
         if field:
             name = re.match(r"^(\w+)", field).group(1)
             assert name in keys.TOPICS[topic].__struct_fields__, path

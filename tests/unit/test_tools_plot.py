@@ -1,4 +1,5 @@
 """Plots: errors against interpolated truth, and the PNG the benchmark and `zenav plot` write."""
+
 from __future__ import annotations
 
 import math

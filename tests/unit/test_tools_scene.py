@@ -1,4 +1,5 @@
 """What the live view draws: covariance ellipses, trails, fixes, goals and event logs."""
+
 from __future__ import annotations
 
 import math
@@ -63,7 +64,16 @@ def test_fixes_are_marked_accepted_or_rejected_and_rejections_logged():
     s.update("vps/pose", m.VpsPose(t=1.1, x=0, y=0, theta=0), NS)
 
     def fix(t, ok):
-        return m.Fix(t=t, t_arrival=t + 0.3, latency=0.3, replay_depth=30, innovation=(0, 0, 0), mahalanobis_d2=20.0, accepted=ok, reason="" if ok else "gate")
+        return m.Fix(
+            t=t,
+            t_arrival=t + 0.3,
+            latency=0.3,
+            replay_depth=30,
+            innovation=(0, 0, 0),
+            mahalanobis_d2=20.0,
+            accepted=ok,
+            reason="" if ok else "gate",
+        )
 
     assert s.update("localizer/fixes", fix(1.0, True), NS) == []
     [(topic, log)] = s.update("localizer/fixes", fix(1.1, False), NS)
@@ -84,7 +94,11 @@ def test_the_scene_has_every_entity():
     s = sc.Scene("r1")
     s.update("pose", pose(0.5, 0.0, 0.0, cov=(1e-3, 0, 0, 0, 1e-3, 0, 0, 0, 1e-3)), NS)
     s.update("vps/pose", m.VpsPose(t=1.0, x=0.5, y=0.01, theta=0), NS)
-    s.update("nav/state", m.NavState(t=1.0, state="FOLLOWING_PATH", goal_id=2, goal={"points": [[1, 0], [1, 1]]}, distance_remaining=1.5, next_point=0), NS)
+    s.update(
+        "nav/state",
+        m.NavState(t=1.0, state="FOLLOWING_PATH", goal_id=2, goal={"points": [[1, 0], [1, 1]]}, distance_remaining=1.5, next_point=0),
+        NS,
+    )
     update = s.scene(NS)
     assert isinstance(update, fm.SceneUpdate) and len(update.encode()) > 100
     empty = sc.Scene("r1").scene(NS)  # before any message: the same entities, empty

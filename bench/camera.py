@@ -1,0 +1,248 @@
+"""The overhead camera measured: render and detection time, fix accuracy, two robots.
+
+    python -m zenav.bench.camera [--frames 100] [--quick]
+    python -m zenav.bench.camera --stack 1 [--processes]   # the whole stack: synthetic VPS vs camera, seed 003's square
+
+Frames are rendered by the sim's camera model from known poses; the VPS pipeline
+(detect, undistort, plane homography from a calibration fitted to the fixed tags in
+a frame without robots) turns them into fixes, compared with the truth. Accuracy runs
+over a grid of poses across the camera's view, at rest and moving (0.3 m/s and
+1 rad/s: motion blur), at the default camera and at a worse one. `z` is each fix's
+error over the sigma its covariance claims (about 1 when the covariance is honest).
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import math
+import tempfile
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import msgspec
+import numpy as np
+
+from zenav import services
+from zenav.bench import trials
+from zenav.bench.scoring import Score, score
+from zenav.bench.trials import Recorder, Trial
+from zenav.common import codec
+from zenav.common import messages as m
+from zenav.common.app import parse_sets
+from zenav.common.config import Camera, Settings
+from zenav.common.geometry import wrap_angle
+from zenav.robot import Robot
+from zenav.services.vps import calibration, detect, locate
+from zenav.services.vps import frames as camera_frames
+from zenav.stack.inprocess import InProcessStack
+from zenav.stack.launcher import ProcStack
+from zenav.stack.router import Router
+from zenav.world.camera import Lens, tag_pixels
+from zenav.world.render import Body, Renderer
+
+# A worse camera: half the resolution, darker (longer exposure, more blur), noisier, more uneven light.
+WORSE = {"width": 320, "height": 240, "fx": 266.5, "fy": 266.5, "exposure": 0.03, "noise": 6.0, "lighting": 0.4, "k1": -0.12}
+XS, YS = np.linspace(-0.4, 1.4, 7).tolist(), np.linspace(0.0, 1.0, 5).tolist()  # [m] the pose grid, inside the default view
+HEADINGS = (0.3, 1.9, -2.6, -1.0)  # [rad]
+MOTIONS = ((0.0, 0.0), (0.3, 1.0))  # (v [m/s], omega [rad/s])
+
+
+def pct(values: Sequence[float], q: float) -> float:
+    """The q-th percentile (nan when empty)."""
+    return float(np.percentile(values, q)) if len(values) else math.nan
+
+
+@dataclass(frozen=True)
+class Accuracy:
+    """Fixes against the truth over a set of poses."""
+
+    frames: int
+    found: int  # frames whose robot gave a fix
+    pos_mm: tuple[float, float]  # p50, p95 of the position error [mm]
+    head_deg: tuple[float, float]  # p50, p95 of the heading error [deg]
+    z: tuple[float, float]  # p50 of position error / claimed sigma, heading likewise
+
+    def row(self, name: str) -> str:
+        return (
+            f"| {name} | {self.found}/{self.frames} | {self.pos_mm[0]:.2f} / {self.pos_mm[1]:.2f} | "
+            f"{self.head_deg[0]:.2f} / {self.head_deg[1]:.2f} | {self.z[0]:.2f} / {self.z[1]:.2f} |"
+        )
+
+
+class Pipeline:
+    """A renderer and the VPS's detector with a calibration from the fixed tags."""
+
+    def __init__(self, cfg: Camera, backend: detect.Backend = "apriltag", seed: int = 1) -> None:
+        self.cfg, self.renderer, self.detector = cfg, Renderer(cfg, seed), detect.make(backend, tag_pixels(cfg))
+        tags = self.detector.detect(self.renderer.render(0.0, []))
+        self.cal = calibration.calibrate(tags, Lens.of(cfg), cfg.anchors, cfg.anchor_size)
+
+    def locate(self, img: np.ndarray, robots: dict[str, int]) -> locate.Located:
+        c = self.cfg
+        return locate.locate(
+            self.detector.detect(img), self.cal, robots, {a.id for a in c.anchors}, c.tag_size, c.tag_height, c.corner_sigma
+        )
+
+
+def accuracy(p: Pipeline, xs: Sequence[float] = XS, ys: Sequence[float] = YS, motions: Sequence[tuple[float, float]] = MOTIONS) -> Accuracy:
+    """Errors of one robot's fixes over a grid of poses: every (x, y) [m] at every heading and motion."""
+    pos, head, zp, zh, n = [], [], [], [], 0
+    for k, ((x, y), th, (v, w)) in enumerate(itertools.product(itertools.product(xs, ys), HEADINGS, motions)):
+        n += 1
+        img = p.renderer.render(0.1 * k, [Body(0, float(x), float(y), th, v, w)])
+        fixes = p.locate(img, {"r1": 0}).fixes
+        if not fixes:
+            continue
+        f = fixes[0]
+        e, eh = math.hypot(f.x - x, f.y - y), abs(wrap_angle(f.theta - th))
+        pos.append(e * 1000.0)
+        head.append(math.degrees(eh))
+        zp.append(e / math.sqrt(f.cov[0] + f.cov[4]))
+        zh.append(eh / math.sqrt(f.cov[8]))
+    return Accuracy(n, len(pos), (pct(pos, 50), pct(pos, 95)), (pct(head, 50), pct(head, 95)), (pct(zp, 50), pct(zh, 50)))
+
+
+@dataclass(frozen=True)
+class Timing:
+    """Milliseconds per frame: p50 and p99 of the wall time, p50 of the CPU time."""
+
+    wall: tuple[float, float]
+    cpu: float
+
+    def cell(self) -> str:
+        return f"{self.wall[0]:.1f} / {self.wall[1]:.1f} ({self.cpu:.1f})"
+
+
+STAGES = ("render", "wire", "detect")
+
+
+def timing(p: Pipeline, frames: int) -> dict[str, Timing]:
+    """Per stage, for frames with two robots moving: render (sim), wire (CameraFrame encoded and
+    decoded, as a message and as pixels), detect (the VPS: tags found and located)."""
+    wall: dict[str, list[float]] = {k: [] for k in STAGES}
+    cpu: dict[str, list[float]] = {k: [] for k in STAGES}
+    for k in range(frames):
+        t = 0.1 * k
+        bodies = [Body(0, 0.5 + 0.6 * math.cos(t), 0.5 + 0.4 * math.sin(t), t, 0.3, 1.0), Body(1, 0.5, 0.5, -t, 0.0, -1.0)]
+        marks = [(time.perf_counter(), time.thread_time())]
+        img = p.renderer.render(t, bodies)
+        marks.append((time.perf_counter(), time.thread_time()))
+        msg = codec.decode(codec.encode(camera_frames.encode(img, t, k)), m.CameraFrame)
+        img = camera_frames.decode(msg, p.cfg.width, p.cfg.height)
+        marks.append((time.perf_counter(), time.thread_time()))
+        p.locate(img, {"r1": 0, "r2": 1})
+        marks.append((time.perf_counter(), time.thread_time()))
+        for stage, (w0, c0), (w1, c1) in zip(STAGES, marks, marks[1:]):
+            wall[stage].append((w1 - w0) * 1e3)
+            cpu[stage].append((c1 - c0) * 1e3)
+    return {k: Timing((pct(wall[k], 50), pct(wall[k], 99)), pct(cpu[k], 50)) for k in STAGES}
+
+
+def two_robots(p: Pipeline, trials: int, seed: int = 7) -> tuple[int, int, int]:
+    """(frames, frames with both robots fixed, fixes given to the wrong robot) over random pairs of poses."""
+    rng = np.random.default_rng(seed)
+    both = wrong = 0
+    for k in range(trials):
+        a = (rng.uniform(-0.4, 0.4), rng.uniform(0.0, 1.0), rng.uniform(-math.pi, math.pi))
+        b = (rng.uniform(0.6, 1.4), rng.uniform(0.0, 1.0), rng.uniform(-math.pi, math.pi))
+        img = p.renderer.render(0.1 * k, [Body(0, *a), Body(1, *b)])
+        fixes = {f.robot: f for f in p.locate(img, {"r1": 0, "r2": 1}).fixes}
+        both += len(fixes) == 2
+        truth = {"r1": a, "r2": b}
+        wrong += sum(math.hypot(f.x - truth[r][0], f.y - truth[r][1]) > 0.05 for r, f in fixes.items())
+    return trials, both, wrong
+
+
+@contextmanager
+def _stack(sets: list[str], processes: bool, log_dir: Path) -> Iterator[str]:
+    """A stack with config overrides `sets` (SECTION.KEY=VALUE), up: as processes or in this process; yields its endpoint."""
+    if processes:
+        with ProcStack(("r1",), services.NAMES, log_dir, [a for kv in sets for a in ("--set", kv)]) as procs:
+            yield procs.endpoint
+        return
+    with Router() as router:
+        stack = InProcessStack(Settings.load(None, **parse_sets(sets)), router.endpoint).start()
+        try:
+            yield router.endpoint
+        finally:
+            stack.stop()
+
+
+def stack_run(source: str, calibration_file: str, laps: float, rtf: float, processes: bool, log_dir: Path) -> tuple[Score, int, int, dict]:
+    """The whole stack driving seed 003's square with the VPS `source`:
+    (pose score, fixes accepted, fixes audited, the vps's diag counters at the end)."""
+    camera = source == "camera"
+    sets = [f"sim.rtf={rtf}", f"sim.camera={str(camera).lower()}", f"vps.source={source}", f'camera.calibration="{calibration_file}"']
+    with _stack(sets, processes, log_dir) as endpoint:
+        with Robot("r1", endpoint, lease=False) as bot:
+            trial = Trial(Recorder(bot.client))
+            diag = bot.client.latest("diag/vps")
+            trials.wait_ready(bot, rtf)
+            trials.square(bot, trial.goals, rtf, laps)
+            counters = dict(diag.wait().counters)
+    audited = trial.rec.msgs["localizer/fixes"]
+    pose = score(trial.rec.series("pose"), trial.rec.series("sim/truth"))
+    return pose, sum(f.accepted for f in audited), len(audited), counters
+
+
+def compare_sources(laps: float, rtf: float, processes: bool) -> None:
+    """Print the square's pose error with the synthetic VPS and with the camera's."""
+    with tempfile.TemporaryDirectory() as d:
+        path = str(Path(d) / "camera.json")
+        Pipeline(Camera()).cal.save(path)  # what `zenav camera calibrate --sim` writes
+        harness = "one process per service" if processes else "every service in this process"
+        print(f"The whole stack ({harness}), seed 003's square x {laps:g} at rtf {rtf:g}:")
+        print("| vps source | pose RMSE [mm] | pose max [mm] | heading RMSE [deg] | fixes accepted | vps diag |")
+        print("|---|---|---|---|---|---|")
+        for source in ("synthetic", "camera"):
+            pose, accepted, audited, counters = stack_run(source, path, laps, rtf, processes, Path(d))
+            keep = {k: v for k, v in counters.items() if k.endswith("_p50") or k in ("frames", "frames_refused", "fixes_captured")}
+            print(
+                f"| {source} | {pose.rmse * 1e3:.1f} | {pose.max * 1e3:.1f} | {math.degrees(pose.heading_rmse):.2f} | "
+                f"{accepted}/{audited} | {keep} |"
+            )
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m zenav.bench.camera", description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=100, help="frames timed per camera (default 100)")
+    ap.add_argument("--quick", action="store_true", help="only the default camera with pupil-apriltags")
+    ap.add_argument("--stack", type=float, metavar="LAPS", help="instead: the whole stack driving LAPS squares, synthetic VPS vs camera")
+    ap.add_argument("--rtf", type=float, default=1.0, help="realtime factor of --stack (default 1)")
+    ap.add_argument("--processes", action="store_true", help="--stack with one process per service (as `zenav up`)")
+    args = ap.parse_args(argv)
+    if args.stack:
+        compare_sources(args.stack, args.rtf, args.processes)
+        return 0
+    default, worse = Camera(), msgspec.structs.replace(Camera(), **WORSE)
+    runs: list[tuple[str, Camera, detect.Backend]] = [("default 640x480, apriltag", default, "apriltag")]
+    if not args.quick:
+        runs += [("default 640x480, aruco", default, "aruco"), ("worse 320x240, apriltag", worse, "apriltag")]
+    print("Milliseconds per frame, p50 / p99 of the wall time (p50 of the CPU time; other load on the host shows in the wall):")
+    print("| camera, detector | render (sim) | frame encode + decode | detect + locate (vps) | calibration rms [mm] |")
+    print("|---|---|---|---|---|")
+    pipes = []
+    for name, cfg, backend in runs:
+        p = Pipeline(cfg, backend)
+        pipes.append((name, p))
+        times = timing(p, args.frames)
+        print(f"| {name} | {' | '.join(times[k].cell() for k in STAGES)} | {p.cal.rms * 1000:.2f} |")
+    print()
+    print(f"Accuracy over {len(XS) * len(YS)} positions x {len(HEADINGS)} headings, at rest and at (0.3 m/s, 1 rad/s):")
+    print("| camera, detector | fixes | position err p50 / p95 [mm] | heading err p50 / p95 [deg] | z pos / z heading p50 |")
+    print("|---|---|---|---|---|")
+    for name, p in pipes:
+        print(accuracy(p).row(name))
+    print()
+    for name, p in pipes:
+        n, both, wrong = two_robots(p, 50)
+        print(f"two robots, {name}: both fixed in {both}/{n} frames, fixes given to the wrong robot: {wrong}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

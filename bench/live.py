@@ -1,0 +1,153 @@
+"""One live measurement: robots driving squares on a process stack, watched for a window.
+
+Every robot's stack runs as separate processes on one router (as `zenav up` runs
+them), each robot's navigator drives the 1 m square for the whole run. Over the
+window: CPU time and memory of every process (/proc), the stack time each sim
+advanced, the diag counters, robot r1's sensor-to-wheel chain, the bare Zenoh hop
+measured beside it, and the whole machine's CPU use (other users included).
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from zenav.bench import rawhop, trials
+from zenav.bench.latency import ChainRecorder
+from zenav.common import messages as m
+from zenav.common.bus import ZenohBus
+from zenav.common.client import Client, Latest, ZenavError
+from zenav.robot import Robot
+from zenav.services import NAMES
+from zenav.stack.launcher import ProcStack
+
+SETTLE = 1.0  # [s] wall after the first goals start, before the window opens
+START_TIMEOUT = 30.0  # [s] for the first robot's services to come up; each further robot adds START_PER_ROBOT
+START_PER_ROBOT = 6.0  # [s]
+DIAG_WAIT = 5.0  # [s] wall for the diags that close the window (they come once a second of stack time)
+
+
+def machine_cpu() -> tuple[float, float]:
+    """(busy, total) CPU seconds of the whole machine since boot, from /proc/stat."""
+    with open("/proc/stat") as f:
+        values = [int(v) for v in f.readline().split()[1:]]
+    idle = values[3] + values[4]  # idle + iowait
+    total = sum(values[:8])  # user .. steal (guest time is already in user)
+    return (total - idle) / os.sysconf("SC_CLK_TCK"), total / os.sysconf("SC_CLK_TCK")
+
+
+@dataclass(frozen=True)
+class Live:
+    """What one live run measured over its window."""
+
+    robots: tuple[str, ...]
+    rate: float  # [Hz] sensor rate
+    rtf: float  # realtime factor asked of the sims
+    wall: float  # [s] window length
+    sim: dict[str, float]  # robot -> stack seconds its sim advanced in the window
+    cpu: dict[tuple[str, str], float]  # (robot, service) -> CPU seconds in the window; ("-", "router") too
+    rss: dict[tuple[str, str], int]  # [bytes] at the end of the window
+    counters: dict[tuple[str, str], dict[str, int]]  # counter increases over the window, from diag
+    diag_span: dict[tuple[str, str], float]  # [s] stack time between the two diags the increases are from
+    chain: dict[str, list[float]]  # r1's latency per stage and end to end [ms]
+    raw: list[float]  # bare Zenoh hop during the window [ms]
+    observer_cpu: float  # [s] CPU time of this process in the window
+    machine_busy: float  # fraction of all cores busy in the window (every process on the machine)
+    goal_failures: list[str]  # goals aborted or refused, all robots, whole run: why
+
+
+def _diags(client: Client) -> dict[str, Latest]:
+    return {svc: client.latest(f"diag/{svc}") for svc in NAMES}
+
+
+def run(
+    robots: int,
+    rate: float,
+    rtf: float,
+    window: float,
+    log_dir: Path,
+    scenario: str = "default",
+    zenoh_mode: str = "client",
+    compose: tuple[str, ...] = (),
+) -> Live:
+    """Start robots r1..rN at `rate` [Hz] and `rtf`, drive them, measure `window` wall seconds.
+
+    zenoh_mode: the services' (client: all through the router; peer: also linked directly).
+    compose: services of each robot run in one process (stack/composed.py), the rest alone.
+    """
+    ids = tuple(f"r{i + 1}" for i in range(robots))
+    args = ["--scenario", scenario, "--set", f"sim.rtf={rtf}", "--set", f"scenario.sensor_rate_hz={rate}", "--zenoh-mode", zenoh_mode]
+    stack = ProcStack(ids, NAMES, log_dir, args, compose=compose).start()
+    bus = None
+    stop = threading.Event()
+    try:
+        bus = ZenohBus.open(stack.endpoint)
+        bots = {r: Robot(r, bus=bus, lease=False) for r in ids}  # sharing one session: the bus closes it
+        chain = ChainRecorder(bots[ids[0]].client)
+        diags = {r: _diags(b.client) for r, b in bots.items()}
+        clocks = {r: b.client.latest("clock") for r, b in bots.items()}
+        deadline = time.monotonic() + START_TIMEOUT + START_PER_ROBOT * (robots - 1)
+        for b in bots.values():
+            stack.check()
+            trials.wait_ready(b, rtf, timeout=max(deadline - time.monotonic(), 1.0))
+        goals: dict[str, list[trials.GoalEnd]] = {r: [] for r in ids}
+        drivers = [trials.drive(b, goals[r], stop, rtf) for r, b in bots.items()]
+        stop.wait(SETTLE)
+        stack.check()
+        before = {r: {s: d.wait() for s, d in ds.items()} for r, ds in diags.items()}
+        p0, busy0, self0 = stack.sample(), machine_cpu(), os.times()
+        w0, sim0 = time.monotonic(), {r: c.msg.t for r, c in clocks.items()}
+        chain.recording = True
+        raw = rawhop.measure(stack.endpoint, 100.0, window)  # also the window's timer
+        chain.recording = False
+        p1, busy1, self1 = stack.sample(), machine_cpu(), os.times()
+        w1, sim1 = time.monotonic(), {r: c.msg.t for r, c in clocks.items()}
+        stack.check()
+        after = {r: {s: _diag_after(d, sim1[r]) for s, d in ds.items()} for r, ds in diags.items()}
+        stop.set()
+        for b in bots.values():
+            try:
+                b.stop()  # ends the running goal at once, and with it the driver
+            except ZenavError:
+                pass  # a navigator too loaded to answer: its goal ends when the stack stops
+        for d in drivers:
+            d.join(timeout=10.0)
+    finally:
+        stop.set()
+        if bus is not None:
+            bus.close()
+        stack.stop()
+    keys = [(r, s) for r in ids for s in NAMES]
+    return Live(
+        robots=ids,
+        rate=rate,
+        rtf=rtf,
+        wall=w1 - w0,
+        sim={r: sim1[r] - sim0[r] for r in ids},
+        cpu={k: p1[k].cpu - p0[k].cpu for k in p1},  # (robot, "composed") for a composed process
+        rss={k: p1[k].rss for k in p1},
+        counters={(r, s): _increase(before[r][s], after[r][s]) for r, s in keys},
+        diag_span={(r, s): after[r][s].t - before[r][s].t for r, s in keys},
+        chain=chain.stages(),
+        raw=raw,
+        observer_cpu=(self1.user + self1.system) - (self0.user + self0.system),
+        machine_busy=(busy1[0] - busy0[0]) / max(busy1[1] - busy0[1], 1e-9),
+        goal_failures=[
+            f"{r}: {g.result}: {g.message}" for r, gs in goals.items() for g in gs if g.result not in ("succeeded", "cancelled")
+        ],
+    )
+
+
+def _diag_after(latest: Latest, t: float) -> m.Diag:
+    """The first diag from stack time t on, or the newest if none comes soon (a stack far behind)."""
+    try:
+        return latest.wait(lambda msg: msg.t >= t, timeout=DIAG_WAIT)
+    except TimeoutError:
+        return latest.msg
+
+
+def _increase(a: m.Diag, b: m.Diag) -> dict[str, int]:
+    return {k: v - a.counters.get(k, 0) for k, v in b.counters.items()}

@@ -1,0 +1,97 @@
+"""How much one `zenav bench` run measures: FULL, or QUICK for CI, restricted to some sections."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from zenav.common.scenarios import PRESETS
+from zenav.services.localizer.base import MODES
+from zenav.services.navigator.params import CONTROLLERS
+
+SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "profile", "fleet")
+
+
+@dataclass(frozen=True)
+class Plan:
+    """How much one bench run measures."""
+
+    raw_window: float  # [s] the bare Zenoh hop on an idle router
+    latency_window: float  # [s] one robot at 100 Hz: latency and per-process cost
+    sweep_window: float  # [s] each other point of the rate and robot sweeps
+    rates: tuple[float, ...]  # [Hz] sensor rates swept, one robot
+    robots: tuple[int, ...]  # robot counts swept on one router, at 100 Hz
+    speed_harnesses: tuple[str, ...]  # processes (what the accuracy runs use), in-process (what integration tests use)
+    speed_rtfs: tuple[float, ...]  # realtime factors compared with the first (1.0)
+    speed_seeds: tuple[int, ...]  # seeds of the speed study's path and turn trials
+    rtf: float  # realtime factor of the accuracy runs, or the most they may use (follow_speed)
+    follow_speed: bool  # lower `rtf` to the highest the speed study finds within noise of realtime
+    modes: tuple[str, ...]  # localizer modes run live (default scenario, first seed)
+    scenarios: tuple[str, ...]
+    seeds: tuple[int, ...]  # accuracy seeds per scenario (every mode replayed on each)
+    laps: float  # square laps of an accuracy run
+    controllers: tuple[str, ...]
+    path_seeds: tuple[int, ...]  # seed 002's path trial (then the turn sweep) per controller
+    square_laps: float  # seed 003's square per controller (0: not run)
+    kinematic_seeds: int  # the navigator's kinematic path trial per controller (bench/studies/navigator.py)
+    compose: tuple[str, ...] = ("odometry", "localizer", "navigator", "motor")  # run again composed in one process (none: not)
+    chain_modes: tuple[str, ...] = ("client", "peer")  # Zenoh modes of the bare chain measured beside the stack
+    profile_seconds: float = 10.0  # [s] of stack time each service is timed over (bench/profile.py)
+    fleet_robots: tuple[int, ...] = (1, 2, 5, 10, 20)  # robots' traffic played through one router (bench/fleet.py)
+    fleet_window: float = 10.0  # [s] each robot count plays
+    fleet_hosts: int = 3  # namespaces, one router each (0: not run)
+    sections: tuple[str, ...] = SECTIONS
+    limit: float | None = None  # [s] the whole run should take less (the quick plan's CI budget)
+
+
+FULL = Plan(
+    raw_window=10.0,
+    latency_window=30.0,
+    sweep_window=20.0,
+    rates=(50.0, 100.0, 200.0, 400.0),
+    robots=(1, 2, 5, 10, 20),
+    speed_harnesses=("processes", "in-process"),
+    speed_rtfs=(1.0, 2.0, 3.0, 4.0, 5.0, 8.0),
+    speed_seeds=(1, 2),
+    rtf=5.0,
+    follow_speed=True,
+    modes=MODES,
+    scenarios=tuple(PRESETS),
+    seeds=(1, 2, 3),
+    laps=3.0,
+    controllers=CONTROLLERS,
+    path_seeds=tuple(range(1, 11)),
+    square_laps=3.0,
+    kinematic_seeds=10,
+)
+QUICK = Plan(
+    raw_window=3.0,
+    latency_window=8.0,
+    sweep_window=5.0,
+    rates=(100.0,),
+    robots=(1, 2),
+    speed_harnesses=("processes",),
+    speed_rtfs=(1.0, 3.0),
+    speed_seeds=(1,),
+    rtf=3.0,
+    follow_speed=False,
+    modes=("ekf",),
+    scenarios=("default", "harsh"),
+    seeds=(1,),
+    laps=1.0,
+    controllers=CONTROLLERS,
+    path_seeds=(1,),
+    square_laps=0.0,
+    kinematic_seeds=3,
+    compose=(),
+    chain_modes=(),  # the quick run keeps its length: the bare chain in the full run
+    profile_seconds=3.0,
+    fleet_robots=(1, 5),
+    fleet_window=3.0,
+    sections=SECTIONS[:-2],  # the profile and the fleet only when asked (--only ...): the quick run keeps its budget
+    limit=120.0,
+)
+
+
+def only(plan: Plan, sections: list[str] | None) -> Plan:
+    """The plan restricted to some sections (None: all)."""
+    return plan if not sections else replace(plan, sections=tuple(s for s in SECTIONS if s in sections))

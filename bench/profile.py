@@ -1,0 +1,193 @@
+"""What each service costs per message: CPU time and a deterministic profile, in one process.
+
+Every service of one robot runs on one in-process bus (stack.composed.LocalBus, no
+network), the sim stepped by a manual clock at the sensor rate and the others on the
+sim clock as deployed, the navigator driving squares. Each step the services are
+drained in the chain's order on this thread, so each one's CPU time (thread time) is
+its own: decode, handler, encode and the runtime's dispatch. A second run under
+cProfile names the functions the time goes to (cProfile slows each call by a constant:
+its figures rank the costs; the first run's are the costs).
+
+`python -m zenav.bench.profile --seconds 20 --top 12` prints both.
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import pstats
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+from zenav import services as registry
+from zenav.common import codec, keys
+from zenav.common import messages as m
+from zenav.common.bus import MemoryBus
+from zenav.common.clock import ManualClock
+from zenav.common.config import Settings
+from zenav.common.runtime import Service
+from zenav.common.scenarios import SQUARE
+from zenav.stack.composed import ROBOT_SERVICES, LocalBus
+
+RATE = 100.0  # [Hz] the reference sensor rate
+ORDER = ("sim", "odometry", "localizer", "navigator", "motor", "vps")  # the chain first, then the camera
+GOAL_AT = 1.5  # [s] of stack time: the follow_path goal is sent (the warm-up must be longer)
+LAPS = 1000  # squares in the one follow_path goal (more than any run drives)
+
+
+@dataclass(frozen=True)
+class Cost:
+    """One service over a run."""
+
+    name: str
+    steps: int  # sensor periods measured
+    inputs: int  # messages it took (clock ticks not counted)
+    outputs: int  # messages it published
+    cpu: float  # [s] thread CPU time: inputs, clock ticks, timers and publishing
+
+    @property
+    def per_step(self) -> float:
+        """[us] CPU per sensor period (one encoder sample and what it brings)."""
+        return self.cpu / max(self.steps, 1) * 1e6
+
+    @property
+    def per_input(self) -> float:
+        """[us] CPU per input message."""
+        return self.cpu / max(self.inputs, 1) * 1e6
+
+    def cores(self, rate: float) -> float:
+        """Fraction of a core at `rate` [Hz]: CPU per second of stack time."""
+        return self.per_step * 1e-6 * rate
+
+
+@dataclass(frozen=True)
+class Hot:
+    """One function of a service's profile."""
+
+    where: str  # file:line(function)
+    calls: int
+    own: float  # [us] per sensor period, in the function itself
+    total: float  # [us] per sensor period, with what it calls
+
+
+def _stack(rate: float) -> tuple[LocalBus, ManualClock, dict[str, Service]]:
+    settings = Settings.load(None, scenario={"sensor_rate_hz": rate})
+    mem, sim_clock = MemoryBus(), ManualClock(0.0)
+    bus = LocalBus(mem)
+    svcs: dict[str, Service] = {}
+    for name in ORDER:
+        cls = registry.load(name)
+        svcs[name] = cls(settings, bus, sim_clock if name == "sim" else cls.make_clock(settings))
+    for name in registry.NAMES:  # the start order, as launchers use
+        svcs[name].start()
+    return bus, sim_clock, svcs
+
+
+def _steps(seconds: float, rate: float, bus: LocalBus, clock: ManualClock, svcs: dict[str, Service], warmup: float) -> Iterator[bool]:
+    """Advance the clock one sensor period at a time; yields whether the step is measured.
+
+    The squares start once the localizer has had time to place the robot (GOAL_AT)."""
+    points: list[tuple[float, ...]] = [(x, y) for _ in range(LAPS) for x, y in SQUARE]
+    goal = m.FollowPath(points=points[:10_000])
+    for i in range(round((warmup + seconds) * rate)):
+        clock.advance(1.0 / rate)
+        if i == round(GOAL_AT * rate):
+            assert isinstance(bus.rest, MemoryBus)
+            bus.rest.query(keys.key(svcs["navigator"].robot, "nav/follow_path"), codec.encode(goal))
+        yield i >= round(warmup * rate)
+
+
+def measure(seconds: float = 10.0, rate: float = RATE, warmup: float = 3.0) -> dict[str, Cost]:
+    """CPU per service over `seconds` of stack time at `rate` [Hz], after `warmup` seconds."""
+    bus, clock, svcs = _stack(rate)
+    cpu = dict.fromkeys(ORDER, 0.0)
+    base: dict[str, tuple[int, int]] = {}
+    tick = time.thread_time
+    for measured in _steps(seconds, rate, bus, clock, svcs, warmup):
+        if measured and not base:
+            base = {n: (s.counters.values["msgs_in"], s.counters.values["msgs_out"]) for n, s in svcs.items()}
+        for name in ORDER:
+            t0 = tick()
+            svcs[name].drain()
+            if measured:
+                cpu[name] += tick() - t0
+    _close(bus, svcs)
+    steps = round(seconds * rate)
+    out = {}
+    for name, s in svcs.items():
+        v = s.counters.values
+        out[name] = Cost(name, steps, v["msgs_in"] - base[name][0], v["msgs_out"] - base[name][1], cpu[name])
+    return out
+
+
+def profile(seconds: float = 5.0, rate: float = RATE, warmup: float = 3.0, top: int = 10) -> dict[str, list[Hot]]:
+    """Per service, its `top` functions by own time under cProfile [us per sensor period]."""
+    bus, clock, svcs = _stack(rate)
+    profs = {name: cProfile.Profile() for name in ORDER}
+    for measured in _steps(seconds, rate, bus, clock, svcs, warmup):
+        for name in ORDER:
+            if measured:
+                _profiled(profs[name], svcs[name].drain)
+            else:
+                svcs[name].drain()
+    _close(bus, svcs)
+    return {name: _hot(profs[name], round(seconds * rate), top) for name in ORDER}
+
+
+def _profiled(prof: cProfile.Profile, fn: Callable[[], object]) -> None:
+    prof.enable()
+    try:
+        fn()
+    finally:
+        prof.disable()
+
+
+def _hot(prof: cProfile.Profile, steps: int, top: int) -> list[Hot]:
+    stats = pstats.Stats(prof).stats  # type: ignore[attr-defined]  # {(file, line, fn): (cc, nc, tt, ct, callers)}
+    rows = sorted(stats.items(), key=lambda kv: kv[1][2], reverse=True)[:top]
+    return [Hot(_where(f), nc, tt / steps * 1e6, ct / steps * 1e6) for f, (_, nc, tt, ct, _) in rows]
+
+
+def _where(f: tuple[str, int, str]) -> str:
+    path, line, fn = f
+    if path == "~":
+        return fn  # a builtin: "<method 'encode' of ...>"
+    short = "/".join(path.split("/")[-2:])
+    return f"{short}:{line}({fn})"
+
+
+def _close(bus: LocalBus, svcs: dict[str, Service]) -> None:
+    for s in svcs.values():
+        s.close()
+    bus.close()
+
+
+def lines(costs: dict[str, Cost], hot: dict[str, list[Hot]], rate: float) -> list[str]:
+    """The costs, then each service's hottest functions, as text lines."""
+    out = [f"{'service':<10} {'inputs':>7} {'outputs':>7} {'us/input':>9} {'us/period':>9} {'core at rate':>12}"]
+    for c in costs.values():
+        out.append(f"{c.name:<10} {c.inputs:>7} {c.outputs:>7} {c.per_input:>9.1f} {c.per_step:>9.1f} {c.cores(rate):>12.4f}")
+    robot = sum(costs[n].cores(rate) for n in ROBOT_SERVICES if n in costs)
+    out.append(f"robot services ({', '.join(ROBOT_SERVICES)}) at {rate:g} Hz: {robot:.4f} of a core")
+    for name, rows in hot.items():
+        out.append("")
+        out.append(f"{name}: top functions by own time, then with callees, us per sensor period (under cProfile)")
+        out += [f"  {h.own:8.2f} {h.total:8.2f} {h.calls:>8}  {h.where}" for h in rows]
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m zenav.bench.profile", description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=10.0, help="[s] stack time measured")
+    parser.add_argument("--rate", type=float, default=RATE, help="[Hz] sensor rate")
+    parser.add_argument("--top", type=int, default=10, help="functions shown per service")
+    args = parser.parse_args(argv)
+    costs = measure(args.seconds, args.rate)
+    hot = profile(min(args.seconds, 5.0), args.rate, top=args.top)
+    print("\n".join(lines(costs, hot, args.rate)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,175 @@
+"""The bench report: the machine and versions, then every section as markdown tables,
+with the PNGs beside it (`report.md` in the output directory)."""
+
+from __future__ import annotations
+
+import datetime
+import importlib.metadata
+import os
+import platform
+import subprocess
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from zenav.bench import cost, tables
+from zenav.bench.latency import END_TO_END, Stats
+from zenav.bench.run import Results
+from zenav.bench.speed import highest_by_harness
+from zenav.bench.tables import fmt, table
+
+TARGET_P50, TARGET_P99 = 3.0, 8.0  # [ms] end to end at 100 Hz (the issue's targets)
+TARGET_CPU = 0.5  # [CPU s per simulated s] the whole stack at 100 Hz
+PACKAGES = ("zenav", "eclipse-zenoh", "numpy", "msgspec", "matplotlib")
+
+
+def machine() -> list[str]:
+    """Lines naming the host: CPU model, cores, memory, kernel, load."""
+    model = "unknown"
+    with open("/proc/cpuinfo") as f:
+        for line in f:
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    with open("/proc/meminfo") as f:
+        mem_kb = int(f.readline().split()[1])
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
+    return [
+        f"- machine: {model}, {os.cpu_count()} cores, {mem_kb / 2**20:.1f} GiB memory, "
+        f"{platform.system()} {platform.release()}; load average at the end {load}",
+    ]
+
+
+def versions() -> str:
+    """Python and package versions, and the source revision."""
+    found = [f"Python {platform.python_version()}"]
+    for name in PACKAGES:
+        try:
+            found.append(f"{name} {importlib.metadata.version(name)}")
+        except importlib.metadata.PackageNotFoundError:
+            found.append(f"{name} (not installed)")
+    try:
+        rev = subprocess.run(
+            ["git", "describe", "--always", "--dirty"], cwd=Path(__file__).parent, capture_output=True, text=True, timeout=10
+        ).stdout.strip()
+    except OSError:
+        rev = ""
+    return ", ".join(found) + f"; source {rev or 'unknown (not a git checkout)'}"
+
+
+def latency_plot(path: Path, chain: dict[str, list[float]], raw_load: Sequence[float], raw_idle: Sequence[float]) -> None:
+    """Histogram of end-to-end latency beside the bare hop, log scale, with the targets."""
+    fig = Figure(figsize=(10, 4.5), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    series = [
+        (END_TO_END + " (stack)", chain[END_TO_END], "tab:blue"),
+        ("bare hop, same run", raw_load, "tab:orange"),
+        ("bare hop, idle router", raw_idle, "tab:gray"),
+    ]
+    values = [v for _, s, _ in series for v in s if v > 0]
+    bins = np.geomspace(max(min(values, default=0.01), 0.01), max(max(values, default=1.0), 1.0) * 1.01, 60).tolist()
+    for label, s, colour in series:
+        if len(s):
+            st = Stats.of(s)
+            ax.hist(s, bins=bins, histtype="step", lw=1.6, color=colour, label=f"{label}: p50 {st.p50:.2f}, p99 {st.p99:.2f} ms")
+    for x, name in ((TARGET_P50, "p50 target"), (TARGET_P99, "p99 target")):
+        ax.axvline(x, color="tab:red", ls="--", lw=1)
+        ax.text(x, ax.get_ylim()[1] * 0.95, f" {name}", color="tab:red", va="top", fontsize="small")
+    ax.set(xscale="log", xlabel="latency [ms]", ylabel="samples", title="sensor sample to wheel command, realtime, 100 Hz")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper right", fontsize="small")
+    fig.savefig(path, dpi=100)
+
+
+def _targets(res: Results) -> list[str]:
+    rows, notes = [], []
+    if res.base is not None:
+        e2e, raw, idle = Stats.of(res.base.chain[END_TO_END]), Stats.of(res.base.raw), Stats.of(res.raw_idle)
+        rows.append(["end to end p50 at 100 Hz", f"<= {TARGET_P50:g} ms", f"{fmt(e2e.p50)} ms", _met(e2e.p50 <= TARGET_P50)])
+        rows.append(["end to end p99 at 100 Hz", f"<= {TARGET_P99:g} ms", f"{fmt(e2e.p99)} ms", _met(e2e.p99 <= TARGET_P99)])
+        if e2e.p50 > TARGET_P50 or e2e.p99 > TARGET_P99:
+            notes.append(
+                f"Latency: a sample crosses 5 hops (sim, odometry, localizer, navigator, motor, back to the sim). One "
+                f"bare hop took {fmt(raw.p50)} ms at p50 and {fmt(raw.p99)} ms at p99 in the same run ({fmt(idle.p50)} / "
+                f"{fmt(idle.p99)} ms on the idle router), so the hops alone take {fmt(5 * raw.p50)} ms at p50; the "
+                f"services' own work and queueing add the other {fmt(e2e.p50 - 5 * raw.p50)} ms. The machine was "
+                f"{res.base.machine_busy:.0%} busy (every process on it) during the window."
+            )
+        costs = cost.services(res.base)
+        cpu = sum(c.cpu_per_sim_s for c in costs)
+        measured = f"{fmt(cpu, 3)} CPU s per simulated s"
+        rows.append(["whole stack CPU at 100 Hz", f"< {TARGET_CPU:g} core", measured, _met(cpu < TARGET_CPU)])
+        if res.peer is not None:
+            pe2e = Stats.of(res.peer.chain[END_TO_END])
+            pcpu = sum(c.cpu_per_sim_s for c in cost.services(res.peer))
+            rows.append(["end to end p50, services as peers", f"<= {TARGET_P50:g} ms", f"{fmt(pe2e.p50)} ms", _met(pe2e.p50 <= TARGET_P50)])
+            rows.append(["end to end p99, services as peers", f"<= {TARGET_P99:g} ms", f"{fmt(pe2e.p99)} ms", _met(pe2e.p99 <= TARGET_P99)])
+            rows.append(
+                [
+                    "whole stack CPU, services as peers",
+                    f"< {TARGET_CPU:g} core",
+                    f"{fmt(pcpu, 3)} CPU s per simulated s",
+                    _met(pcpu < TARGET_CPU),
+                ]
+            )
+        if cpu >= TARGET_CPU:
+            top = sorted(costs, key=lambda c: -c.cpu_per_sim_s)[:3]
+            notes.append("CPU: the largest are " + ", ".join(f"{c.name} {fmt(c.cpu_per_sim_s, 3)}" for c in top) + ".")
+    if res.robots:
+        kept = [ld.robots for ld in res.robots if ld.keeps_up]
+        rows.append(["robots one router keeps up with (100 Hz)", "-", str(max(kept, default=0)), "-"])
+    if res.speed:
+        best = ", ".join(f"{h} {v:g}" for h, v in highest_by_harness(res.speed).items())
+        rows.append(["highest realtime factor within noise of realtime", "-", best, "-"])
+    if res.plan.limit is not None:
+        rows.append(["whole bench run", f"< {res.plan.limit:g} s", f"{res.duration:.0f} s", _met(res.duration < res.plan.limit)])
+    return table(["target", "goal", "measured", "met"], rows) + [line for note in notes for line in ("", note)]
+
+
+def _met(ok: bool) -> str:
+    return "yes" if ok else "**no**"
+
+
+def write(res: Results, out: Path) -> Path:
+    """Write report.md (and the latency histogram) into `out`; returns the report's path."""
+    out.mkdir(parents=True, exist_ok=True)
+    started = datetime.datetime.fromtimestamp(res.started).astimezone().isoformat(timespec="seconds")
+    lines = [
+        "# zenav benchmark",
+        "",
+        f"- command: `{res.command}`",
+        f"- started {started}, took {res.duration:.0f} s ({res.duration / 60:.1f} min)",
+        *machine(),
+        f"- software: {versions()}",
+        f"- seeds: accuracy {list(res.plan.seeds)}, speed study {list(res.plan.speed_seeds)}, "
+        f"path trial {list(res.plan.path_seeds)}, kinematic path trial 0..{res.plan.kinematic_seeds - 1}",
+        "",
+        "The machine is shared and noisy: compare figures within this report (ratios, and distributions "
+        "from the same run), not across reports.",
+        "",
+        "## Targets",
+        "",
+        *_targets(res),
+    ]
+    if res.base is not None:
+        latency_plot(out / "latency.png", res.base.chain, res.base.raw, res.raw_idle)
+        lines += ["", *tables.latency(res), "", "![latency histogram](latency.png)"]
+    if res.rates or res.robots:
+        lines += ["", *tables.cost(res)]
+    if res.speed:
+        lines += ["", *tables.speed(res)]
+    if res.modes or res.scenarios:
+        lines += ["", *tables.accuracy(res)]
+    if res.paths:
+        lines += ["", *tables.navigation(res)]
+    if res.costs:
+        lines += ["", *tables.profile(res)]
+    if res.fleet:
+        lines += ["", *tables.fleet(res)]
+    path = out / "report.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path

@@ -1,0 +1,185 @@
+"""`zenav bench`: accuracy, latency, cost and simulation speed of the stack in one run.
+
+A `Plan` (bench/plan.py) says how much to measure; `run` measures it section by
+section and returns `Results`, which bench/report.py writes as markdown and PNGs.
+Every stack runs as separate processes, as `zenav up` starts them: latency and cost
+at a realtime factor of 1, accuracy and navigation at the highest factor the speed
+study finds within noise of realtime (capped by `Plan.rtf`). The speed study also
+measures the in-process stack that the integration tests use.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import msgspec
+
+from zenav.bench import accuracy, chain, cost, fleet, live, profile, rawhop, speed
+from zenav.bench.accuracy import Spec, Summary
+from zenav.bench.chain import Chain
+from zenav.bench.cost import Load
+from zenav.bench.fleet import HostsResult, Point
+from zenav.bench.live import Live
+from zenav.bench.plan import Plan
+from zenav.bench.profile import Cost, Hot
+from zenav.bench.speed import Row
+from zenav.bench.studies import navigator as nav_eval
+from zenav.common.scenarios import PRESETS
+from zenav.services.localizer.base import MODES
+from zenav.services.navigator.params import Params
+from zenav.stack.launcher import ProcStack
+from zenav.tools.plot import plot_run
+
+RATE = 100.0  # [Hz] the reference sensor rate (scenarios.md)
+
+
+@dataclass
+class Results:
+    """Everything one bench run measured (sections not run stay empty)."""
+
+    plan: Plan
+    command: str
+    started: float  # [s] epoch
+    duration: float = 0.0  # [s] wall, whole run
+    raw_idle: list[float] = field(default_factory=list)  # [ms] bare hop, idle router
+    chains: dict[str, Chain] = field(default_factory=dict)  # Zenoh mode -> the bare five-hop chain, idle router
+    base: Live | None = None  # one robot at 100 Hz, realtime
+    peer: Live | None = None  # the same with the services as Zenoh peers
+    composed: Live | None = None  # the same with the robot's services composed in one process
+    rates: list[Load] = field(default_factory=list)
+    robots: list[Load] = field(default_factory=list)
+    speed: list[Row] = field(default_factory=list)
+    rtf: float = 0.0  # the accuracy runs' realtime factor
+    modes: dict[str, Summary] = field(default_factory=dict)  # live, default scenario, first seed
+    scenarios: dict[tuple[str, int], Summary] = field(default_factory=dict)  # (scenario, seed) -> its run, every mode replayed
+    paths: dict[str, list[Summary]] = field(default_factory=dict)  # controller -> path (and turns) runs
+    squares: dict[str, Summary] = field(default_factory=dict)  # controller -> square run
+    kinematic: dict[str, list[nav_eval.Outcome]] = field(default_factory=dict)  # controller -> path trials
+    plots: dict[str, str] = field(default_factory=dict)  # file name in the report directory -> title
+    costs: dict[str, Cost] = field(default_factory=dict)  # service -> CPU over the profile run (bench/profile.py)
+    hot: dict[str, list[Hot]] = field(default_factory=dict)  # service -> its costliest functions
+    fleet: list[Point] = field(default_factory=list)  # the router under N robots' traffic
+    hosts: HostsResult | str | None = None  # the fleet over several hosts, or why it was not run
+
+
+def run(plan: Plan, out: Path, command: str, say: Callable[[str], None] = lambda line: print(line, file=sys.stderr)) -> Results:
+    """Measure every section of `plan`; PNGs go to `out` as they are made."""
+    res = Results(plan, command, time.time())
+    t0 = time.monotonic()
+    logs = Path(tempfile.mkdtemp(prefix="zenav-bench-"))
+
+    def note(text: str) -> None:
+        say(f"[{time.monotonic() - t0:6.0f} s] {text}")
+
+    note(f"service logs of the process runs in {logs} (removed if the run completes)")
+    _measure(plan, res, out, logs, note)
+    shutil.rmtree(logs, ignore_errors=True)
+    res.duration = time.monotonic() - t0
+    return res
+
+
+def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[str], None]) -> None:
+    """Each section of the plan in turn, into `res`."""
+    if "latency" in plan.sections or "cost" in plan.sections:
+        with ProcStack((), (), logs) as router:
+            res.raw_idle = rawhop.measure(router.endpoint, RATE, plan.raw_window)
+        note(f"raw hop, idle router: {len(res.raw_idle)} samples")
+        res.base = base = live.run(1, RATE, 1.0, plan.latency_window, logs / "base")
+        note(f"one robot at {RATE:g} Hz, realtime: {len(base.raw)} raw, {len(base.chain['end to end'])} chains")
+        res.peer = live.run(1, RATE, 1.0, plan.latency_window, logs / "peer", zenoh_mode="peer")
+        note(f"the same, services as peers: {len(res.peer.chain['end to end'])} chains")
+        if plan.compose:
+            res.composed = live.run(1, RATE, 1.0, plan.latency_window, logs / "composed", compose=plan.compose)
+            note(f"the same, {', '.join(plan.compose)} in one process: {len(res.composed.chain['end to end'])} chains")
+        for mode in plan.chain_modes:
+            with ProcStack((), (), logs) as router:
+                res.chains[mode] = chain.measure(router.endpoint, RATE, plan.raw_window, mode)
+            note(f"bare five-hop chain, {mode}s: {len(res.chains[mode].latency)} samples")
+    if "cost" in plan.sections:
+        one = cost.load(base)
+        for rate in plan.rates:
+            res.rates.append(one if rate == RATE else _sweep_point(1, rate, plan.sweep_window, logs))
+            note(f"rate {rate:g} Hz: keeps up {res.rates[-1].keeps_up} {res.rates[-1].why}")
+        for n in plan.robots:
+            res.robots.append(one if n == 1 else _sweep_point(n, RATE, plan.sweep_window, logs))
+            note(f"{n} robots: keeps up {res.robots[-1].keeps_up} {res.robots[-1].why}")
+            if res.robots[-1].why.startswith("did not come up"):
+                break  # more robots would not either: the table says where it stopped
+    if "profile" in plan.sections:
+        res.costs = profile.measure(plan.profile_seconds)
+        res.hot = profile.profile(min(plan.profile_seconds, 5.0))
+        robot = sum(res.costs[n].cores(profile.RATE) for n in profile.ROBOT_SERVICES)
+        note(f"profile: the robot's services take {robot:.3f} of a core at {profile.RATE:g} Hz")
+    if "fleet" in plan.sections:
+        res.fleet = fleet.router_load(plan.fleet_robots, plan.fleet_window, logs)
+        note(f"router load: {', '.join(f'{p.robots}: {p.per_robot:.3f} cores/robot' for p in res.fleet)}")
+        if plan.fleet_hosts:
+            res.hosts = fleet.netns_available() or fleet.hosts(plan.fleet_hosts, log_dir=logs)
+            note(f"fleet over {plan.fleet_hosts} hosts: {res.hosts}")
+    res.rtf = plan.rtf
+    runs = Runs(out, logs, res)
+    if "speed" in plan.sections:
+        for harness in plan.speed_harnesses:
+            rows = speed.study(harness, plan.speed_rtfs, plan.speed_seeds, runs.get)
+            res.speed += rows
+            if plan.follow_speed and harness == Spec.harness:
+                res.rtf = min(plan.rtf, speed.highest(rows))
+            note(f"speed, {harness}: within noise up to rtf {speed.highest(rows):g}")
+        note(f"accuracy runs at rtf {res.rtf:g}")
+    if "accuracy" in plan.sections:
+        first = plan.seeds[0]
+        for mode in plan.modes:  # the configured mode's run is also the default scenario's first
+            spec = Spec(seed=first, mode=mode, laps=plan.laps)
+            res.modes[mode] = runs.get(spec, res.rtf, plot=f"run_{mode}.png", replay=spec.mode == Spec().mode)
+            note(f"mode {mode}: RMSE {res.modes[mode].pose.rmse * 100:.2f} cm")
+        for scenario in plan.scenarios:
+            for seed in plan.seeds:
+                spec = Spec(scenario=scenario, seed=seed, laps=plan.laps)
+                name = f"run_{scenario}.png" if seed == first and scenario != "default" else None
+                s = res.scenarios[(scenario, seed)] = runs.get(spec, res.rtf, plot=name, replay=True)
+                note(f"{scenario} seed {seed}: live RMSE {s.pose.rmse * 100:.2f} cm, every mode replayed")
+    if "navigation" in plan.sections:
+        for ctrl in plan.controllers:
+            res.paths[ctrl] = [runs.get(Spec(seed=s, controller=ctrl, trial="path"), res.rtf) for s in plan.path_seeds]
+            if plan.square_laps > 0:
+                res.squares[ctrl] = runs.get(Spec(seed=plan.path_seeds[0], controller=ctrl, laps=plan.square_laps), res.rtf)
+            params = msgspec.structs.replace(Params(), controller=ctrl)
+            res.kinematic[ctrl] = [nav_eval.path_trial(params, PRESETS["default"], s) for s in range(plan.kinematic_seeds)]
+            errs = [e for p in res.paths[ctrl] for e in p.errors["path"]]
+            note(f"controller {ctrl}: path error mean {sum(errs) / max(len(errs), 1) * 100:.2f} cm over {len(errs)} runs")
+
+
+def _sweep_point(robots: int, rate: float, window: float, logs: Path) -> Load:
+    """One live run as a sweep point; stacks that do not come up in time are a point too."""
+    try:
+        return cost.load(live.run(robots, rate, 1.0, window, logs / f"robots{robots}-rate{rate:g}"))
+    except TimeoutError as e:
+        return cost.not_started(robots, rate, str(e))
+
+
+class Runs:
+    """Accuracy runs by (spec, rtf), each run once: the speed study, accuracy and navigation share them."""
+
+    def __init__(self, out: Path, logs: Path, res: Results) -> None:
+        self.out, self.logs, self.res = out, logs, res
+        self.done: dict[tuple[Spec, float], Summary] = {}
+
+    def get(self, spec: Spec, rtf: float, plot: str | None = None, replay: bool = False) -> Summary:
+        """The run's summary, with every mode replayed on it if asked; `plot` names the PNG its first run writes."""
+        key = (spec, rtf)
+        if key not in self.done or (replay and not self.done[key].replay):
+            r = accuracy.run(spec, rtf, self.logs / f"run{len(self.done)}")
+            self.done[key] = accuracy.summarise(r, MODES if replay else ())
+            if plot is not None:
+                title = f"{spec.mode}, {spec.scenario} scenario, seed {spec.seed}"
+                rec = r.trial.rec
+                series = (rec.series("sim/truth"), rec.series("odom"), rec.series("pose"), rec.series("vps/pose"))
+                plot_run(str(self.out / plot), *series, title=title)
+                self.res.plots[plot] = title
+        return self.done[key]

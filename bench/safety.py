@@ -1,0 +1,241 @@
+"""Safety figures measured on real processes: a frozen operator, a stop under a flood, bad inputs.
+
+    python -m zenav.bench.safety
+
+A router and the whole stack run as processes (their logs in a temporary folder);
+the operator and the flood are child processes too (bench/safety_rig.py); the bad
+inputs are sent from this one. Times are wall seconds (CLOCK_MONOTONIC, shared by
+the processes).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import zenoh
+
+from zenav.bench.safety_rig import OPERATOR_GOAL, WAIT, Rig, end_child, read_lines, start_child
+from zenav.common import codec
+from zenav.common import messages as m
+
+FLOOD_GOALS, FLOOD_POINTS = 30, 10_000  # follow_path goals the flood sends at once, points in each
+BIG_PARAMS = 12_000_000  # [bytes] selector parameter
+BIG_PAYLOAD = 100 * 2**20  # [bytes]
+GAP_BEFORE, GAP_AFTER = 0.5, 3.0  # [s] window of pose arrivals around a bad input
+
+
+def _zero(t: float, after: float, v: float, w: float) -> bool:
+    return t >= after and v == 0.0 and w == 0.0
+
+
+@dataclass
+class Freeze:
+    """A frozen operator: SIGSTOP mid-goal to zero cmd_vel / zero wheels [s], and how the goal ended."""
+
+    cmd_vel: float
+    wheels: float
+    message: str
+
+
+def frozen_operator(rig: Rig, cli: bool = False) -> Freeze:
+    """An operator process holding a Robot (or `zenav goto --wait`) sends a goal, is frozen (SIGSTOP) once the robot moves."""
+    rig.ready()
+    last = rig.nav.wait(timeout=WAIT).goal_id
+    x, y = OPERATOR_GOAL
+    argv = (
+        ["zenav.cli", "goto", str(x), str(y), "--wait", "--connect", rig.endpoint]
+        if cli
+        else ["zenav.bench.safety_rig", "operator", rig.endpoint]
+    )
+    proc = subprocess.Popen([sys.executable, "-m", *argv], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    read_lines(proc)
+    try:
+        goal = rig.nav.wait(lambda s: s.goal_id > last and s.state != "STOPPED", timeout=90).goal_id
+        rig.truth.wait(lambda t: abs(t.v) > 0.1, timeout=WAIT)
+        t0 = time.monotonic()
+        os.kill(proc.pid, signal.SIGSTOP)
+        cmd = rig.cmd.first(lambda t, c: _zero(t, t0, c.v, c.omega))
+        wheels = rig.wheels.first(lambda t, w: _zero(t, t0, w.left, w.right))
+        st = rig.nav.wait(lambda s: s.goal_id == goal and s.result is not None, timeout=WAIT)
+        return Freeze(cmd - t0, wheels - t0, f"{st.result}: {st.message}")
+    finally:
+        end_child(proc)
+
+
+@dataclass
+class Flood:
+    """nav/stop sent right after a flood of follow_path goals."""
+
+    answered: float  # [s] stop sent -> answered
+    zero: float  # [s] stop sent -> first zero cmd_vel
+    goals: int  # flood goals sent before the stop
+    after: int  # of those, answered after the stop was
+
+
+def stop_under_flood(rig: Rig, goals: int = FLOOD_GOALS, points: int = FLOOD_POINTS) -> Flood:
+    """A second process sends `goals` follow_path goals of `points` points at once; then nav/stop."""
+    rig.ready()
+    proc, lines = start_child("flood", rig.endpoint, str(goals), str(points))
+    try:
+        assert lines.get(timeout=60).startswith("sent")
+        t0 = time.monotonic()
+        rig.client.query("nav/stop", timeout=WAIT)
+        answered = time.monotonic()
+        zero = rig.cmd.first(lambda t, c: _zero(t, t0, c.v, c.omega))
+        times = json.loads(lines.get(timeout=60))
+    finally:
+        end_child(proc)
+    rig.client.query("nav/stop", timeout=WAIT)  # the newest flood goal ran after the stop
+    return Flood(answered - t0, zero - t0, goals, sum(t > answered for t in times))
+
+
+@dataclass
+class Gap:
+    """The longest interval between poses around one bad input, and what refused it."""
+
+    what: str
+    gap: float  # [s]
+    counter: str  # service.counter
+    count: int  # its value after
+
+
+def pose_gap(rig: Rig, what: str, service: str, counter: str, send: Callable[[], object]) -> Gap:
+    """Send one bad input; the longest pose gap around it and the counter that must have grown."""
+    before = rig.counter(service, counter)
+    t0 = time.monotonic()
+    send()
+    count = rig.wait_counter(service, counter, before)
+    rig.pose.first(lambda t, p: t > t0 + GAP_AFTER, timeout=WAIT + GAP_AFTER)
+    return Gap(what, rig.pose.max_gap(t0 - GAP_BEFORE, t0 + GAP_AFTER), f"{service}.{counter}", count)
+
+
+def bad_inputs(rig: Rig) -> list[Gap]:
+    """Each bad input once: a 12 MB selector parameter, a 100 MiB payload, a clock at rtf 200, an encoder 0.9 s ahead."""
+    s = rig.session
+    rig.pose.first(lambda t, p: True)
+    t0 = time.monotonic()
+    rig.pose.first(lambda t, p: t > t0 + GAP_AFTER + GAP_BEFORE, timeout=WAIT)
+    quiet = Gap("nothing (baseline)", rig.pose.max_gap(t0, t0 + GAP_AFTER + GAP_BEFORE), "-", 0)
+    key = rig.client.key
+    return [
+        quiet,
+        pose_gap(
+            rig, "12 MB selector parameter", "navigator", "oversize", lambda: _get(s, f"{key('nav/follow_path')}?points={'1' * BIG_PARAMS}")
+        ),
+        pose_gap(
+            rig,
+            "100 MiB payload on sensors/encoders",
+            "odometry",
+            "oversize",
+            lambda: s.put(key("sensors/encoders"), bytes(BIG_PAYLOAD), congestion_control=zenoh.CongestionControl.BLOCK),
+        ),
+        pose_gap(
+            rig,
+            "clock sample at rtf 200",
+            "localizer",
+            "clock_refused",
+            lambda: rig.client.publish("clock", m.Clock(t=rig.clock.msg.t + 0.01, rtf=200.0)),
+        ),
+        pose_gap(
+            rig,
+            "encoder sample 0.9 s ahead",
+            "odometry",
+            "dropped_future",
+            lambda: rig.client.publish("sensors/encoders", _ahead(rig.one("sensors/encoders"), rig.clock.msg.t + 0.9)),
+        ),
+    ]
+
+
+@dataclass
+class Wildcard:
+    """A `get zenav/r1/**` while a goal runs."""
+
+    replies: int  # answers of every queryable reached
+    refused: int  # wildcard_refused summed over navigator, localizer and sim, after
+    goal_before: tuple[int, str]  # (goal id, state) before the get
+    goal_after: tuple[int, str]  # ... and a second after it
+    jump: float  # [m] largest step of the true pose between samples 10 ms apart around the get
+    pose_jump: float  # [m] largest step of the localizer's pose around the get
+
+
+def wildcard_get(rig: Rig) -> Wildcard:
+    """Start a goal, ask `get zenav/r1/**`, and look at the goal, the sim and the localizer a second later."""
+    rig.ready()
+    rig.client.query("nav/move_to_point", {"x": -0.5, "y": 0.0}, timeout=WAIT)
+    st = rig.nav.wait(lambda s: s.state != "STOPPED", timeout=WAIT)
+    truth: list[m.Truth] = []
+    handle = rig.client.subscribe("sim/truth", truth.append)
+    t0 = time.monotonic()
+    replies = rig.bus.get(rig.client.key("**"), timeout=WAIT)
+    rig.pose.first(lambda t, p: t > t0 + 1.0, timeout=WAIT)
+    handle.undeclare()
+    after = rig.nav.msg
+    poses = [p for t, p in rig.pose.items if t >= t0 - 0.5]
+    refused = sum(rig.counter(s, "wildcard_refused") for s in ("navigator", "localizer", "sim"))
+    rig.client.query("nav/stop", timeout=WAIT)
+    return Wildcard(len(replies), refused, (st.goal_id, st.state), (after.goal_id, after.state), _steps(truth), _steps(poses))
+
+
+def _steps(poses: list[Any]) -> float:
+    """[m] the largest step between consecutive poses."""
+    return max((math.hypot(b.x - a.x, b.y - a.y) for a, b in zip(poses, poses[1:], strict=False)), default=0.0)
+
+
+def echoed_field(rig: Rig, chars: int = 500_000) -> int:
+    """[bytes] the error reply to a goal with an unknown field of `chars` characters (its decode error names it)."""
+    payload = codec.encode({"x": 0.0, "y": 0.0, "a" * chars: 1})
+    replies = rig.bus.get(rig.client.key("nav/move_to_point"), payload=payload, timeout=WAIT)
+    return max(len(data) for _, data in replies)
+
+
+def _ahead(enc: m.Encoders, t: float) -> m.Encoders:
+    return m.Encoders(t=t, left=enc.left, right=enc.right)
+
+
+def _get(session: zenoh.Session, selector: str) -> list[bytes]:
+    return [r.err.payload.to_bytes() if r.err is not None else b"" for r in session.get(selector, timeout=WAIT)]
+
+
+def main() -> int:
+    """Measure and print the figures."""
+    with tempfile.TemporaryDirectory(prefix="zenav-safety-") as logs:
+        return _measure(Rig(Path(logs)))
+
+
+def _measure(rig: Rig) -> int:
+    try:
+        for cli in (False, True):
+            f = frozen_operator(rig, cli)
+            who = "zenav goto --wait" if cli else "a Robot"
+            print(f"frozen operator ({who}, SIGSTOP mid-goal): zero cmd_vel after {f.cmd_vel:.3f} s, ", end="")
+            print(f"zero wheels after {f.wheels:.3f} s ({f.message})")
+        fl = stop_under_flood(rig)
+        print(
+            f"nav/stop after {fl.goals} follow_path goals of {FLOOD_POINTS} points: answered in {fl.answered * 1000:.1f} ms, "
+            f"zero cmd_vel {fl.zero * 1000:.1f} ms, {fl.after} of the goals answered after it"
+        )
+        for g in bad_inputs(rig):
+            print(f"largest pose gap, {g.what}: {g.gap * 1000:.0f} ms ({g.counter} = {g.count})")
+        w = wildcard_get(rig)
+        print(
+            f"get zenav/r1/**: {w.replies} replies, wildcard_refused {w.refused}; goal {w.goal_before} -> {w.goal_after}; "
+            f"largest step {w.jump * 100:.1f} cm true, {w.pose_jump * 100:.1f} cm localized"
+        )
+    finally:
+        rig.close()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,508 @@
+"""The report's sections as markdown lines, from the bench's results."""
+
+from __future__ import annotations
+
+import math
+import os
+import statistics
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+from zenav.bench.accuracy import Summary
+from zenav.bench.cost import Load, ServiceCost, services
+from zenav.bench.latency import END_TO_END, STAGES, Stats
+from zenav.bench.live import Live
+from zenav.bench.profile import RATE
+from zenav.bench.scoring import summary
+from zenav.bench.speed import METRICS, highest_by_harness
+from zenav.common.scenarios import HEADINGS, PATH
+from zenav.stack.composed import ROBOT_SERVICES
+
+if TYPE_CHECKING:
+    from zenav.bench.run import Results
+
+SEED_002_ROBOT = "mean 11.4 / sd 3.9 cm with a 5 cm stopping threshold"  # the seed's real robot (scenarios.md)
+
+
+def fmt(x: float, digits: int = 2) -> str:
+    return "-" if math.isnan(x) else f"{x:.{digits}f}"
+
+
+def pct(x: float) -> str:
+    return "-" if math.isnan(x) else f"{x:.0%}"
+
+
+def table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    """A markdown table."""
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return lines + ["| " + " | ".join(map(str, r)) + " |" for r in rows]
+
+
+def _stats_row(name: str, values: Sequence[float]) -> list[str]:
+    st = Stats.of(values)
+    return [name, str(st.n), fmt(st.p50), fmt(st.p90), fmt(st.p99), fmt(st.max)]
+
+
+def _failures(labelled) -> list[str]:
+    """A line per run with goals that did not succeed, and why."""
+    out = [f"- {label}: {'; '.join(s.failures)}" for label, s in labelled if s.failures]
+    return ["", "Goals that did not succeed:", *out] if out else []
+
+
+# ------------------------------------------------------------------ latency
+def _chain_rows(chain: dict[str, list[float]]) -> list[list[str]]:
+    """A row per stage of the sensor-to-wheel chain, then end to end."""
+    return [_stats_row(s, chain[s]) for s in STAGES] + [_stats_row(f"**{END_TO_END}**", chain[END_TO_END])]
+
+
+def latency(res: Results) -> list[str]:
+    """The latency section (none without the one-robot run)."""
+    base = res.base
+    if base is None:
+        return []
+    e2e, raw, idle = Stats.of(base.chain[END_TO_END]), Stats.of(base.raw), Stats.of(res.raw_idle)
+    rows = _chain_rows(base.chain)
+    rows += [_stats_row("bare Zenoh hop, same run", base.raw), _stats_row("bare Zenoh hop, idle router", res.raw_idle)]
+    biggest = max(STAGES[1:], key=lambda s: Stats.of(base.chain[s]).p50)
+    return [
+        "## Latency",
+        "",
+        f"One robot, every service its own process, one router, realtime, {base.rate:g} Hz, {base.wall:.0f} s window "
+        "while the navigator drives the square. Per encoder sample t: the sim's wall-clock stamp of t, then the wall "
+        "arrival of `sensors/encoders`, `odom`, `pose`, `cmd_vel` and `motors/wheels` of that t at an observer "
+        "process. `delivery` is sim to a subscriber (one hop); each service's row is the hop into it plus its work; "
+        "they add up to end to end (now - t on `motors/wheels`). The bare hop: two plain Python processes, same "
+        "codec and publisher settings, 100 Hz through the same router, measured during the window and on the idle "
+        "router before it. [ms]",
+        "",
+        *table(["stage", "n", "p50", "p90", "p99", "max"], rows),
+        "",
+        f"End to end is {fmt(e2e.p50 / raw.p50, 1)}x the bare hop at p50 and {fmt(e2e.p99 / raw.p99, 1)}x at p99 "
+        f"(same run); a chain of 4 services needs 5 hops, {fmt(5 * raw.p50)} ms of bare hops at p50. The bare hop "
+        f"took {fmt(raw.p50)} ms at p50 during the window and {fmt(idle.p50)} ms on the idle router before it. "
+        f"Largest service stage at p50: {biggest}. Machine busy during the window: {base.machine_busy:.0%} of "
+        f"{os.cpu_count()} cores (everything running on it, not only the stack).",
+        *_chain_ratios(res),
+        *_peer_latency(res, base),
+        *_composed_latency(res, base),
+    ]
+
+
+def _composed_latency(res: Results, base: Live) -> list[str]:
+    """The same chain with the robot's services composed in one process (stack/composed.py)."""
+    comp = res.composed
+    if comp is None:
+        return []
+    e2e, client = Stats.of(comp.chain[END_TO_END]), Stats.of(base.chain[END_TO_END])
+    bare = (
+        [f"- {ratio_line('end to end (composed)', comp.chain[END_TO_END], res.chains['client'].latency)}"] if "client" in res.chains else []
+    )
+    return [
+        "",
+        "### The robot's services composed in one process",
+        "",
+        f"The same measurement, {', '.join(res.plan.compose)} in one process (`zenav up --compose ...`): they reach "
+        f"each other directly in the process and the rest of the stack through one shared client session. The "
+        f"observer still hears every topic through the router. {comp.wall:.0f} s window, machine "
+        f"{comp.machine_busy:.0%} busy. [ms]",
+        "",
+        *table(["stage", "n", "p50", "p90", "p99", "max"], _chain_rows(comp.chain)),
+        "",
+        f"End to end p50 {fmt(e2e.p50)} ms and p99 {fmt(e2e.p99)} ms composed, {fmt(client.p50)} / {fmt(client.p99)} ms "
+        f"as separate processes.",
+        *bare,
+    ]
+
+
+def ratio_line(name: str, stack: Sequence[float], bare: Sequence[float]) -> str:
+    """`name / bare chain: p50 1.21x, p99 1.40x`."""
+    a, b = Stats.of(stack), Stats.of(bare)
+    return f"{name} / bare chain: p50 {fmt(a.p50 / b.p50)}x, p99 {fmt(a.p99 / b.p99)}x"
+
+
+def _chain_ratios(res: Results) -> list[str]:
+    """End to end over the bare five-hop chain (bench/chain.py), per Zenoh mode measured."""
+    runs = {mode: live for mode, live in (("client", res.base), ("peer", res.peer)) if live is not None}
+    rows = [_stats_row(f"bare chain, {mode}s", c.latency) for mode, c in res.chains.items()]
+    if not rows:
+        return []
+    ratios = [
+        ratio_line(f"end to end ({m}s)", live.chain[END_TO_END], res.chains[m].latency) for m, live in runs.items() if m in res.chains
+    ]
+    ratios += [
+        f"one relay process (decode, publish) at {RATE:g} Hz, {m}s: {fmt(c.relay_cores, 3)} of a core" for m, c in res.chains.items()
+    ]
+    return [
+        "",
+        "### The floor: a bare chain of the same five hops",
+        "",
+        "A publisher, four relay processes that only decode and publish again, and a subscriber (bench/chain.py): "
+        "the five hops of the chain with the same codec, publisher settings and Zenoh mode, no service work, on an "
+        "idle router right after the stack's run. Goals: p50 <= 1.3x, p99 <= 1.5x. [ms]",
+        "",
+        *table(["chain", "n", "p50", "p90", "p99", "max"], rows),
+        "",
+        *[f"- {line}" for line in ratios],
+    ]
+
+
+def _peer_latency(res: Results, base: Live) -> list[str]:
+    """The same chain with the services as Zenoh peers (`--zenoh-mode peer`), beside the clients' run."""
+    peer = res.peer
+    if peer is None:
+        return []
+    rows = _chain_rows(peer.chain)
+    rows.append(_stats_row("bare Zenoh hop (clients), same run", peer.raw))
+    e2e, client = Stats.of(peer.chain[END_TO_END]), Stats.of(base.chain[END_TO_END])
+    return [
+        "",
+        "### Services as Zenoh peers",
+        "",
+        f"The same measurement, the services started with `--zenoh-mode peer`: they still connect to the router (the "
+        f"observer and the CLI reach them through it) and also link to each other directly over loopback. "
+        f"{peer.wall:.0f} s window, machine {peer.machine_busy:.0%} busy. [ms]",
+        "",
+        *table(["stage", "n", "p50", "p90", "p99", "max"], rows),
+        "",
+        f"End to end p50 {fmt(e2e.p50)} ms and p99 {fmt(e2e.p99)} ms as peers, {fmt(client.p50)} / {fmt(client.p99)} ms "
+        f"as clients of the router.",
+    ]
+
+
+# ------------------------------------------------------------------ cost
+def _load_row(first: str, ld: Load) -> list[str]:
+    return [
+        first,
+        fmt(ld.cpu_per_robot, 3),
+        fmt(ld.stack_cores),
+        pct(ld.machine_busy),
+        fmt(ld.speed, 3),
+        str(ld.overruns),
+        str(ld.dropped),
+        fmt(ld.msgs_per_s, 0),
+        fmt(ld.rss_mb, 0),
+        f"{fmt(ld.latency.p50)} / {fmt(ld.latency.p99)}",
+        str(ld.goal_failures),
+        "yes" if ld.keeps_up else f"**no**: {ld.why}",
+    ]
+
+
+LOAD_HEADER = [
+    "CPU s per sim s per robot",
+    "stack cores",
+    "machine busy",
+    "sim speed",
+    "overruns",
+    "dropped",
+    "msgs/s",
+    "RSS total [MiB]",
+    "r1 end to end p50 / p99 [ms]",
+    "goals failed",
+    "keeps up",
+]
+
+
+def _sum_row(name: str, costs: Sequence[ServiceCost]) -> list[str]:
+    cpu = sum(c.cpu_per_sim_s for c in costs)
+    return [name, fmt(cpu, 3), f"{cpu:.1%}", f"{sum(c.rss_mb for c in costs):.0f}", "", ""]
+
+
+def cost(res: Results) -> list[str]:
+    """The cost section (none without the one-robot run)."""
+    base = res.base
+    if base is None:
+        return []
+    rows, total = [], 0.0
+    costs = services(base)
+    for c in costs:
+        total += c.cpu_per_sim_s
+        rows.append([c.name, fmt(c.cpu_per_sim_s, 3), f"{c.cpu_per_sim_s:.1%}", f"{c.rss_mb:.0f}", fmt(c.msgs_in, 0), fmt(c.msgs_out, 0)])
+    rss = sum(c.rss_mb for c in costs)
+    rows.append(["**whole stack**", f"**{fmt(total, 3)}**", f"{total:.1%}", f"{rss:.0f}", "", ""])
+    robot = [c for c in costs if c.name in ROBOT_SERVICES]
+    rows.append(_sum_row(f"robot's services ({', '.join(ROBOT_SERVICES)})", robot))
+    if res.composed is not None:
+        comp = services(res.composed)
+        rows += [_sum_row("robot's services composed in one process", [c]) for c in comp if c.name == "composed"]
+        rows.append(_sum_row("whole stack, robot's services composed", comp))
+    if res.peer is not None:
+        peers = services(res.peer)
+        cpu = sum(c.cpu_per_sim_s for c in peers)
+        rows.append(["whole stack, services as peers", fmt(cpu, 3), f"{cpu:.1%}", f"{sum(c.rss_mb for c in peers):.0f}", "", ""])
+        router = next((c for c in peers if c.name == "router"), None)
+        if router is not None:
+            rows.append(
+                ["router, services as peers", fmt(router.cpu_per_sim_s, 3), f"{router.cpu_per_sim_s:.1%}", f"{router.rss_mb:.0f}", "", ""]
+            )
+    lines = [
+        "## Cost",
+        "",
+        f"The same run as the latency: CPU time (utime + stime from /proc) per simulated second, per process, "
+        f"resident memory at the end, messages per simulated second from the services' diag counters. The observer "
+        f"(this bench process) used {fmt(base.observer_cpu / base.wall, 3)} of a core beside it.",
+        "",
+        *table(["process", "CPU s per sim s", "of one core", "RSS [MiB]", "msgs in/s", "msgs out/s"], rows),
+    ]
+    if res.rates:
+        lines += ["", f"### Sensor rate (one robot, realtime, {res.plan.sweep_window:g} s windows)", ""]
+        lines += table(["rate [Hz]", *LOAD_HEADER], [_load_row(f"{ld.rate:g}", ld) for ld in res.rates])
+    if res.robots:
+        lines += ["", f"### Robots on one router (100 Hz, realtime, {res.plan.sweep_window:g} s windows)", ""]
+        lines += table(["robots", *LOAD_HEADER], [_load_row(str(ld.robots), ld) for ld in res.robots])
+        lines += ["", _robots_verdict(res.robots)]
+    lines += [
+        "",
+        "`sim speed`: stack time advanced over wall time asked (1.0 = kept its clock); `overruns`: times a sim fell "
+        "more than its max_burst steps behind and dropped time; `dropped`: inputs dropped by the services (queue "
+        "full or stale); `stack cores`: CPU of every stack process and the router over the wall window.",
+    ]
+    return lines
+
+
+def _robots_verdict(loads: Sequence[Load]) -> str:
+    ok = [ld.robots for ld in loads if ld.keeps_up]
+    bad = [ld for ld in loads if not ld.keeps_up]
+    if not bad:
+        return f"Every robot count tried kept up (up to {max(ok)})."
+    first = bad[0]
+    kept = f"kept up with {max(ok)} robot(s)" if ok else "did not keep up even with one robot"
+    return f"One router on this machine {kept}; at {first.robots} it stopped keeping up: {first.why}."
+
+
+# ------------------------------------------------------------------ speed
+def speed(res: Results) -> list[str]:
+    rows = [
+        [
+            r.harness,
+            f"{r.rtf:g}",
+            str(r.goals),
+            str(r.failed),
+            str(r.overruns),
+            *(fmt(r.means[k]) for k in METRICS),
+            ", ".join(r.differs) or "-",
+            "yes" if r.within_noise else "**no**",
+            f"{r.wall:.0f}",
+        ]
+        for r in res.speed
+    ]
+    best = highest_by_harness(res.speed)
+    used = "." if res.rtf <= best.get("processes", res.rtf) else ", above it (a fixed factor in this plan): read them so."
+    return [
+        "## Speed of simulation",
+        "",
+        f"The whole stack at each realtime factor, seeds {list(res.plan.speed_seeds)}: seed 002's path, then "
+        "turn_to_heading to each heading of the turn sweep (turns at 2 rad/s show a late command first); as separate "
+        "processes (as `zenav up` runs it, and the accuracy runs below) and in one process (as the integration tests "
+        "run it). Within noise: every goal succeeded, no sim overrun, and each mean differs from realtime's by less "
+        "than twice the standard error of the difference (samples per goal).",
+        "",
+        *table(["harness", "rtf", "goals", "failed", "overruns", *METRICS, "differs from realtime", "within noise", "wall [s]"], rows),
+        *_failures((f"{r.harness}, rtf {r.rtf:g}", r) for r in res.speed),
+        "",
+        "Highest realtime factor within noise of realtime: "
+        + ", ".join(f"{h} **{v:g}**" for h, v in best.items())
+        + f". The accuracy and navigation runs below ran as processes at {res.rtf:g}{used}",
+    ]
+
+
+# ------------------------------------------------------------------ accuracy
+def _cm(x: float) -> str:
+    return fmt(x * 100)
+
+
+def accuracy(res: Results) -> list[str]:
+    lines = ["## Localization accuracy", ""]
+    if res.modes:
+        first = next(iter(res.modes.values()))
+        lines += [
+            f"Each fusion mode live in the stack ({first.spec.harness}), closed loop (the navigator drives on its pose): "
+            "default scenario, "
+            f"seed {first.spec.seed}, {first.spec.laps:g} lap(s) of the 1 m square, rtf {first.rtf:g}. Errors after "
+            "a 2 s warm-up, against the truth at each pose's t. [cm, deg]",
+            "",
+        ]
+        rows = []
+        for mode, s in res.modes.items():
+            corner = summary(s.errors["point"])
+            rows.append(
+                [
+                    mode,
+                    _cm(s.pose.rmse),
+                    _cm(s.pose.max),
+                    _cm(s.pose.final),
+                    fmt(math.degrees(s.pose.heading_rmse)),
+                    _cm(s.odom.rmse),
+                    f"{_cm(corner[0])} / {_cm(corner[2])}",
+                    str(len(s.failures)),
+                    f"[plot](run_{mode}.png)",
+                ]
+            )
+        lines += table(
+            ["mode", "RMSE", "max", "final", "heading RMSE", "odom RMSE", "corner error mean / max", "goals failed", "trajectory"], rows
+        )
+        lines += _failures(res.modes.items())
+    for scenario in dict.fromkeys(sc for sc, _ in res.scenarios):
+        runs = [s for (sc, _), s in res.scenarios.items() if sc == scenario]
+        lines += ["", f"### {scenario}", "", _replay_intro(scenario, runs), ""]
+        live = [(s.pose.rmse, s.pose.max, s.pose.final, s.pose.heading_rmse, None) for s in runs]
+        rows = [_score_row("**live** (configured mode)", live)]
+        for mode in runs[0].replay:
+            sc = [s.replay[mode] for s in runs]
+            rows.append(
+                _score_row(
+                    mode,
+                    [(x.rmse, x.max, x.final, x.heading_rmse, x.outage_end) for x in sc],
+                    sum(x.fixes_accepted or 0 for x in sc),
+                    sum(x.fixes_rejected or 0 for x in sc),
+                )
+            )
+        lines += table(
+            ["mode", "RMSE mean (sd)", "max", "final mean", "heading RMSE [deg]", "error at outage end", "fixes accepted / rejected"], rows
+        )
+        if f"run_{scenario}.png" in res.plots:
+            lines += ["", f"![{scenario}](run_{scenario}.png)"]
+    if res.modes:
+        lines += [""] + [f"![{mode}](run_{mode}.png)" for mode in res.modes]
+    return lines
+
+
+def _replay_intro(scenario: str, runs: Sequence[Summary]) -> str:
+    return (
+        f"Seeds {[s.spec.seed for s in runs]}, {runs[0].spec.laps:g} lap(s) of the square each, {runs[0].spec.harness}, "
+        f"rtf {runs[0].rtf:g}. The "
+        "live row is the configured mode in the stack; every mode below is fed offline with the same run's odometry, "
+        "fixes (at the times the localizer received them) and sensors (the localizer study), so the "
+        "rules are compared on the same data. RMSE mean over seeds (sd), max over seeds. [cm]"
+    )
+
+
+def _score_row(name: str, scores: Sequence[tuple], accepted: int | None = None, rejected: int | None = None) -> list[str]:
+    rmse = [s[0] for s in scores]
+    outage = [s[4] for s in scores if s[4] is not None]
+    return [
+        name,
+        f"{_cm(statistics.fmean(rmse))} ({_cm(statistics.stdev(rmse) if len(rmse) > 1 else 0.0)})",
+        _cm(max(s[1] for s in scores)),
+        _cm(statistics.fmean(s[2] for s in scores)),
+        fmt(math.degrees(statistics.fmean(s[3] for s in scores))),
+        _cm(statistics.fmean(outage)) if outage else "-",
+        "-" if accepted is None else f"{accepted} / {rejected}",
+    ]
+
+
+# ------------------------------------------------------------------ navigation
+def _spread(values: Sequence[float], digits: int = 2) -> str:
+    m, sd, mx = summary(values)
+    return f"{fmt(m, digits)} / {fmt(sd, digits)} / {fmt(mx, digits)}"
+
+
+def navigation(res: Results) -> list[str]:
+    rtf = next(iter(res.paths.values()))[0].rtf
+    rows = []
+    for ctrl, runs in res.paths.items():
+        errs = [e * 100 for s in runs for e in s.errors["path"]]
+        times = [d for s in runs for d in s.durations["path"]]
+        failed = sum(not s.errors["path"] for s in runs)
+        rows.append([ctrl, "stack", str(len(runs)), _spread(errs), _spread(times, 1), str(failed)])
+        kin = res.kinematic.get(ctrl, [])
+        if kin:
+            errs = [100 * math.dist((o.x, o.y), PATH[-1]) for o in kin]
+            failed = sum(o.result != "succeeded" for o in kin)
+            rows.append([ctrl, "kinematic", str(len(kin)), _spread(errs), _spread([o.duration for o in kin], 1), str(failed)])
+    lines = [
+        "## Navigation",
+        "",
+        f"Seed 002's path trial: from (0, 0, 0) follow (1, 0) -> (1, 1), default scenario, tolerance as configured; "
+        f"final truth error to (1, 1). `stack`: the whole stack at rtf {rtf:g}, seeds {list(res.plan.path_seeds)}; "
+        "`kinematic`: the navigator's goal machine on a kinematic robot with the scenario's motors and wheels, "
+        f"true pose (the navigator study). The seed's real robot: {SEED_002_ROBOT}.",
+        "",
+        *table(["controller", "loop", "runs", "error mean / sd / max [cm]", "time mean / sd / max [s]", "failed"], rows),
+        *_failures((f"{ctrl} seed {s.spec.seed}", s) for ctrl, runs in res.paths.items() for s in runs),
+    ]
+    if res.squares:
+        rows = [
+            [ctrl, _spread([e * 100 for e in s.errors["point"]]), fmt(sum(s.durations["point"]), 1), _cm(s.pose.rmse), str(len(s.failures))]
+            for ctrl, s in res.squares.items()
+        ]
+        laps = next(iter(res.squares.values())).spec.laps
+        lines += ["", f"Seed 003's square: move_to_point around the 1 m square, {laps:g} laps, stack at rtf {rtf:g}.", ""]
+        header = ["controller", "corner error mean / sd / max [cm]", "total time [s]", "pose RMSE [cm]", "goals failed"]
+        lines += table(header, rows)
+        lines += _failures(res.squares.items())
+    lines += ["", *_turns(res)]
+    return lines
+
+
+def _turns(res: Results) -> list[str]:
+    runs = [s for runs in res.paths.values() for s in runs]
+    errs = [math.degrees(e) for s in runs for e in s.errors["turn"]]
+    failed = sum(len(HEADINGS) - len(s.errors["turn"]) for s in runs)
+    m, sd, mx = summary(errs)
+    return [
+        f"Turns: after each path trial, turn_to_heading to {', '.join(f'{h:g}' for h in HEADINGS)} deg in turn; true "
+        f"heading error at each success over {len(errs)} turns: mean {fmt(m)}, sd {fmt(sd)}, max {fmt(mx)} deg; "
+        f"{failed} turn(s) did not succeed.",
+    ]
+
+
+# ------------------------------------------------------------------ profile
+def profile(res: Results) -> list[str]:
+    """CPU per service and sensor period on the in-process bus, and where it goes."""
+    rows = [
+        [c.name, str(c.inputs), str(c.outputs), fmt(c.per_input, 1), fmt(c.per_step, 1), fmt(c.cores(RATE), 4)] for c in res.costs.values()
+    ]
+    robot = sum(res.costs[n].cores(RATE) for n in ROBOT_SERVICES)
+    out = [
+        "## Profile",
+        "",
+        f"Every service of one robot on one in-process bus (no network), stepped at {RATE:g} Hz by a manual clock "
+        f"while the navigator drives squares, {res.plan.profile_seconds:g} s of stack time; CPU is each service's "
+        "thread time (decode, handler, encode, dispatch). The network's own cost is not in these figures: it is in "
+        "the cost section's per-process CPU.",
+        "",
+        *table(["service", "inputs", "outputs", "us per input", "us per period", f"cores at {RATE:g} Hz"], rows),
+        "",
+        f"The robot's services ({', '.join(ROBOT_SERVICES)}): {robot:.3f} of a core together.",
+    ]
+    for name, hot in res.hot.items():
+        out += ["", f"{name}: costliest functions by own time under cProfile (us per period, own / with callees):", ""]
+        out += table(["own", "total", "calls", "function"], [[fmt(h.own, 1), fmt(h.total, 1), str(h.calls), f"`{h.where}`"] for h in hot])
+    return out
+
+
+# ------------------------------------------------------------------ fleet
+def fleet(res: Results) -> list[str]:
+    """The router under N robots' traffic, and the fleet over several hosts."""
+    from zenav.bench.fleet import DOUBLED, doubling
+
+    rows = [
+        [str(p.robots), fmt(p.router_cores, 3), fmt(p.per_robot, 4), pct(p.delivered), fmt(p.pace), fmt(p.latency.p50), fmt(p.latency.p99)]
+        for p in res.fleet
+    ]
+    n = doubling(res.fleet)
+    verdict = f"Delivery p50 reached {DOUBLED:g}x the one-robot figure at {n} robots." if n else "Delivery p50 never doubled."
+    out = [
+        "## Fleet",
+        "",
+        f"The router alone (its own process) under N robots' traffic: every contract topic at its rate, fanned out to "
+        f"the sessions of the services that read it (bench/fleet.py), {res.plan.fleet_window:g} s per N. Latency: "
+        "every robot's clock at the first sink session. The player and the sink share the machine with the router; "
+        "a player pace under 1 means the load generator, not the router, fell behind.",
+        "",
+        *table(["robots", "router cores", "per robot", "delivered", "player pace", "p50 [ms]", "p99 [ms]"], rows),
+        "",
+        verdict,
+    ]
+    h = res.hosts
+    if isinstance(h, str):
+        out += ["", f"Fleet over several hosts: not run ({h})."]
+    elif h is not None:
+        out += [
+            "",
+            f"Fleet over {res.plan.fleet_hosts} hosts (network namespaces on a bridge, one router each, linked): every "
+            f"robot heard on every host: {'yes' if h.heard_all else '**no**'}. Host {h.killed + 1}'s router killed: the "
+            f"others' longest silence of each other's robots {fmt(h.longest_gap * 1e3, 0)} ms (limit 500 ms); the killed "
+            f"host's robot still heard after it: {'**yes**' if h.lost_heard else 'no'}.",
+        ]
+    return out

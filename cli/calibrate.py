@@ -1,0 +1,221 @@
+"""`zenav calibrate`: UMBmark on the floor: squares both ways, then the wheel geometry into [robot].
+
+The robot drives a square by its encoders alone (cmd_vel through the motor service;
+the navigator must be idle), clockwise then counter-clockwise, `--runs` times each.
+The end position comes from the VPS (`--measure vps`, the default) or is typed in
+(`--measure manual`: measured from the start mark, x along the first leg, y to its
+left). The fit gives the track width and the right/left wheel radius ratio; the track
+width is written into the [robot] section of `--write` (default: `--config`).
+`--cw X,Y --ccw X,Y` fit end errors measured before, without driving.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import queue
+import re
+import sys
+import time
+
+from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_UNAVAILABLE, EXIT_USAGE
+from zenav.cli.nav import finite, point
+from zenav.common import messages as m
+from zenav.common.app import deployment_args, settings_from_args
+from zenav.common.client import Client, Latest, ZenavError
+from zenav.common.config import ConfigError, Robot
+from zenav.services.driver import umbmark as u
+
+CONNECT_TIMEOUT = 3.0  # [s]
+SQUARE_TIMEOUT = 120.0  # [s] one square at most
+SAMPLE_TIMEOUT = 1.0  # [s] no encoder sample this long: the square is abandoned
+STILL_SAMPLES = 20  # encoder samples in a row without a tick: the wheels stand still
+VPS_SAMPLES = 5  # VPS poses averaged at each end of a square
+VPS_TIMEOUT = 5.0  # [s] for those
+
+
+def add_arguments(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("calibrate", help="UMBmark: drive squares both ways, fit the track width and wheel ratio into [robot]")
+    deployment_args(p)
+    p.add_argument("--side", type=finite, default=1.0, help="side of the square [m] (default 1.0)")
+    p.add_argument("--runs", type=int, default=1, help="squares each way (UMBmark uses 5; default 1)")
+    p.add_argument("--speed", type=finite, default=0.15, help="top speed of a leg [m/s] (default 0.15)")
+    p.add_argument("--measure", choices=("vps", "manual"), default="vps", help="where the end positions come from (default vps)")
+    p.add_argument("--write", metavar="TOML", help="config file to write [robot] track_width into (default: --config; none: print it)")
+    p.add_argument("--cw", type=point, action="append", default=[], metavar="X,Y", help="a clockwise end error [m] measured before")
+    p.add_argument("--ccw", type=point, action="append", default=[], metavar="X,Y", help="a counter-clockwise end error [m]")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        settings = settings_from_args(args)
+    except ConfigError as e:
+        print(f"zenav calibrate: {e}", file=sys.stderr)
+        return EXIT_USAGE
+    robot = settings.robot
+    nominal = u.Geometry(robot.track_width, robot.wheel_radius, robot.wheel_radius)
+    if args.side <= 0.0 or args.runs < 1:
+        print("zenav calibrate: --side must be > 0 and --runs >= 1", file=sys.stderr)
+        return EXIT_USAGE
+    cw, ccw = [tuple(e) for e in args.cw], [tuple(e) for e in args.ccw]
+    if bool(cw) != bool(ccw):
+        print("zenav calibrate: give both --cw and --ccw errors, or neither (to drive)", file=sys.stderr)
+        return EXIT_USAGE
+    if not cw:
+        try:
+            with Client(args.robot or "r1", args.connect, connect_timeout=CONNECT_TIMEOUT) as client:
+                cw, ccw = drive_runs(client, args, robot, nominal)
+        except ZenavError as e:
+            print(f"zenav calibrate: {e}", file=sys.stderr)
+            return EXIT_UNAVAILABLE
+        except RuntimeError as e:
+            print(f"zenav calibrate: {e}", file=sys.stderr)
+            return EXIT_FAILED
+    try:
+        fit = u.fit(args.side, cw, ccw, nominal)
+    except ValueError as e:
+        print(f"zenav calibrate: {e}", file=sys.stderr)
+        return EXIT_FAILED
+    print(report(fit, nominal))
+    target = args.write or args.config
+    if target:
+        with open(target, encoding="utf-8") as f:
+            text = f.read()
+        with open(target, "w", encoding="utf-8") as f:
+            f.write(set_keys(text, "robot", {"track_width": round(fit.geometry.track, 5)}))
+        print(f"wrote [robot] track_width = {fit.geometry.track:.5f} into {target}")
+    else:
+        print(f"[robot]\ntrack_width = {fit.geometry.track:.5f}")
+    return EXIT_OK
+
+
+def report(fit: u.Fit, nominal: u.Geometry) -> str:
+    """The fit as the user reads it."""
+    g = fit.geometry
+    return "\n".join(
+        [
+            f"track width  {g.track * 1e3:.2f} mm (nominal {nominal.track * 1e3:.2f} mm, x{fit.track_scale:.4f})",
+            f"wheel ratio  right/left {fit.ratio:.5f}: radii {g.radius_left * 1e3:.3f} / {g.radius_right * 1e3:.3f} mm (mean kept)",
+            f"unexplained  {fit.rms * 1e3:.1f} mm rms (slip, noise, measuring: more runs average it out)",
+        ]
+    )
+
+
+def set_keys(text: str, section: str, values: dict[str, float]) -> str:
+    """TOML `text` with `key = value` set in [section] (lines replaced or added; the rest kept)."""
+    lines = text.splitlines()
+    head = next((i for i, s in enumerate(lines) if re.match(rf"^\s*\[{re.escape(section)}\]\s*(#.*)?$", s)), None)
+    if head is None:
+        lines += ["", f"[{section}]"]
+        head = len(lines) - 1
+    end = next((i for i in range(head + 1, len(lines)) if re.match(r"^\s*\[", lines[i])), len(lines))
+    for key, value in values.items():
+        line = f"{key} = {value!r}"
+        at = next((i for i in range(head + 1, end) if re.match(rf"^\s*{re.escape(key)}\s*=", lines[i])), None)
+        if at is None:
+            last = max([head, *(i for i in range(head + 1, end) if lines[i].strip())])
+            lines.insert(last + 1, line)
+            end += 1
+        else:
+            lines[at] = line
+    return "\n".join(lines) + "\n"
+
+
+def drive_runs(client: Client, args: argparse.Namespace, robot: Robot, nominal: u.Geometry) -> tuple[list, list]:
+    """Drive the squares, measure each end: (clockwise errors, counter-clockwise errors) [m]."""
+    errors: dict[bool, list] = {True: [], False: []}
+    vps: queue.Queue[m.VpsPose] = queue.Queue()
+    if args.measure == "vps":
+        client.subscribe("vps/pose", vps.put)
+    encoders = client.latest("sensors/encoders")
+    for clockwise in (True, False):
+        for i in range(args.runs):
+            way = "clockwise" if clockwise else "counter-clockwise"
+            input(f"run {i + 1}/{args.runs} {way}: put the robot on the start mark, facing along the first leg; Enter to drive ")
+            start = mean_pose(vps, since=fresh_t(encoders)) if args.measure == "vps" else (0.0, 0.0, 0.0)
+            sq = u.Square(args.side, clockwise, nominal, robot.ticks_per_rev or 1, speed=args.speed)
+            still = drive_square(client, sq)
+            end = mean_pose(vps, since=still) if args.measure == "vps" else typed_end()
+            err = start_frame(start, end)
+            errors[clockwise].append((err[0] - sq.pose[0], err[1] - sq.pose[1]))
+            print(f"  end error {errors[clockwise][-1][0] * 1e3:+.1f}, {errors[clockwise][-1][1] * 1e3:+.1f} mm")
+    return errors[True], errors[False]
+
+
+def drive_square(client: Client, sq: u.Square) -> float:
+    """Drive `sq` on the encoders' samples through cmd_vel; stop at the end (or on any failure), and
+    follow the counts until the wheels stand still, so `sq.pose` includes the coasting.
+    Returns the stack time [s] the wheels stood still from."""
+    samples: queue.Queue[m.Encoders] = queue.Queue()
+    handle = client.subscribe("sensors/encoders", samples.put)
+
+    def send(v: float, omega: float) -> None:
+        client.publish("cmd_vel", m.CmdVel(t=0.0, v=v, omega=omega))
+
+    deadline = time.monotonic() + SQUARE_TIMEOUT
+    try:
+        while not sq.done:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"the square took over {SQUARE_TIMEOUT:g} s: stopped")
+            e = samples.get(timeout=SAMPLE_TIMEOUT)
+            send(*sq.step(e.left, e.right))
+        send(0.0, 0.0)
+        still, last, since = 0, (e.left, e.right), e.t
+        while still < STILL_SAMPLES:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"the wheels did not stop within {SQUARE_TIMEOUT:g} s")
+            e = samples.get(timeout=SAMPLE_TIMEOUT)
+            sq.step(e.left, e.right)
+            if (e.left, e.right) == last:
+                still += 1
+            else:
+                still, last, since = 0, (e.left, e.right), e.t
+        return since
+    except queue.Empty:
+        raise RuntimeError(f"no sensors/encoders for {SAMPLE_TIMEOUT:g} s: is the driver up?") from None
+    finally:
+        send(0.0, 0.0)
+        handle.undeclare()
+
+
+def fresh_t(encoders: Latest) -> float:
+    """The stack time [s] of the next encoder sample: a time at which the robot stood where it stands now."""
+    seen = encoders.count
+    try:
+        return encoders.wait(lambda _: encoders.count > seen, timeout=SAMPLE_TIMEOUT).t
+    except TimeoutError:
+        raise RuntimeError(f"no sensors/encoders for {SAMPLE_TIMEOUT:g} s: is the driver up?") from None
+
+
+def mean_pose(vps: queue.Queue[m.VpsPose], since: float) -> tuple[float, float, float]:
+    """The mean of the next VPS_SAMPLES poses captured at stack time `since` [s] or later (the robot standing still)."""
+    got: list[m.VpsPose] = []
+    deadline = time.monotonic() + VPS_TIMEOUT
+    while len(got) < VPS_SAMPLES:
+        try:
+            pose = vps.get(timeout=max(0.0, deadline - time.monotonic()))
+        except queue.Empty:
+            raise RuntimeError(f"only {len(got)} vps/pose in {VPS_TIMEOUT:g} s: is the VPS up and the robot in view?") from None
+        if pose.t >= since:
+            got.append(pose)
+    c = sum(math.cos(p.theta) for p in got)
+    s = sum(math.sin(p.theta) for p in got)
+    return sum(p.x for p in got) / len(got), sum(p.y for p in got) / len(got), math.atan2(s, c)
+
+
+def typed_end() -> tuple[float, float, float]:
+    """The end position the user measured from the start mark (x along the first leg, y to its left) [m]."""
+    while True:
+        text = input("  end position from the start mark, along the first leg and to its left [m], e.g. 0.031,-0.120: ")
+        try:
+            x, y = point(text)
+            return x, y, 0.0
+        except argparse.ArgumentTypeError as e:
+            print(f"  {e}")
+
+
+def start_frame(start: tuple[float, float, float], end: tuple[float, float, float]) -> tuple[float, float]:
+    """`end` (map frame) in the frame of the `start` pose [m]."""
+    dx, dy, th = end[0] - start[0], end[1] - start[1], start[2]
+    return math.cos(th) * dx + math.sin(th) * dy, -math.sin(th) * dx + math.cos(th) * dy

@@ -1,0 +1,67 @@
+"""`zenav ros2`: a ROS 2 node on rmw_zenoh for one robot, until Ctrl-C.
+
+Publishes the fused pose (Odometry, PoseWithCovarianceStamped) and the map -> odom ->
+base_link transforms, and takes goals on goal_pose, through the router the stack and
+the ROS 2 nodes (RMW_IMPLEMENTATION=rmw_zenoh_cpp) both reach. Needs the `ros2` extra.
+Exit codes: 0 stopped, 2 bad arguments or the extra missing, 3 no router.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import sys
+
+from zenav.cli.checks import Failed, fail
+from zenav.cli.main import EXIT_OK, EXIT_USAGE
+from zenav.cli.session import open_bus, robot_id
+from zenav.common.app import connection_args, stop_on_signals
+
+ROS_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")  # a ROS node name
+NAMESPACE = re.compile(r"^/?([A-Za-z][A-Za-z0-9_]*/?)*$")  # a ROS namespace
+
+
+def add_arguments(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("ros2", help="a ROS 2 node on rmw_zenoh: pose, odometry and /tf out, goal_pose in")
+    connection_args(p)
+    p.add_argument(
+        "--domain", type=int, default=os.environ.get("ROS_DOMAIN_ID") or "0", help="ROS domain id (env ROS_DOMAIN_ID; default 0)"
+    )
+    p.add_argument("--distro", choices=("jazzy", "humble"), default="jazzy", help="ROS 2 distro of the other nodes (default jazzy)")
+    p.add_argument("--node", default="zenav_bridge", help="ROS node name (default zenav_bridge)")
+    p.add_argument("--namespace", default="", help="ROS namespace of the node and its topics, e.g. /r1 (default none)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        from zenav.tools.rmw_zenoh import Wire  # optional dependency (rosbags): imported when used
+        from zenav.tools.ros2bridge import Bridge
+    except ImportError as e:
+        print(f"zenav ros2: needs the optional package {e.name!r}: pip install 'zenav[ros2]'", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        robot = robot_id(args)
+        if not ROS_NAME.match(args.node):
+            raise Failed(EXIT_USAGE, f"--node {args.node!r} is not a ROS node name (a letter, then letters, digits, _)")
+        if not NAMESPACE.match(args.namespace):
+            raise Failed(EXIT_USAGE, f"--namespace {args.namespace!r} is not a ROS namespace (names of letters, digits, _ joined by /)")
+        if not 0 <= args.domain <= 232:
+            raise Failed(EXIT_USAGE, f"--domain {args.domain} must be 0..232")
+        wire = Wire(args.domain, args.distro, args.node, args.namespace)
+        bus = open_bus(args)
+    except Failed as e:
+        return fail("ros2", e)
+    done = stop_on_signals()
+    bridge = Bridge(bus, robot, wire).start()
+    try:
+        for topic, key in bridge.keys().items():
+            print(f"{topic:<24} {key}", file=sys.stderr)
+        print(f"ROS 2 node {wire.name(args.node)} on domain {args.domain} for robot {robot}; Ctrl-C to stop", file=sys.stderr, flush=True)
+        done.wait()
+    finally:
+        bridge.stop()
+        bus.close()
+    print(", ".join(f"{k}: {v}" for k, v in bridge.counts.items()), file=sys.stderr)
+    return EXIT_OK

@@ -1,0 +1,56 @@
+"""A service's input queue: a priority lane before the normal one, bounded in items and bytes.
+
+Bus threads put; the one worker takes. Items of the priority lane (e.g. nav/stop) are
+taken before anything in the normal lane, whatever is queued there. A put that would
+pass either bound is refused (the caller counts it); the priority lane has its own
+item bound so that a flood of normal input cannot keep a stop out.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from typing import Any
+
+
+class Inbox:
+    """Two FIFO lanes under one lock; `get` prefers the priority lane."""
+
+    def __init__(self, max_items: int, max_bytes: int) -> None:
+        self.max_items, self.max_bytes = max_items, max_bytes  # [items], [bytes] of the normal lane
+        self._lanes: tuple[deque, deque] = (deque(), deque())  # (priority, normal) of (item, size)
+        self._bytes = 0  # [bytes] queued in both lanes
+        self._ready = threading.Condition(threading.Lock())
+
+    def put(self, item: Any, size: int = 0, priority: bool = False) -> bool:
+        """Queue an item of `size` bytes; False (not queued) when it would pass a bound."""
+        with self._ready:
+            lane = self._lanes[0 if priority else 1]
+            if len(lane) >= self.max_items or (not priority and self._bytes + size > self.max_bytes):
+                return False
+            lane.append((item, size))
+            self._bytes += size
+            self._ready.notify()
+            return True
+
+    def get(self, timeout: float | None = None) -> tuple[bool, Any]:
+        """(True, item), priority lane first, waiting up to `timeout` s (None: do not wait); (False, None) if empty."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        with self._ready:
+            while not (self._lanes[0] or self._lanes[1]):
+                left = 0.0 if deadline is None else deadline - time.monotonic()
+                if left <= 0.0:
+                    return False, None
+                self._ready.wait(left)
+            item, size = (self._lanes[0] or self._lanes[1]).popleft()
+            self._bytes -= size
+            return True, item
+
+    def qsize(self) -> int:
+        """Items queued in both lanes."""
+        return len(self._lanes[0]) + len(self._lanes[1])
+
+    def nbytes(self) -> int:
+        """Bytes queued in both lanes."""
+        return self._bytes

@@ -1,0 +1,1 @@
+"""The driver service: a ROSArduinoBridge motor board (Arduino, motor driver, quadrature encoders) over a serial port."""

@@ -1,0 +1,146 @@
+"""The serial link to a ROSArduinoBridge board: one command, one reply line, bounded in time."""
+
+from __future__ import annotations
+
+import select
+import time
+from collections.abc import Callable
+from typing import TypeVar
+
+import serial
+
+from zenav.services.driver import protocol as p
+
+T = TypeVar("T")
+
+
+class LinkLost(Exception):
+    """The port cannot be opened, vanished (cable pulled) or failed: close it and reopen later."""
+
+
+class NoReply(Exception):
+    """No complete reply line within the reply timeout."""
+
+
+class Board:
+    """A board on a serial port: `ask` writes a command and returns its reply line.
+
+    The protocol is strict request-reply, so bytes waiting before a command are stray
+    (a late reply, noise): they are read away and counted in `garbage` first.
+    """
+
+    def __init__(self, port: str, baud: int, timeout: float) -> None:
+        self.port, self.baud = port, baud
+        self.timeout = timeout  # [s] for one reply
+        self.garbage = 0  # [bytes] stray or unparsable bytes read away so far
+        self._ser: serial.Serial | None = None
+        self._lines = p.Lines()
+
+    @property
+    def is_open(self) -> bool:
+        return self._ser is not None
+
+    def open(self) -> None:
+        """Open the port (LinkLost if it is not there)."""
+        self.close()
+        try:
+            self._ser = serial.Serial(self.port, self.baud, timeout=0, write_timeout=self.timeout, exclusive=True)
+        except (serial.SerialException, OSError, ValueError) as e:
+            raise LinkLost(f"cannot open {self.port}: {e}") from None
+        self._lines.clear()
+
+    def close(self) -> None:
+        """Close the port if open (errors of a vanished device are ignored)."""
+        ser, self._ser = self._ser, None
+        if ser is not None:
+            try:
+                ser.close()
+            except (serial.SerialException, OSError):
+                pass
+
+    def ask(self, cmd: bytes) -> str:
+        """Send one command and return its reply line (NoReply, LinkLost)."""
+        ser = self._port()
+        try:
+            self._discard(ser)
+            ser.write(cmd)
+            return self._read_line(ser, time.monotonic() + self.timeout)
+        except (serial.SerialException, OSError) as e:
+            self.close()
+            raise LinkLost(f"{self.port}: {e}") from None
+
+    def resync(self) -> None:
+        """Clear the board's half-parsed command with a bare CR, then read its answer away."""
+        ser = self._port()
+        try:
+            self._discard(ser)
+            ser.write(b"\r")
+            try:
+                line = self._read_line(ser, time.monotonic() + self.timeout)
+                if line != p.INVALID:  # the firmware's answer to a bare CR; anything else is stray
+                    self.garbage += len(line)
+            except NoReply:
+                pass
+            self._lines.clear()
+        except (serial.SerialException, OSError) as e:
+            self.close()
+            raise LinkLost(f"{self.port}: {e}") from None
+
+    # ------------------------------------------------------------ commands
+    def encoders(self) -> tuple[int, int]:
+        """`e`: the cumulative counts (left, right) [ticks]."""
+        return self._call(p.read_encoders(), p.parse_encoders)
+
+    def speeds(self, left: int, right: int) -> None:
+        """`m L R`: target speeds [ticks per PID frame]."""
+        self._call(p.motor_speeds(left, right), p.parse_ok)
+
+    def reset(self) -> None:
+        """`r`: counts to 0."""
+        self._call(p.reset_encoders(), p.parse_ok)
+
+    def get_baud(self) -> int:
+        """`b`: the baud rate the firmware was built with."""
+        return self._call(p.get_baud(), p.parse_int)
+
+    def set_pid(self, kp: int, kd: int, ki: int, ko: int) -> None:
+        """`u Kp:Kd:Ki:Ko`: the PID gains."""
+        self._call(p.update_pid(kp, kd, ki, ko), p.parse_ok)
+
+    # ------------------------------------------------------------ internals
+    def _call(self, cmd: bytes, parse: Callable[[str], T]) -> T:
+        """Ask, then parse the reply; a reply that does not parse counts as garbage (BadReply)."""
+        line = self.ask(cmd)
+        try:
+            return parse(line)
+        except p.BadReply:
+            self.garbage += len(line)
+            raise
+
+    def _port(self) -> serial.Serial:
+        if self._ser is None:
+            raise LinkLost(f"{self.port} is not open")
+        return self._ser
+
+    def _discard(self, ser: serial.Serial) -> None:
+        """Read away whatever waits; count all but whitespace as garbage."""
+        waiting = ser.in_waiting
+        if waiting:
+            self.garbage += len(ser.read(waiting).strip())
+        self._lines.clear()
+        self.garbage += self._lines.dropped
+        self._lines.dropped = 0
+
+    def _read_line(self, ser: serial.Serial, deadline: float) -> str:
+        """The next complete non-empty line before `deadline` (monotonic [s]); earlier lines count as garbage."""
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0.0:
+                raise NoReply(f"no reply within {self.timeout * 1e3:.0f} ms")
+            ready, _, _ = select.select([ser.fileno()], [], [], left)
+            if not ready:
+                continue
+            lines = self._lines.feed(ser.read(max(ser.in_waiting, 1)))
+            if lines:
+                self.garbage += sum(len(line) for line in lines[:-1])
+                return lines[-1]

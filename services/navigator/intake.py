@@ -1,0 +1,112 @@
+"""From a goal request to a Goal and its nav/state map: defaults taken, speeds clamped, limits checked.
+
+Pure: the config and, for turn_to_point, the pose come in as arguments. A request
+that cannot be driven raises `Invalid`, naming the field (an invalid_argument reply).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from zenav.common import messages as m
+from zenav.common.geometry import wrap_angle
+from zenav.services.navigator import goals
+from zenav.services.navigator.controllers import PoseSample, check_polar_gains
+from zenav.services.navigator.goals import Goal
+from zenav.services.navigator.params import Params
+
+Resolved = tuple[Goal, dict[str, Any]]  # the goal, and its `goal` map of nav/state
+
+
+class Invalid(ValueError):
+    """A request that cannot be driven, whatever the robot's state; the message names the field."""
+
+
+def _speed(speed: float | None, cfg: Params) -> float:
+    """The forward speed [m/s] of a goal, clamped to the limit."""
+    return min(speed or cfg.speed, cfg.max_speed)
+
+
+def _timeout(req: m.GoalOptions, cfg: Params) -> float:
+    """[s] the goal's time-out (0: none)."""
+    return req.timeout or cfg.goal_timeout
+
+
+def move_to_point(req: m.MoveToPoint, cfg: Params) -> Resolved:
+    """Drive to (x, y)."""
+    speed, tol = _speed(req.speed, cfg), req.tolerance or cfg.tolerance
+    goal = Goal(goals.MOVING_TO_POINT, points=((req.x, req.y),), speed=speed, tolerance=tol, timeout=_timeout(req, cfg))
+    return goal, {"type": "move_to_point", "x": req.x, "y": req.y, "speed": speed, "tolerance": tol}
+
+
+def move_to_pose(req: m.MoveToPose, cfg: Params) -> Resolved:
+    """Drive to (x, y) and arrive with heading theta: seed 002's polar tracker or the boomerang, then a turn in place."""
+    if cfg.pose_controller == "polar":
+        try:
+            check_polar_gains(cfg.k_rho, cfg.k_alpha, cfg.k_beta)
+        except ValueError as e:
+            raise Invalid(f"[navigator] pose_controller = polar: {e}") from None
+    speed, tol = _speed(req.speed, cfg), req.tolerance or cfg.tolerance
+    heading, heading_tol = wrap_angle(req.theta), req.heading_tolerance or cfg.heading_tolerance
+    lead = cfg.lead if req.lead is None else req.lead
+    goal = Goal(
+        goals.MOVING_TO_POSE,
+        points=((req.x, req.y),),
+        heading=heading,
+        speed=speed,
+        tolerance=tol,
+        heading_tolerance=heading_tol,
+        lead=lead,
+        timeout=_timeout(req, cfg),
+    )
+    info = {"type": "move_to_pose", "x": req.x, "y": req.y, "theta": heading, "speed": speed, "tolerance": tol}
+    return goal, {**info, "heading_tolerance": heading_tol, "controller": cfg.pose_controller, "lead": lead}
+
+
+def turn_to_heading(req: m.TurnToHeading, cfg: Params) -> Resolved:
+    """Turn in place to a heading."""
+    return _turn(wrap_angle(req.heading), req, cfg, {"type": "turn_to_heading", "heading": req.heading})
+
+
+def turn_to_point(req: m.TurnToPoint, cfg: Params, pose: PoseSample) -> Resolved:
+    """Turn in place to face (x, y), the heading fixed from the pose at the start (as seed 003's turnToPoint)."""
+    if math.hypot(req.x - pose.x, req.y - pose.y) < 1e-3:
+        raise Invalid("x, y: the point is where the robot is, it has no heading")
+    heading = math.atan2(req.y - pose.y, req.x - pose.x)
+    return _turn(heading, req, cfg, {"type": "turn_to_point", "x": req.x, "y": req.y, "heading": heading})
+
+
+def move_straight(req: m.MoveStraight, cfg: Params) -> Resolved:
+    """Drive on the start heading; stop after `distance` if given (else after straight_max_time)."""
+    if req.speed == 0.0:
+        raise Invalid("speed: must not be 0 (use nav/stop to stop)")
+    speed = math.copysign(min(abs(req.speed), cfg.max_speed), req.speed)
+    goal = Goal(goals.MOVING_STRAIGHT, speed=speed, distance=req.distance, tolerance=cfg.tolerance)
+    return goal, {"type": "move_straight", "speed": speed, "distance": req.distance}
+
+
+def follow_path(req: m.FollowPath, cfg: Params) -> Resolved:
+    """Drive through the points in order without stopping, each within its tolerance ([x, y, tolerance]).
+
+    A point without one: the last takes `tolerance`, the others `waypoint_tolerance`.
+    """
+    if len(req.points) > cfg.max_path_points:
+        raise Invalid(f"points: {len(req.points)} is over [navigator] max_path_points = {cfg.max_path_points}")
+    bad = next((i for i, p in enumerate(req.points) if len(p) == 3 and p[2] <= 0.0), None)
+    if bad is not None:
+        raise Invalid(f"points[{bad}]: the tolerance (third value) must be > 0")
+    speed, tol = _speed(req.speed, cfg), req.tolerance or cfg.tolerance
+    through = req.waypoint_tolerance or cfg.waypoint_tolerance
+    points = tuple((p[0], p[1]) for p in req.points)
+    tols = tuple(p[2] if len(p) == 3 else through for p in req.points[:-1]) + (req.points[-1][2] if len(req.points[-1]) == 3 else tol,)
+    goal = Goal(goals.FOLLOWING_PATH, points=points, speed=speed, tolerance=tols[-1], point_tolerances=tols, timeout=_timeout(req, cfg))
+    info = {"type": "follow_path", "points": req.points, "speed": speed, "tolerance": tols[-1], "waypoint_tolerance": through}
+    return goal, info
+
+
+def _turn(heading: float, req: m.TurnToHeading | m.TurnToPoint, cfg: Params, info: dict[str, Any]) -> Resolved:
+    speed = min(req.speed or cfg.turn_speed, cfg.max_turn_speed)
+    tol = req.tolerance or cfg.heading_tolerance
+    goal = Goal(goals.TURNING_TO_HEADING, heading=heading, speed=speed, tolerance=tol, timeout=_timeout(req, cfg))
+    return goal, {**info, "speed": speed, "tolerance": tol}

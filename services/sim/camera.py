@@ -1,0 +1,78 @@
+"""The sim's overhead camera: frames of the truth at the camera's rate, rendered beside the physics.
+
+Rendering takes several milliseconds, longer than a physics step may wait: each frame is
+drawn and sent by a worker thread while the steps go on. A frame that falls due while
+the previous one is still being drawn is skipped (counted by the caller).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor, wait
+
+from zenav.common import messages as m
+from zenav.common.config import Camera
+from zenav.world.render import Body, Renderer
+
+
+class FieldCamera:
+    """Frames of the robot with tag `tag` (None: no tag, the floor only) at `rate_hz`, on the sim's step grid."""
+
+    def __init__(self, cfg: Camera, seed: int, tag: int | None) -> None:
+        self.cfg, self.tag = cfg, tag
+        self.renderer = Renderer(cfg, seed)
+        self.period = 1.0 / cfg.rate_hz  # [s]
+        self._next: float | None = None  # [s] time of the next frame
+        self.seq = 0
+
+    def due(self, t: float) -> bool:
+        """Whether a frame is taken at sim time t [s] (and then the next one is scheduled)."""
+        if self._next is None or not self._next - self.period <= t < self._next + self.period:
+            self._next = t  # first sample, a gap, or time went backwards (the sim restarted)
+        if t < self._next - 1e-6:
+            return False
+        self._next += self.period
+        return True
+
+    def frame(self, truth: m.Truth) -> m.CameraFrame:
+        """The frame whose exposure is centred on truth.t."""
+        bodies = [] if self.tag is None else [Body(self.tag, truth.x, truth.y, truth.theta, truth.v, truth.omega)]
+        img = self.renderer.render(truth.t, bodies)
+        self.seq += 1
+        h, w = img.shape
+        return m.CameraFrame(t=truth.t, seq=self.seq, width=w, height=h, exposure=self.cfg.exposure, data=img.tobytes())
+
+
+class Shutter:
+    """Draws and sends frames on one worker thread, skipping a frame while the last is unfinished."""
+
+    def __init__(self, camera: FieldCamera, send: Callable[[m.CameraFrame], None]) -> None:
+        self.camera, self.send = camera, send
+        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="zenav-sim-camera")
+        self._last: Future | None = None
+        self.error = ""  # why the last frame failed ("" when it did not)
+
+    def take(self, truth: m.Truth) -> str | None:
+        """Start a frame of this truth sample if one is due: "taken", "skipped" (the last still drawing) or None."""
+        if not self.camera.due(truth.t):
+            return None
+        if self._last is not None and not self._last.done():
+            return "skipped"
+        self._last = self._worker.submit(self._shoot, truth)
+        return "taken"
+
+    def _shoot(self, truth: m.Truth) -> None:
+        try:
+            self.send(self.camera.frame(truth))
+        except Exception as e:  # reported by the caller through `error`: the worker must go on
+            self.error = f"{type(e).__name__}: {e}"
+
+    def idle(self, timeout: float) -> bool:
+        """Wait up to timeout [s] for the frame being drawn; whether none is left."""
+        if self._last is not None:
+            wait([self._last], timeout)
+        return self._last is None or self._last.done()
+
+    def close(self) -> None:
+        """Finish the frame being drawn, then stop the worker."""
+        self._worker.shutdown(wait=True)

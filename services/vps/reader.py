@@ -1,0 +1,49 @@
+"""Frames in, fixes out: the camera VPS's pipeline without the bus.
+
+A frame is decoded (refused when corrupt or not the configured size), its tags
+detected, and each robot tag located through the calibration; every fix is stamped
+with the frame's capture time.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+from zenav.common import messages as m
+from zenav.common.config import Camera
+from zenav.services.vps import detect, frames, locate
+from zenav.services.vps.calibration import Calibration, CalibrationError
+from zenav.world.camera import tag_pixels
+
+
+@dataclass(frozen=True)
+class Read:
+    """What one frame gave."""
+
+    fixes: list[tuple[str, m.VpsPose]]  # (robot id, fix) for every robot located
+    located: locate.Located
+    detect_time: float  # [s] of the host's clock: decoding, detection, location
+
+
+class Reader:
+    """Reads the robots' tags in frames of one calibrated camera."""
+
+    def __init__(self, cfg: Camera, cal: Calibration, detector: detect.Detector | None = None) -> None:
+        if (cal.lens.width, cal.lens.height) != (cfg.width, cfg.height):
+            raise CalibrationError(
+                f"the calibration is for {cal.lens.width}x{cal.lens.height} frames, [camera] says {cfg.width}x{cfg.height}:"
+                " run `zenav camera calibrate` again"
+            )
+        self.cfg, self.cal = cfg, cal
+        self.detector = detector or detect.make("apriltag", tag_pixels(cfg))
+        self.anchors = {a.id for a in cfg.anchors}
+
+    def read(self, frame: m.CameraFrame) -> Read:
+        """The fixes in a frame; FrameError when it is refused."""
+        start = time.perf_counter()
+        img = frames.decode(frame, self.cfg.width, self.cfg.height)
+        c = self.cfg
+        found = locate.locate(self.detector.detect(img), self.cal, c.robots, self.anchors, c.tag_size, c.tag_height, c.corner_sigma)
+        fixes = [(s.robot, m.VpsPose(t=frame.t, x=s.x, y=s.y, theta=s.theta, cov=s.cov)) for s in found.fixes]
+        return Read(fixes, found, time.perf_counter() - start)

@@ -1,0 +1,1 @@
+"""Running a stack: the service launcher (processes), the in-process stack and the router."""

@@ -1,0 +1,66 @@
+"""The embedded Zenoh router: opened in this process, or run as its own process.
+
+`python -m zenav.stack.router --listen EP` is the router process a launcher starts
+(`zenav router` runs the same `serve`).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import zenoh
+
+from zenav.common.app import stop_on_signals
+from zenav.common.bus import zenoh_config
+from zenav.common.keys import DEFAULT_CONNECT
+from zenav.stack.inprocess import free_port
+
+DEFAULT_LISTEN = DEFAULT_CONNECT  # where the stack and its tools meet
+
+
+def open_router(listen: str, config_file: str | None = None) -> zenoh.Session:
+    """Open a router session; SystemExit with a clear message if the port is taken."""
+    try:
+        return zenoh.open(zenoh_config("router", listen=listen, config_file=config_file))
+    except zenoh.ZError as e:
+        raise SystemExit(f"zenav: cannot listen on {listen} ({e}); is another router running there?") from None
+
+
+def serve(listen: str, config_file: str | None = None, ready=lambda: None) -> None:
+    """Run a router until SIGINT or SIGTERM; `ready` is called once it listens."""
+    done = stop_on_signals()  # before the router listens: a launcher may stop it as soon as it does
+    session = open_router(listen, config_file)
+    ready()
+    done.wait()
+    session.close()
+
+
+class Router:
+    """A Zenoh router in this process, listening on loopback (a free port unless given)."""
+
+    def __init__(self, port: int | None = None) -> None:
+        self.endpoint = f"tcp/127.0.0.1:{port or free_port()}"
+        self.session = open_router(self.endpoint)
+
+    def close(self) -> None:
+        """Close the router's session (idempotent)."""
+        if not self.session.is_closed():
+            self.session.close()
+
+    def __enter__(self) -> Router:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The router process of a launcher."""
+    parser = argparse.ArgumentParser(prog="python -m zenav.stack.router", description="a Zenoh router until SIGTERM")
+    parser.add_argument("--listen", required=True, help="endpoint(s), comma-separated")
+    serve(parser.parse_args(argv).listen)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

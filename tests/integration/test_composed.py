@@ -1,0 +1,140 @@
+"""Several services in one process: direct local delivery plus one shared Zenoh session."""
+
+from __future__ import annotations
+
+import threading
+
+import pytest
+
+from zenav.common import codec, keys
+from zenav.common import messages as m
+from zenav.common.bus import ZenohBus
+from zenav.common.config import Settings
+from zenav.stack.composed import ComposedStack, LocalBus
+
+WAIT = 10.0  # [s] for anything to arrive
+
+
+class Inbox:
+    """Collects (key, payload) pairs; `wait(n)` until n have come."""
+
+    def __init__(self) -> None:
+        self.got: list[tuple[str, bytes]] = []
+        self._cond = threading.Condition()
+
+    def __call__(self, key: str, data: bytes) -> None:
+        with self._cond:
+            self.got.append((key, data))
+            self._cond.notify_all()
+
+    def wait(self, n: int) -> bool:
+        with self._cond:
+            return self._cond.wait_for(lambda: len(self.got) >= n, timeout=WAIT)
+
+
+@pytest.fixture
+def pair(router):
+    """A LocalBus on its own session, and a plain ZenohBus standing for the rest of the stack."""
+    local, remote = LocalBus(ZenohBus.open(router)), ZenohBus.open(router)
+    yield local, remote
+    local.close()
+    remote.close()
+
+
+def test_a_local_publication_reaches_local_and_remote_subscribers_exactly_once(pair):
+    local, remote = pair
+    key = keys.key("r1", "odom")
+    here, there, marker = Inbox(), Inbox(), Inbox()
+    local.subscribe(key, here)
+    remote.subscribe(key, there)
+    remote.subscribe(keys.key("r1", "end"), marker)
+    local.subscribe(keys.key("r1", "end"), lambda k, d: None)
+    for _ in range(3):  # the remote subscriber may take a moment to be known: send until one arrives
+        local.publish(key, b"probe")
+        if there.wait(1):
+            break
+    here.got.clear()
+    there.got.clear()
+    for i in range(20):
+        local.publish(key, codec.encode(i))
+    local.publish(keys.key("r1", "end"), b"")
+    assert marker.wait(1) and there.wait(20)
+    assert [codec.decode(d, int) for _, d in here.got] == list(range(20))  # direct, in order, once each
+    assert [codec.decode(d, int) for _, d in there.got] == list(range(20))
+
+
+def test_a_remote_publication_reaches_a_local_subscriber_once(pair):
+    local, remote = pair
+    key = keys.key("r1", "pose")
+    here = Inbox()
+    local.subscribe(key, here)
+    for _ in range(20):
+        remote.publish(key, b"probe")
+        if here.wait(1):
+            break
+    n = len(here.got)
+    remote.publish(key, b"x")
+    assert here.wait(n + 1)
+    assert here.got[-1] == (key, b"x") and len(here.got) == n + 1
+
+
+def test_an_undeclared_local_subscription_gets_nothing_more(pair):
+    local, _ = pair
+    key = keys.key("r1", "cmd_vel")
+    here = Inbox()
+    handle = local.subscribe(key, here)
+    local.publish(key, b"a")
+    handle.undeclare()
+    local.publish(key, b"b")
+    assert here.got == [(key, b"a")]
+
+
+def test_composed_services_each_keep_their_token_and_diag(router, client):
+    settings = Settings.load(None, deployment={"connect": router, "clock": "wall"})
+    with ComposedStack(settings, ["motor", "odometry"]) as stack:
+        client.wait_alive(["motor", "odometry"], timeout=WAIT)
+        diag = client.latest("diag/motor").wait(timeout=WAIT)
+        assert diag.service == "motor"
+        wheels = client.latest("motors/wheels")
+        client.publish("cmd_vel", m.CmdVel(t=0.0, v=0.1, omega=0.0))
+        assert wheels.wait(lambda w: w.left > 0.0, timeout=WAIT).right > 0.0
+        # the wheel command reached the odometry beside it directly (its subscriptions take no local sample from Zenoh)
+        odometry = client.latest("diag/odometry").wait(lambda d: d is not None and d.counters["msgs_in"] >= 1, timeout=WAIT)
+        assert odometry.service == "odometry" and set(stack.services) == {"motor", "odometry"}
+
+
+def test_a_token_is_seen_by_a_watcher_on_the_same_bus(pair):
+    local, _ = pair
+    seen: list[tuple[str, bool]] = []
+    event = threading.Event()
+    key = keys.alive("r1", "navigator")
+
+    def watch(k: str, alive: bool) -> None:
+        seen.append((k, alive))
+        event.set()
+
+    local.watch_tokens(key, watch)
+    token = local.token(key)
+    assert event.wait(WAIT) and seen[0] == (key, True)
+    assert local.tokens(key) == [key]
+    event.clear()
+    token.undeclare()
+    assert event.wait(WAIT) and seen[-1] == (key, False)
+
+
+def test_services_on_one_key_share_a_network_subscriber_and_each_get_every_sample(pair):
+    local, remote = pair
+    key = keys.key("r1", "clock")
+    first, second = Inbox(), Inbox()
+    h1 = local.subscribe(key, first)
+    local.subscribe(key, second)
+    for _ in range(20):
+        remote.publish(key, b"probe")
+        if first.wait(1):
+            break
+    assert second.wait(len(first.got))
+    h1.undeclare()
+    n1, n2 = len(first.got), len(second.got)
+    remote.publish(key, b"x")
+    assert second.wait(n2 + 1) and second.got[-1] == (key, b"x")
+    assert len(first.got) == n1  # undeclared: nothing more

@@ -1,0 +1,86 @@
+"""The robot library through a real router, against the in-process stack."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import time
+
+import pytest
+
+from zenav.common.client import Client
+from zenav.robot import InvalidArgument, Robot, Unavailable
+from zenav.stack.inprocess import free_port
+
+SERVICES = ["sim", "motor", "odometry", "vps", "localizer", "navigator"]
+RTF = 1.0  # realtime: six services share this process (one GIL) on a busy host
+NAV = {"stale_after": 2.0, "progress_timeout": 20.0}  # a host stalling the stack is not the library's subject
+HOLDER = """
+import sys
+from zenav import Robot
+
+bot = Robot("r1", sys.argv[1])
+bot.wait_ready(timeout=60)
+print(bot.move_to_point(2.0, 0.0).id, flush=True)
+sys.stdin.read()  # hold the robot (and its lease) until killed
+"""
+
+
+@pytest.fixture
+def stack(make_stack, router):
+    make_stack(SERVICES, sim={"rtf": RTF}, navigator=NAV)
+    with Client("r1", router) as watcher:
+        yield watcher
+
+
+def test_goals_feedback_preemption_cancel_and_stop(stack, router):
+    with Robot("r1", router) as bot:
+        bot.wait_ready(timeout=60)
+        with pytest.raises(InvalidArgument, match="speed"):
+            bot.move_straight(0.0)  # refused by the navigator, naming the field
+
+        goal = bot.move_to_point(0.3, 0.0, speed=0.2, tolerance=0.01)
+        remaining = [st.distance_remaining for st in goal.updates(timeout=60) if st.result is None]
+        res = goal.wait(timeout=1)
+        assert res.succeeded and math.hypot(res.pose.x - 0.3, res.pose.y) < 0.03 and not bot.is_moving()
+        assert len(remaining) >= 3 and remaining[0] > 0.2 and remaining[-1] < remaining[0]
+
+        first = bot.move_to_point(1.0, 0.0)
+        next(first.updates(timeout=30))  # running
+        second = bot.turn_to_heading(math.pi / 2)
+        res = first.wait(timeout=10)
+        assert res.result == "cancelled" and res.message == f"preempted by goal {second.id}"
+        assert not first.cancel() and bot.is_moving()
+        assert second.cancel() and second.wait(timeout=10).result == "cancelled"
+
+        straight = bot.move_straight(0.1)
+        next(straight.updates(timeout=30))
+        assert bot.stop() == "STOPPED"
+        assert straight.wait(timeout=10).result == "cancelled" and not bot.is_moving()
+        truth = stack.latest("sim/truth").wait(lambda t: abs(t.v) < 0.01, timeout=10)
+        assert abs(truth.omega) < 0.05
+
+
+def test_a_program_that_dies_stops_the_robot(stack, router):
+    holder = subprocess.Popen([sys.executable, "-c", HOLDER, router], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        goal_id = int(holder.stdout.readline())
+        stack.latest("sim/truth").wait(lambda t: t.v > 0.1, timeout=30)
+        holder.kill()
+        holder.wait(timeout=10)
+        stack.latest("sim/truth").wait(lambda t: abs(t.v) < 0.01, timeout=5)
+        st = stack.latest("nav/state").wait(lambda s: s.goal_id == goal_id and s.result is not None, timeout=5)
+        assert st.result == "aborted" and st.message.startswith("lease lost: zenav/r1/lease/")
+    finally:
+        holder.kill()
+        holder.wait(timeout=10)
+        holder.stdin.close()
+        holder.stdout.close()
+
+
+def test_no_router_is_unavailable_fast():
+    started = time.monotonic()
+    with pytest.raises(Unavailable, match="no Zenoh router"):
+        Robot("r1", f"tcp/127.0.0.1:{free_port()}", connect_timeout=0.5)
+    assert time.monotonic() - started < 5.0

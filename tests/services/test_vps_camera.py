@@ -1,0 +1,141 @@
+"""The vps service reading the field camera's frames (vps.source = "camera"), and the sim rendering them."""
+
+import math
+import threading
+
+import pytest
+
+from tests.support.rig import Rig
+from zenav.common import codec, keys
+from zenav.common import messages as m
+from zenav.common.config import Camera
+from zenav.services.sim.camera import FieldCamera, Shutter
+from zenav.services.sim.service import Sim
+from zenav.services.vps import calibration, detect
+from zenav.services.vps.calibration import CalibrationError
+from zenav.services.vps.frames import encode
+from zenav.services.vps.service import Vps
+from zenav.world.camera import Lens
+from zenav.world.render import Body, Renderer
+
+FRAME = keys.field_key("camera/frame")
+ROBOTS = {"r1": 0, "r2": 1}
+
+
+@pytest.fixture(scope="module")
+def renderer() -> Renderer:
+    return Renderer(Camera(), seed=1)
+
+
+@pytest.fixture(scope="module")
+def cal_file(renderer, tmp_path_factory) -> str:
+    tags = detect.make().detect(renderer.render(0.0, []))
+    path = tmp_path_factory.mktemp("cal") / "camera.json"
+    calibration.calibrate(tags, Lens.of(Camera()), Camera().anchors, Camera().anchor_size).save(path)
+    return str(path)
+
+
+def make(cal_file: str, **camera) -> Rig:
+    return Rig(Vps, vps={"source": "camera"}, camera={"calibration": cal_file, "robots": ROBOTS, **camera})
+
+
+def frame(renderer, t: float, bodies) -> bytes:
+    return codec.encode(encode(renderer.render(t, bodies), t, int(t * 10)))
+
+
+def fixes(rig: Rig, robot: str) -> list[m.VpsPose]:
+    return [codec.decode(d, m.VpsPose) for k, d in rig.bus.published if k == keys.key(robot, "vps/pose")]
+
+
+def test_each_robot_gets_its_fix_after_the_link_delay(renderer, cal_file):
+    rig = make(cal_file)
+    rig.clock.t = 1.0
+    rig.bus.publish(FRAME, frame(renderer, 1.0, [Body(0, 0.2, 0.3, 0.5), Body(1, 1.0, 0.8, -1.0)]))
+    rig.drain()
+    rig.advance(0.29)
+    assert fixes(rig, "r1") == [] and fixes(rig, "r2") == []  # still on the link
+    rig.advance(0.02)
+    [a], [b] = fixes(rig, "r1"), fixes(rig, "r2")
+    assert a.t == b.t == 1.0  # the capture time
+    assert math.hypot(a.x - 0.2, a.y - 0.3) < 0.002 and abs(a.theta - 0.5) < 0.01
+    assert math.hypot(b.x - 1.0, b.y - 0.8) < 0.002 and abs(b.theta + 1.0) < 0.01
+    assert 0.0 < a.cov[0] < 1e-4 and 0.0 < a.cov[8] < 1e-3
+    c = rig.svc.counters.values
+    assert c["frames"] == 1 and c["fixes_captured"] == 2 and c["detect_ms_p50"] >= 0
+    rig.close()
+
+
+def test_bad_frames_are_refused_and_counted(renderer, cal_file):
+    rig = make(cal_file)
+    good = encode(renderer.render(0.0, [Body(0, 0.2, 0.3, 0.5)]), 0.0, 1)
+    rig.bus.publish(FRAME, codec.encode(encode(renderer.render(0.0, [])[:240, :320], 0.0, 2)))  # wrong size
+    rig.bus.publish(FRAME, codec.encode(m.CameraFrame(t=0.0, width=640, height=480, data=good.data[:1000])))  # corrupt
+    rig.bus.publish(FRAME, b"\x93garbage")  # not a frame at all
+    rig.drain()
+    c = rig.svc.counters.values
+    assert c["frames_refused"] == 2 and c["bad_input"] == 1 and c.get("frames", 0) == 0
+    rig.close()
+
+
+def test_unknown_and_twice_seen_tags_are_counted_and_give_no_fix(renderer, cal_file):
+    rig = make(cal_file)
+    rig.bus.publish(FRAME, frame(renderer, 0.0, [Body(0, 0.0, 0.3, 0.0), Body(0, 1.0, 0.3, 0.0), Body(9, 0.5, 0.8, 0.0)]))
+    rig.drain()
+    rig.advance(0.5)
+    assert fixes(rig, "r1") == []
+    c = rig.svc.counters.values
+    assert c["tags_duplicate"] == 2 and c["tags_unknown"] == 1
+    rig.close()
+
+
+def test_no_calibration_is_a_clear_error(tmp_path):
+    with pytest.raises(CalibrationError, match="run `zenav camera calibrate`"):
+        Rig(Vps, vps={"source": "camera"}, camera={"calibration": str(tmp_path / "none.json")})
+
+
+def test_the_sim_publishes_frames_the_vps_reads(cal_file):
+    cam = FieldCamera(Camera(), seed=1, tag=0)
+    assert [cam.due(t) for t in (0.0, 0.05, 0.1, 0.19, 0.2)] == [True, False, True, False, True]  # 10 Hz
+    shot = cam.frame(m.Truth(t=0.0, x=0.4, y=0.6, theta=1.0, v=0.0, omega=0.0))
+    assert (shot.width, shot.height, len(shot.data), shot.seq) == (640, 480, 640 * 480, 1)
+    rig = make(cal_file)
+    rig.bus.publish(FRAME, codec.encode(shot))
+    rig.drain()
+    rig.advance(0.31)
+    [f] = fixes(rig, "r1")
+    assert math.hypot(f.x - 0.4, f.y - 0.6) < 0.002
+    rig.close()
+
+
+def test_the_sim_renders_frames_beside_its_steps():
+    rig = Rig(Sim, sim={"camera": True})
+    assert rig.svc.shutter is not None
+    for _ in range(25):
+        rig.advance(0.01)
+        assert rig.svc.shutter.idle(10.0)  # each frame drawn before the next step (a slower host skips frames)
+    rig.close()
+    shots = [codec.decode(d, m.CameraFrame) for k, d in rig.bus.published if k == FRAME]
+    assert [s.t for s in shots] == pytest.approx([0.01, 0.11, 0.21])
+    c = rig.svc.counters.values
+    assert c["frames_taken"] == 3 and "frames_skipped" not in c and "frames_failed" not in c
+
+
+def test_a_frame_due_while_the_last_is_drawn_is_skipped_and_failures_are_told():
+    small = Camera(width=160, height=120, fx=133.25, fy=133.25)
+    release, sent = threading.Event(), []
+
+    def slow_send(frame: m.CameraFrame) -> None:
+        assert release.wait(10.0)
+        sent.append(frame.t)
+
+    shutter = Shutter(FieldCamera(small, seed=1, tag=0), slow_send)
+    truth = [m.Truth(t=0.1 * k, x=0.5, y=0.5, theta=0.0, v=0.0, omega=0.0) for k in range(3)]
+    assert shutter.take(truth[0]) == "taken"
+    assert shutter.take(truth[1]) == "skipped"  # the first is still being sent
+    release.set()
+    assert shutter.idle(10.0)
+    assert shutter.take(m.Truth(t=0.15, x=0.5, y=0.5, theta=0.0, v=0.0, omega=0.0)) is None  # not due
+    shutter.send = lambda frame: 1 / 0
+    assert shutter.take(truth[2]) == "taken" and shutter.idle(10.0)
+    assert sent == [0.0] and shutter.error == "ZeroDivisionError: division by zero"
+    shutter.close()

@@ -1,0 +1,142 @@
+"""The navigator on the in-memory bus with a manual clock, driving the world's robot by its cmd_vel, for service tests.
+
+from tests.support.navigator import Rig, reply
+
+rig = Rig(field=None, **navigator_settings)
+q = rig.query("nav/move_to_point", {"x": 0.5, "y": 0.0, "wait": True})  # -> the MemoryQuery, after draining
+rig.run_until(q)                                # step until it has its reply (bounded): the decoded reply
+rig.step(10)                                    # 10 pose periods: drive the robot, publish its pose
+rig.published("cmd_vel")                        # -> [m.CmdVel, ...] published so far
+rig.x, rig.y, rig.theta, rig.cmd, rig.moving    # the robot (settable), the last command, stuck wheels
+
+`World()` is that rig as the bus of `zenav.robot.Robot("r1", bus=world)`; `world.drive(until)` steps until `until()` holds.
+"""
+
+import threading
+
+from zenav.common import codec, keys
+from zenav.common import messages as m
+from zenav.common.bus import MemoryBus
+from zenav.common.clock import ManualClock
+from zenav.common.config import Settings
+from zenav.common.scenarios import scenario
+from zenav.services.navigator.service import Navigator
+from zenav.world.sim import SimRobot
+
+DT = 0.01  # [s] pose period
+MAX_STEPS = 3000  # 30 s of robot time, the bound of a drive loop
+IDEAL = scenario("default", {"wheel_radius_err_left": 0.0, "wheel_radius_err_right": 0.0, "track_width_err": 0.0, "slip_sigma": 0.0})
+
+
+class Rig:
+    """A navigator and the world's robot (exact nominal geometry, no slip) driven by its cmd_vel."""
+
+    def __init__(self, field=None, **cfg):
+        self.bus, self.clock = MemoryBus(), ManualClock(100.0)
+        settings = Settings.load(None, navigator=cfg, field=field or {})
+        self.nav = Navigator(settings, self.bus, self.clock)
+        self.nav.start()
+        self.bot = SimRobot(settings.robot, IDEAL, seed=1)
+        self.cmd = (0.0, 0.0)  # last cmd_vel (v, omega)
+        self.moving = True  # False: the wheels are stuck, the commands do nothing
+        self.bus.subscribe("zenav/r1/cmd_vel", self._on_cmd)
+
+    x = property(lambda self: self.bot.state.x, lambda self, v: self._shove(x=v))
+    y = property(lambda self: self.bot.state.y, lambda self, v: self._shove(y=v))
+    theta = property(lambda self: self.bot.state.theta, lambda self, v: self._shove(theta=v))
+
+    def _shove(self, **pose):
+        """Move the robot without stopping its wheels."""
+        self.bot.state = self.bot.state._replace(**pose)
+
+    def _on_cmd(self, key, data):
+        msg = codec.decode(data, m.CmdVel)
+        self.cmd = (msg.v, msg.omega)
+
+    def pose(self):
+        s = self.bot.state
+        msg = m.Pose(t=self.clock.now(), x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega)
+        self.bus.publish("zenav/r1/pose", codec.encode(msg))
+        self.nav.drain()
+
+    def step(self, n=1, poses=True):
+        for _ in range(n):
+            if self.moving:
+                self.bot.drive(*self.cmd, DT)
+            self.clock.advance(DT)
+            if poses:
+                self.pose()
+            else:
+                self.nav.drain()
+
+    def query(self, suffix, payload=None, params=None):
+        q = self.bus.query(keys.key("r1", suffix), codec.encode(payload) if payload is not None else b"", params)
+        self.nav.drain()
+        return q
+
+    def run_until(self, q, max_s=60.0):
+        """Step until the query has its reply (bounded)."""
+        for _ in range(round(max_s / DT)):
+            if q.replies:
+                break
+            self.step()
+        return reply(q)
+
+    def published(self, suffix):
+        return [codec.decode(d, keys.TOPICS[suffix]) for k, d in self.bus.published if k == keys.key("r1", suffix)]
+
+
+def reply(q, typ=m.GoalReply):
+    """The one finished reply of `q`, decoded: `typ`, or ErrorReply."""
+    [(ok, data)] = q.replies
+    assert q.finished
+    return codec.decode(data, typ if ok else m.ErrorReply)
+
+
+class World(Rig):
+    """The rig as the QueryBus of the robot library: a query drains the navigator at once; `sent` keeps what the library asked."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.sent: list[tuple[str, dict]] = []  # queries the library sent
+        self.hide_state = False  # True: nav/state does not reach the library
+        self.refused = threading.Event()  # set when a query got an error reply
+
+    def publish(self, key, data):
+        self.bus.publish(key, data)
+
+    def subscribe(self, key, callback):
+        def maybe(k, data):
+            if not (self.hide_state and k.endswith("/nav/state")):
+                callback(k, data)
+
+        return self.bus.subscribe(key, maybe)
+
+    def token(self, key):
+        return self.bus.token(key)
+
+    def watch_tokens(self, key, callback):
+        return self.bus.watch_tokens(key, callback)
+
+    def get(self, selector, payload=None, timeout=5.0, urgent=False):
+        self.sent.append((selector.split("/", 2)[2], codec.decode(payload, dict) if payload else {}))
+        q = self.bus.query(selector, payload or b"")
+        self.nav.drain()
+        if not all(ok for ok, _ in q.replies):
+            self.refused.set()
+        return q.replies
+
+    def close(self):
+        """The library closes its bus: the rig stays up."""
+
+    def drive(self, until, steps=MAX_STEPS):
+        """Step until `until()` holds (bounded); how many steps it took."""
+        for n in range(steps):
+            if until():
+                return n
+            self.step()
+        raise AssertionError(f"not done in {steps} steps")
+
+    def goals_sent(self):
+        """The requests of every goal query the library sent."""
+        return [req for suffix, req in self.sent if suffix.startswith("nav/") and suffix not in ("nav/stop", "nav/status")]

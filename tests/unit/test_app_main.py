@@ -1,0 +1,87 @@
+"""A service process (`python -m zenav.services.<svc>`): a bad config exits 2 before any
+connection attempt; with no router it waits, saying so, stops on Ctrl-C, and joins the
+router once it comes."""
+
+from __future__ import annotations
+
+import os
+import queue
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+from zenav.common.app import CONNECT_STEP
+from zenav.common.client import Client
+from zenav.stack.inprocess import free_port
+from zenav.stack.router import Router
+
+EXIT_WAIT = 10.0  # [s] a stopped service exits within this (a connection attempt lasts CONNECT_STEP)
+
+
+@contextmanager
+def motor(*args: str) -> Iterator[tuple[subprocess.Popen, queue.Queue]]:
+    """The motor service as a process, and a queue of its stderr lines; killed at the end if still running."""
+    env = {**os.environ, "ZENAV_LOG": "INFO"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "zenav.services.motor", *args], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, env=env
+    )
+    assert proc.stderr is not None
+    lines: queue.Queue = queue.Queue()
+    pump = threading.Thread(target=lambda: [lines.put(line) for line in proc.stderr], daemon=True)  # type: ignore[union-attr]
+    pump.start()
+    try:
+        yield proc, lines
+    finally:
+        proc.kill()
+        proc.wait()
+        pump.join(timeout=EXIT_WAIT)
+        proc.stderr.close()
+
+
+def wait_line(lines: queue.Queue, words: str, timeout: float) -> str:
+    """The first stderr line containing `words` within `timeout` [s]."""
+    deadline = time.monotonic() + timeout
+    while (left := deadline - time.monotonic()) > 0:
+        try:
+            line = lines.get(timeout=left)
+        except queue.Empty:
+            break
+        if words in line:
+            return line
+    raise AssertionError(f"no line with {words!r} within {timeout} s")
+
+
+def test_a_bad_config_exits_2_with_one_line_before_connecting():
+    port = free_port()  # nobody listens: a connection attempt would wait
+    t0 = time.monotonic()
+    out = subprocess.run(
+        [sys.executable, "-m", "zenav.services.motor", "--connect", f"tcp/127.0.0.1:{port}", "--set", "motor.no_such_key=1"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert out.returncode == 2
+    assert out.stderr.strip().splitlines() == [out.stderr.strip()] and "no_such_key" in out.stderr
+    assert "router" not in out.stderr
+    assert time.monotonic() - t0 < 30
+
+
+def test_with_no_router_it_waits_saying_so_and_ctrl_c_stops_it():
+    with motor("--connect", f"tcp/127.0.0.1:{free_port()}") as (proc, lines):
+        assert "no router at" in wait_line(lines, "no router", timeout=CONNECT_STEP + 20)
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=EXIT_WAIT) == 0
+
+
+def test_a_service_started_before_its_router_joins_it_when_it_comes():
+    port = free_port()
+    with motor("--connect", f"tcp/127.0.0.1:{port}") as (proc, lines):
+        wait_line(lines, "no router", timeout=CONNECT_STEP + 20)
+        with Router(port) as router, Client("r1", router.endpoint) as client:
+            assert client.wait_alive(["motor"], timeout=CONNECT_STEP + 20) == {"motor"}
+            proc.send_signal(signal.SIGINT)
+            assert proc.wait(timeout=EXIT_WAIT) == 0

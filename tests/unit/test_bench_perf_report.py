@@ -1,0 +1,31 @@
+"""The report's performance sections from made-up results: bare chain ratios, composed, profile, fleet."""
+
+from __future__ import annotations
+
+from tests.support.bench import live, results
+from zenav.bench import report
+from zenav.bench.chain import Chain
+from zenav.bench.fleet import HostsResult, Point
+from zenav.bench.latency import END_TO_END, STAGES, Stats
+from zenav.bench.profile import Cost, Hot
+
+
+def test_the_performance_sections_are_written(tmp_path):
+    res = results()
+    res.chains = {"client": Chain([2.0, 2.5, 6.0], 0.03), "peer": Chain([1.0, 1.5, 5.0], 0.02)}
+    res.composed = live()
+    res.composed.chain.update({s: [0.2, 0.3, 0.4] for s in STAGES})
+    res.composed.chain[END_TO_END][:] = [1.0, 1.2, 3.0]
+    res.costs = {"odometry": Cost("odometry", 100, 300, 100, 0.01), "localizer": Cost("localizer", 100, 300, 100, 0.03)}
+    res.costs |= {n: Cost(n, 100, 100, 100, 0.005) for n in ("navigator", "motor")}
+    res.hot = {"localizer": [Hot("localizer/model.py:99(predict)", 370, 120.0, 300.0)]}
+    res.fleet = [Point(1, 0.05, 1.0, 1.0, Stats.of([1.0, 1.0])), Point(5, 0.3, 0.99, 1.0, Stats.of([2.5, 3.0]))]
+    res.hosts = HostsResult(True, 2, 0.02, False)
+    text = report.write(res, tmp_path).read_text()
+    headings = [line for line in text.splitlines() if line.startswith("#")]
+    wanted = ("### The floor: a bare chain of the same five hops", "### The robot's services composed in one process", "## Profile")
+    assert all(h in headings for h in (*wanted, "## Fleet"))
+    assert "- end to end (clients) / bare chain: p50 1.20x, p99 1.50x" in text  # p50 3.0 / 2.5, p99 8.88 / 5.93
+    assert "Delivery p50 reached 2x the one-robot figure at 5 robots." in text
+    assert "The robot's services (odometry, localizer, navigator, motor): 0.050 of a core together." in text
+    assert "every robot heard on every host: yes" in text

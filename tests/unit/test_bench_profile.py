@@ -1,0 +1,24 @@
+"""The profile section: every service of one robot timed on the in-process bus."""
+
+from __future__ import annotations
+
+from zenav.bench import profile
+
+
+def test_every_service_is_timed_and_the_chain_runs():
+    costs = profile.measure(seconds=1.0, warmup=3.0)
+    assert list(costs) == list(profile.ORDER)
+    assert all(c.steps == 100 and c.cpu > 0.0 for c in costs.values())
+    # the navigator drives: a command per pose, a wheel command per command, an odom per encoder sample
+    assert costs["odometry"].outputs >= 100 and costs["navigator"].outputs >= 90 and costs["motor"].outputs >= 90
+    assert costs["localizer"].inputs >= 200  # odom and imu at least
+    assert 0.0 < costs["odometry"].cores(100.0) < 1.0
+
+
+def test_the_profile_names_each_services_costliest_functions():
+    hot = profile.profile(seconds=0.5, warmup=3.0, top=5)
+    assert set(hot) == set(profile.ORDER)
+    assert all(len(rows) == 5 and rows[0].own >= rows[-1].own for rows in hot.values())
+    assert any("predict" in h.where for h in hot["localizer"])
+    text = profile.lines(profile.measure(seconds=0.2, warmup=3.0), hot, 100.0)
+    assert any(line.startswith("robot services") for line in text)

@@ -1,0 +1,83 @@
+"""`zenav camera calibrate` and `snapshot` on pictures of a rendered field."""
+
+import json
+import re
+import threading
+import time
+
+import cv2
+import msgspec
+import pytest
+
+from zenav.cli import camera
+from zenav.cli.main import EXIT_FAILED, EXIT_OK, main
+from zenav.common import codec
+from zenav.common import messages as m
+from zenav.common.config import Camera
+from zenav.services.vps import frames
+from zenav.world.render import Body, Renderer
+
+
+@pytest.fixture(scope="module")
+def pictures(tmp_path_factory):
+    d = tmp_path_factory.mktemp("field")
+    r = Renderer(Camera(), seed=2)
+    cv2.imwrite(str(d / "empty.png"), r.render(0.0, []))
+    cv2.imwrite(str(d / "robot.png"), r.render(0.0, [Body(0, 0.3, 0.4, 0.5)]))
+    small = Renderer(msgspec.structs.replace(Camera(), anchors=()), seed=2)
+    cv2.imwrite(str(d / "bare.png"), small.render(0.0, []))
+    return d
+
+
+def test_calibrate_then_snapshot(pictures, tmp_path, capsys):
+    cal = tmp_path / "cal.json"
+    assert main(["camera", "calibrate", "--image", str(pictures / "empty.png"), "-o", str(cal)]) == EXIT_OK
+    assert "camera 2.000 m above the floor" in capsys.readouterr().out
+    assert json.loads(cal.read_text())["anchors"] == [100, 101, 102, 103, 104, 105]
+    png = tmp_path / "snap.png"
+    args = ["camera", "snapshot", "--image", str(pictures / "robot.png"), "-o", str(png), "--set", f'camera.calibration="{cal}"']
+    assert main(args) == EXIT_OK
+    found = re.search(r"fixes r1 \(([-.\d]+), ([-.\d]+), ([-.\d]+)\)", capsys.readouterr().out)
+    assert found and [float(v) for v in found.groups()] == pytest.approx([0.3, 0.4, 0.5], abs=0.005)
+    img = cv2.imread(str(png))
+    assert img.shape == (480, 640, 3) and (img[..., 0] != img[..., 2]).any()  # drawn on in colour
+
+
+def test_calibrate_without_fixed_tags_says_so(pictures, tmp_path, capsys):
+    code = main(["camera", "calibrate", "--image", str(pictures / "bare.png"), "-o", str(tmp_path / "c.json")])
+    assert code == EXIT_FAILED
+    assert "needs 2 fixed tags in view, saw 0" in capsys.readouterr().err
+    assert not (tmp_path / "c.json").exists()
+
+
+def test_snapshot_without_calibration_draws_the_tags_and_names_what_to_run(pictures, tmp_path, capsys):
+    png = tmp_path / "snap.png"
+    missing = f'camera.calibration="{tmp_path}/none.json"'
+    args = ["camera", "snapshot", "--image", str(pictures / "robot.png"), "-o", str(png), "--set", missing]
+    assert main(args) == EXIT_OK
+    out = capsys.readouterr()
+    assert "run `zenav camera calibrate`" in out.err and "fixes none" in out.out
+    assert png.is_file()
+
+
+def test_stream_publishes_a_video_files_frames_at_its_pace(pictures, tmp_path):
+    path = str(tmp_path / "field.avi")
+    out = cv2.VideoWriter(path, cv2.VideoWriter_fourcc(*"MJPG"), 20.0, (640, 480))
+    frame = cv2.cvtColor(cv2.imread(str(pictures / "robot.png"), cv2.IMREAD_GRAYSCALE), cv2.COLOR_GRAY2BGR)
+    for _ in range(4):
+        out.write(frame)
+    out.release()
+    start = time.time()
+    sent: list[bytes] = []
+    assert camera.stream(frames.Capture(path, start=start), sent.append, threading.Event(), 0.008) == 4
+    shots = [codec.decode(d, m.CameraFrame) for d in sent]
+    assert [s.seq for s in shots] == [1, 2, 3, 4] and all((s.width, s.height) == (640, 480) for s in shots)
+    assert [s.t - start for s in shots] == pytest.approx([0.0, 0.05, 0.1, 0.15], abs=1e-3)
+    assert time.time() - start >= 0.15  # played at the file's pace
+
+
+def test_calibrate_from_the_frame_the_sim_renders(tmp_path, capsys):
+    cal = tmp_path / "cal.json"
+    assert main(["camera", "calibrate", "--sim", "-o", str(cal)]) == EXIT_OK
+    assert "fixed tags [100, 101, 102, 103, 104, 105]" in capsys.readouterr().out
+    assert json.loads(cal.read_text())["camera_height_m"] == pytest.approx(2.0, abs=0.01)

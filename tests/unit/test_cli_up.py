@@ -1,0 +1,112 @@
+"""`zenav up`: the service registry's orders, and the demo giving way to an operator's goal."""
+
+from __future__ import annotations
+
+from zenav import services
+from zenav.cli import up
+from zenav.common import keys
+from zenav.common import messages as m
+from zenav.common.client import Latest
+from zenav.common.scenarios import SQUARE
+from zenav.robot import Result
+
+
+def test_the_registry_names_each_service_class_and_stops_the_navigator_first():
+    assert services.NAMES == ("sim", "motor", "odometry", "vps", "localizer", "navigator")
+    for name in services.NAMES:
+        assert services.load(name).name == name
+    assert services.stop_order() == ["navigator", "localizer", "vps", "odometry", "motor", "sim"]
+    assert services.stop_order(["sim", "motor", "navigator"]) == ["navigator", "motor", "sim"]
+    assert set(keys.SERVICES) == set(services.ALL)  # the contract's diag/<service> topics name the same
+
+
+def state(goal_id: int, result: str | None) -> m.NavState:
+    return m.NavState(t=1.0, state="STOPPED" if result else "MOVING_TO_POINT", goal_id=goal_id, result=result)
+
+
+def test_the_gate_waits_for_a_quiet_period_after_someone_else_s_goal():
+    gate = up.DemoGate(quiet=5.0)
+    gate.mine.add(1)
+    assert gate.update(state(1, None), 0.0)  # its own goal
+    assert not gate.update(state(2, None), 1.0)  # someone else's, running
+    assert not gate.update(state(2, None), 9.0)
+    assert not gate.update(state(2, "succeeded"), 10.0)  # ended: quiet from the last time it was seen running
+    assert gate.update(state(2, "succeeded"), 14.0)
+    assert not gate.update(state(3, "cancelled"), 14.5)  # another one, ended before it was ever seen
+    assert gate.update(state(3, "cancelled"), 19.5)
+    gate.interrupted(20.0)  # a demo goal was cancelled (nav/stop): someone acted
+    assert not gate.update(state(3, "cancelled"), 24.0) and gate.update(state(3, "cancelled"), 25.0)
+
+
+class FakeDone:
+    """`done` of the demo: its waits move a fake clock on, the test's script runs on each."""
+
+    def __init__(self, script) -> None:
+        self.t, self._set, self.script = 0.0, False, script
+
+    def is_set(self) -> bool:
+        return self._set
+
+    def set(self) -> None:
+        self._set = True
+
+    def wait(self, timeout: float) -> bool:
+        self.t += timeout
+        self.script(self.t)
+        return self._set
+
+
+class FakeGoal:
+    def __init__(self, goal_id: int, result: Result) -> None:
+        self.id, self._result = goal_id, result
+
+    def wait(self, timeout: float) -> Result:
+        return self._result
+
+
+class FakeRobot:
+    """A robot whose navigator takes the demo's goals; the operator sends goal 3 while goal 2 runs."""
+
+    def __init__(self, done: FakeDone) -> None:
+        self.done, self.nav, self.sent = done, Latest(), []
+        self.client = self
+
+    def latest(self, suffix: str) -> Latest:
+        assert suffix == "nav/state"
+        return self.nav
+
+    def wait_ready(self, timeout: float) -> None:
+        pass
+
+    def move_to_point(self, x: float, y: float) -> FakeGoal:
+        self.sent.append((self.done.t, x, y))
+        goal_id = len(self.sent) if len(self.sent) < 3 else len(self.sent) + 1  # the operator's goal is 3
+        if goal_id == 2:  # preempted by the operator's goal, which runs on
+            self.nav.put(state(3, None))
+            return FakeGoal(2, Result(2, "cancelled", "preempted by goal 3", None, 1.0))
+        self.nav.put(state(goal_id, "succeeded"))
+        if len(self.sent) == 4:
+            self.done.set()
+        return FakeGoal(goal_id, Result(goal_id, "succeeded", "arrived", None, 1.0))
+
+
+def test_the_demo_pauses_while_an_operator_drives_and_resumes_after_the_quiet(monkeypatch):
+    bot: FakeRobot | None = None
+
+    def operator(t: float) -> None:  # the operator's goal ends at t = 3 s
+        assert bot is not None
+        if t >= 3.0 and bot.nav.msg.goal_id == 3 and bot.nav.msg.result is None:
+            bot.nav.put(state(3, "succeeded"))
+
+    done = FakeDone(operator)
+    bot = FakeRobot(done)
+    lines: list[str] = []
+    up.demo_loop(bot, done, lines.append, now=lambda: done.t)  # type: ignore[arg-type]
+    times = [t for t, _, _ in bot.sent]
+    corners = [(x, y) for _, x, y in bot.sent]
+    assert corners == [SQUARE[0], SQUARE[1], SQUARE[1], SQUARE[2]]  # the preempted corner again, after the pause
+    assert times[:2] == [0.0, 0.0]
+    # quiet from the last nav/state that showed goal 3 running (the demo looks every 0.2 s)
+    assert 3.0 + up.DEMO_QUIET - 0.25 <= times[2] <= 3.0 + up.DEMO_QUIET + 0.25
+    assert any(line.startswith("demo: paused: someone else is driving (goal 3)") for line in lines), lines
+    assert "demo: resuming the square" in lines

@@ -1,0 +1,27 @@
+"""The service input queue: the priority lane first, bounds in items and bytes."""
+
+from zenav.common.inbox import Inbox
+
+
+def test_the_priority_lane_is_emptied_first_then_arrival_order():
+    box = Inbox(10, 1000)
+    for item in ("a", "b"):
+        box.put(item, 1)
+    box.put("stop", priority=True)
+    box.put("c", 1)
+    assert [box.get()[1] for _ in range(4)] == ["stop", "a", "b", "c"]
+    assert box.get() == (False, None) and box.qsize() == 0 and box.nbytes() == 0
+
+
+def test_puts_past_either_bound_are_refused():
+    box = Inbox(3, 100)
+    assert box.put("big", 80) and not box.put("too much", 30) and box.put("small", 20)
+    assert box.nbytes() == 100
+    assert box.put("third", 0) and not box.put("fourth", 0)  # three items
+    assert box.put("stop", 50, priority=True)  # the priority lane: its own item bound only
+    assert box.get()[1] == "stop" and box.nbytes() == 100
+
+
+def test_get_waits_up_to_its_timeout():
+    box = Inbox(1, 1)
+    assert box.get(timeout=0.01) == (False, None)

@@ -1,0 +1,227 @@
+"""How moves end: every exit reason, the tolerance as the exit, the re-check, poses, chaining, no swing."""
+
+import math
+import random
+
+import pytest
+
+from zenav.common import messages as m
+from zenav.common.geometry import wrap_angle
+from zenav.services.navigator import exits, goals, intake
+from zenav.services.navigator.controllers import PoseSample, Wheelbase
+from zenav.services.navigator.goals import Goal, GoalMachine
+from zenav.services.navigator.params import Params
+
+WHEELS = Wheelbase(0.1156, 0.03365, 10.0)
+DT = 0.01  # [s] pose period
+LAG = 0.06  # [s] first-order lag of the simulated motors (the default stop_lead)
+
+
+def machine(**cfg):
+    mc = GoalMachine(Params(**cfg), WHEELS)
+    mc.on_pose(PoseSample(0.0, 0.0, 0.0, 0.0))
+    return mc
+
+
+def to_point(x, y, tol=0.01, **kw):
+    return Goal(goals.MOVING_TO_POINT, points=((x, y),), speed=0.2, tolerance=tol, **kw)
+
+
+def still(mc, x, y, theta=0.0, until=10.0):
+    """Poses at rest at (x, y, theta) every DT, checks every 5th, until the goal ends (bounded)."""
+    for i in range(1, round(until / DT) + 1):
+        t = round(i * DT, 6)
+        _, end = mc.on_pose(PoseSample(t, x, y, theta))
+        if end is None and i % 5 == 0:
+            end = mc.check(t)
+        if end is not None:
+            return t, end
+    raise AssertionError("the goal did not end")
+
+
+class Unicycle:
+    """A kinematic robot whose speeds follow the commands with a first-order lag; seeded pose noise."""
+
+    def __init__(self, x=0.0, y=0.0, theta=0.0, noise=0.0, seed=0):
+        self.x, self.y, self.theta, self.v, self.omega, self.t = x, y, theta, 0.0, 0.0, 0.0
+        self.noise, self.rng = noise, random.Random(seed)
+
+    def sample(self):
+        n = self.noise
+        g = self.rng.gauss
+        return PoseSample(self.t, self.x + g(0, n), self.y + g(0, n), self.theta + g(0, n / 0.3), self.v, self.omega)
+
+    def step(self, cmd):
+        a = DT / LAG
+        self.v += a * (cmd[0] - self.v)
+        self.omega += a * (cmd[1] - self.omega)
+        self.theta = wrap_angle(self.theta + self.omega * DT)
+        self.x += self.v * math.cos(self.theta) * DT
+        self.y += self.v * math.sin(self.theta) * DT
+        self.t = round(self.t + DT, 6)
+
+
+def drive(goal, bot=None, max_s=40.0, **cfg):
+    """Run a goal on a Unicycle to its end: (end, steps, trace of (x, y, theta, v cmd, index))."""
+    bot = bot or Unicycle()
+    mc = GoalMachine(Params(**cfg), WHEELS)
+    mc.on_pose(bot.sample())
+    mc.start(goal, bot.t)
+    trace = []
+    for step in range(round(max_s / DT)):
+        cmd, end = mc.on_pose(bot.sample())
+        if end is None and step % 5 == 0:
+            end = mc.check(bot.t)
+        if end is not None:
+            return end, step, trace, bot
+        trace.append((bot.x, bot.y, bot.theta, cmd[0], mc.feedback(bot.t).next_point))
+        bot.step(cmd)
+    raise AssertionError("the goal did not end")
+
+
+# ---------------------------------------------------------------- each exit reachable
+def test_within_tolerance_ends_the_move_and_the_recheck_passes():
+    end, *_ = drive(to_point(1.0, 0.0))
+    assert (end.result, end.exit, end.message) == (goals.SUCCEEDED, exits.WITHIN_TOLERANCE, "arrived")
+
+
+def test_settled_a_small_error_held():
+    mc = machine(settle_error=0.02, settle_time=0.5, big_time=5.0, rest_time=0.2)
+    mc.start(to_point(1.0, 0.0), 0.0)
+    t, end = still(mc, 0.985, 0.0)  # 1.5 cm short, not moving closer
+    assert end.exit == exits.SETTLED and end.result == goals.ABORTED and t == pytest.approx(0.5 + 0.2, abs=0.03)
+    assert "1.50 cm from the goal (tolerance 1.00 cm): exit settled" in end.message
+    assert mc.exit == exits.SETTLED
+
+
+def test_big_error_a_large_error_held():
+    mc = machine(big_error=0.05, big_time=1.5, rest_time=0.2)
+    mc.start(to_point(1.0, 0.0), 0.0)
+    t, end = still(mc, 0.97, 0.0)  # 3 cm short: outside settle_error, inside big_error
+    assert end.exit == exits.BIG_ERROR and end.result == goals.ABORTED and t == pytest.approx(1.5 + 0.2, abs=0.03)
+
+
+def test_timeout_stops_the_move_then_rechecks():
+    mc = machine(rest_time=0.2)
+    mc.start(to_point(1.0, 0.0, timeout=1.0), 0.0)
+    t, end = still(mc, 0.5, 0.0)
+    assert end.exit == exits.TIMEOUT and end.result == goals.ABORTED and t == pytest.approx(1.0 + 0.2, abs=0.011)
+    assert mc.on_pose(PoseSample(t + DT, 0.5, 0.0, 0.0)) == (None, None)
+
+
+def test_config_goal_timeout_applies_to_goals_naming_none():
+    mc = machine(goal_timeout=0.5, rest_time=0.0)
+    mc.start(to_point(1.0, 0.0), 0.0)
+    t, end = still(mc, 0.5, 0.0)
+    assert end.exit == exits.TIMEOUT and t == pytest.approx(0.5, abs=0.011)
+
+
+def test_stalled_no_progress_aborts_at_once():
+    mc = machine(progress_timeout=2.0)
+    mc.start(to_point(1.0, 0.0), 0.0)
+    t, end = still(mc, 0.0, 0.0)
+    assert end.exit == exits.STALLED and end.result == goals.ABORTED and "no progress" in end.message and t == pytest.approx(2.05)
+
+
+def test_passed_a_point_abeam_outside_the_tolerance():
+    mc = machine(retries=0)
+    mc.start(to_point(1.0, 0.0), 0.0)
+    cmd, _ = mc.on_pose(PoseSample(0.01, 0.95, 0.004, 0.0))  # locked: drives along its heading
+    assert cmd[0] > 0 and cmd[1] == 0.0
+    cmd, end = mc.on_pose(PoseSample(0.02, 1.001, 0.012, 0.0))  # past abeam, 1.2 cm off
+    assert cmd == (0.0, 0.0) and end is None
+    _, end = still(mc, 1.001, 0.012)
+    assert end.exit == exits.PASSED and end.result == goals.ABORTED
+
+
+@pytest.mark.parametrize("how, exit", [("cancel", exits.CANCELLED), ("abort", exits.ABORTED)])
+def test_cancelled_and_aborted(how, exit):
+    mc = machine()
+    mc.start(to_point(1.0, 0.0), 0.0)
+    assert getattr(mc, how)("why").exit == exit and mc.exit == exit
+
+
+def test_succeeded_only_if_the_recheck_is_within_tolerance():
+    """A turn whose coast ends past a tight tolerance is not a success."""
+    mc = machine(rest_time=0.1, retries=0)
+    mc.start(Goal(goals.TURNING_TO_HEADING, heading=0.5, speed=2.0, tolerance=math.radians(0.1)), 0.0)
+    mc.on_pose(PoseSample(0.01, 0.0, 0.0, 0.49))  # the coast is predicted to reach it: the turn stops
+    _, end = still(mc, 0.0, 0.0, theta=0.5 + math.radians(0.2))  # it coasted 0.2 deg past
+    assert end.result == goals.ABORTED and "0.20 deg off the heading (tolerance 0.10 deg)" in end.message
+
+
+def test_a_recheck_over_the_tolerance_moves_again_a_bounded_number_of_times():
+    """A late fix moves the pose after the stop: the move corrects, `retries` times at most."""
+    mc = machine(rest_time=0.1, retries=1)
+    mc.start(to_point(1.0, 0.0), 0.0)
+    assert mc.on_pose(PoseSample(0.01, 0.995, 0.0, 0.0)) == ((0.0, 0.0), None)  # within: the move stops
+    cmd, end = mc.on_pose(PoseSample(0.12, 0.98, 0.0, 0.0))  # the re-check finds it 2 cm short
+    assert end is None and cmd[0] > 0 and mc.active  # moving again
+    assert mc.on_pose(PoseSample(0.13, 0.995, 0.0, 0.0)) == ((0.0, 0.0), None)
+    _, end = mc.on_pose(PoseSample(0.24, 0.97, 0.0, 0.0))  # over again: no retry left
+    assert end.result == goals.ABORTED and end.exit == exits.WITHIN_TOLERANCE and "3.00 cm from the goal" in end.message
+
+
+# ---------------------------------------------------------------- the tolerance trades precision for time
+def test_a_larger_tolerance_ends_sooner():
+    steps, errors = [], []
+    for tol in (0.2, 0.05, 0.01):
+        end, n, _, bot = drive(to_point(1.0, 0.0, tol=tol))
+        assert end.result == goals.SUCCEEDED and end.exit == exits.WITHIN_TOLERANCE
+        steps.append(n)
+        errors.append(math.hypot(1.0 - bot.x, bot.y))
+    assert steps[0] < steps[1] < steps[2] and steps[2] - steps[0] > 50  # at least 0.5 s saved
+    assert all(e <= tol for e, tol in zip(errors, (0.2, 0.05, 0.01))) and errors[0] > 0.1
+
+
+# ---------------------------------------------------------------- move_to_pose
+@pytest.mark.parametrize("controller", ["polar", "boomerang"])
+@pytest.mark.parametrize("x, y, theta", [(1.0, 0.5, math.pi / 2), (0.8, -0.4, 0.0), (0.5, 0.5, math.pi)])
+def test_move_to_pose_arrives_with_the_heading(controller, x, y, theta):
+    goal = Goal(goals.MOVING_TO_POSE, points=((x, y),), heading=theta, speed=0.2, tolerance=0.01, heading_tolerance=0.0087, lead=0.6)
+    end, _, _, bot = drive(goal, pose_controller=controller)
+    assert end.result == goals.SUCCEEDED, end.message
+    assert math.hypot(x - bot.x, y - bot.y) <= 0.01 and abs(wrap_angle(theta - bot.theta)) <= 0.0087
+
+
+def test_move_to_pose_refuses_unstable_polar_gains_naming_the_equation():
+    req = m.MoveToPose(x=1.0, y=0.0, theta=0.0)
+    with pytest.raises(intake.Invalid, match="eq. 8"):
+        intake.move_to_pose(req, Params(k_rho=3.0, k_alpha=2.9, k_beta=-0.1, pose_controller="polar"))
+    with pytest.raises(intake.Invalid, match="eq. 9"):
+        intake.move_to_pose(req, Params(k_rho=3.0, k_alpha=3.5, k_beta=-1.5, pose_controller="polar"))
+    intake.move_to_pose(req, Params(k_rho=3.0, k_alpha=3.5, k_beta=-1.5, pose_controller="boomerang"))  # gains unused
+
+
+# ---------------------------------------------------------------- chaining
+def test_a_path_keeps_moving_through_its_points():
+    path = ((0.5, 0.0), (1.0, 0.0), (1.0, 0.5), (0.5, 0.5))
+    end, _, trace, _ = drive(Goal(goals.FOLLOWING_PATH, points=path, speed=0.2, tolerance=0.01))
+    assert end.result == goals.SUCCEEDED
+    between = [v for *_, v, i in trace if i is not None and 0 < i < len(path) - 1]
+    assert len(between) > 100 and min(between) > 0.03  # never stopped: only the turn limit scales the through speed down
+
+
+def test_a_missed_intermediate_point_is_turned_to_in_place_not_orbited():
+    mc = machine()
+    path = Goal(goals.FOLLOWING_PATH, points=((0.5, 0.0), (1.0, 0.0)), speed=0.2, tolerance=0.01, point_tolerances=(0.01, 0.01))
+    mc.start(path, 0.0)
+    cmd, _ = mc.on_pose(PoseSample(0.01, 0.6, 0.02, 0.0))  # past the first point, 2 cm beside it
+    assert mc.feedback(0.01).next_point == 0 and cmd[0] == 0.0 and cmd[1] != 0.0
+
+
+def test_each_point_may_carry_its_own_tolerance():
+    goal, info = intake.follow_path(m.FollowPath(points=[(0.5, 0.0, 0.1), (1.0, 0.0), (1.0, 0.5)], waypoint_tolerance=0.02), Params())
+    assert goal.point_tolerances == (0.1, 0.02, 0.01) and goal.tolerance == 0.01 and info["waypoint_tolerance"] == 0.02
+    with pytest.raises(intake.Invalid, match=r"points\[1\]"):
+        intake.follow_path(m.FollowPath(points=[(0.5, 0.0), (1.0, 0.0, -0.1)]), Params())
+
+
+# ---------------------------------------------------------------- no heading swing on arrival
+@pytest.mark.parametrize("seed", range(5))
+def test_no_heading_swing_in_the_last_5_cm(seed):
+    bot = Unicycle(noise=0.002, seed=seed)
+    end, _, trace, bot = drive(to_point(1.0, 0.05 * (seed - 2)), bot)
+    last = [th for x, y, th, *_ in trace if math.hypot(bot.x - x, bot.y - y) <= 0.05]
+    swing = max(abs(wrap_angle(th - last[0])) for th in last + [bot.theta])
+    assert len(last) > 5 and math.degrees(swing) < 2.0

@@ -1,0 +1,50 @@
+"""The service registry's profiles: what `zenav up --profile` runs, and with which config."""
+
+from __future__ import annotations
+
+import pytest
+
+from zenav import services
+from zenav.cli.main import main as zenav_main
+from zenav.common.app import parse_sets
+from zenav.common.config import Settings
+
+
+def test_the_sim_profile_is_the_default_stack():
+    assert services.DEFAULT_PROFILE == "sim"
+    assert services.NAMES == services.PROFILES["sim"].services == ("sim", "motor", "odometry", "vps", "localizer", "navigator")
+    assert services.PROFILES["sim"].sets() == [] and services.PROFILES["sim"].demo
+
+
+def test_the_robot_profile_runs_the_driver_instead_of_the_sim_on_the_wall_clock():
+    robot = services.PROFILES["robot"]
+    assert robot.services == ("driver", "motor", "odometry", "localizer", "navigator")
+    assert not robot.demo
+    assert robot.sets() == ['deployment.clock="wall"']
+    assert Settings.load(None, **parse_sets(robot.sets())).deployment.clock == "wall"
+    assert services.stop_order(robot.services) == ["navigator", "localizer", "odometry", "motor", "driver"]
+
+
+@pytest.mark.parametrize("name", sorted(services.PROFILES))
+def test_every_profile_names_registered_services_in_start_order(name):
+    names = services.PROFILES[name].services
+    assert list(names) == [n for n in services.ALL if n in names]
+    for n in names:
+        assert services.load(n).name == n
+
+
+def test_the_driver_starts_first_and_stops_last():
+    assert services.ALL[0] == "driver"
+    assert services.stop_order(services.ALL)[-2:] in (["driver", "sim"], ["sim", "driver"])
+
+
+def test_up_refuses_the_demo_on_the_robot_profile(capsys):
+    assert zenav_main(["up", "--profile", "robot", "--demo"]) == 2
+    assert "--demo" in capsys.readouterr().err
+
+
+def test_tools_judge_the_running_profile_by_the_services_alive():
+    assert services.running(set()) == services.NAMES
+    assert services.running({"sim", "motor", "navigator"}) == services.NAMES
+    assert services.running({"driver", "motor", "odometry"}) == services.PROFILES["robot"].services
+    assert services.running({"driver", "motor", "odometry", "vps", "localizer", "navigator"}) == services.PROFILES["robot"].services

@@ -1,0 +1,181 @@
+"""The robot library against the real navigator on the in-memory bus, with a manual clock and a kinematic robot."""
+
+import math
+import threading
+
+import pytest
+
+from tests.support.navigator import MAX_STEPS, World
+from zenav.common import codec
+from zenav.common import messages as m
+from zenav.robot import InvalidArgument, Robot, Unavailable, ZenavError
+
+
+@pytest.fixture
+def bot(world):
+    with Robot("r1", bus=world) as r:
+        yield r
+
+
+def test_move_to_point_arrives_with_feedback_on_the_way(world, bot):
+    goal = bot.move_to_point(0.3, 0.0, speed=0.2, tolerance=0.01)
+    assert goal.reply.state == "MOVING_TO_POINT" and goal.reply.speed == 0.2 and not goal.done() and bot.is_moving()
+    remaining = []
+    world.drive(lambda: goal.done() or remaining.append(goal.feedback().distance_remaining))
+    res = goal.wait(timeout=0)
+    assert res.succeeded and res.message == "arrived" and res.goal_id == goal.id and goal.result() is res
+    assert res.pose.x == pytest.approx(0.3, abs=0.01) and res.elapsed > 1.0
+    assert remaining[0] > 0.25 and remaining[-1] < 0.02 and not bot.is_moving()
+    assert str(res).startswith(f"goal {goal.id} succeeded: arrived at x +0.29") and str(res).endswith(f"after {res.elapsed:.1f} s")
+
+
+def test_every_goal_kind(world, bot):
+    for send in (
+        lambda: bot.turn_to_heading(math.pi / 2, tolerance=0.02),
+        lambda: bot.turn_to_point(0.0, -1.0),
+        lambda: bot.move_straight(0.2, distance=0.1),
+        lambda: bot.follow_path([(0.1, -0.1), (0.2, -0.1)], speed=0.15),
+    ):
+        goal = send()
+        world.drive(goal.done)
+        assert goal.result().succeeded, goal.result()
+    assert [sorted(r) for r in world.goals_sent()] == [
+        ["heading", "lease", "tolerance"],
+        ["lease", "x", "y"],
+        ["distance", "lease", "speed"],
+        ["lease", "points", "speed"],
+    ]
+    assert world.goals_sent()[3]["points"] == [[0.1, -0.1], [0.2, -0.1]]
+
+
+def test_updates_yield_each_new_state_until_the_end(world, bot):
+    goal = bot.follow_path([(0.1, 0.0), (0.1, 0.1)])
+    states = []
+    for _ in range(MAX_STEPS):
+        world.step()
+        states += list(_take(goal.updates(timeout=0.0)))
+        if goal.done():
+            break
+    points = [s.next_point for s in states if s.result is None]
+    assert points[0] == 0 and points[-1] == 1 and states[-1].result == "succeeded"
+
+
+def _take(updates):
+    """The updates available now (a TimeoutError means none came)."""
+    try:
+        yield from updates
+    except TimeoutError:
+        return
+
+
+def test_a_newer_goal_preempts_and_cancel_stops_only_the_running_goal(world, bot):
+    first = bot.move_to_point(1.0, 0.0)
+    world.drive(lambda: world.x > 0.05)
+    second = bot.turn_to_heading(1.0)
+    res = first.wait(timeout=0)
+    assert res.result == "cancelled" and res.message == f"preempted by goal {second.id}"
+    assert not first.cancel() and not second.done() and bot.is_moving()
+    assert second.cancel() and second.wait(timeout=0).result == "cancelled" and world.cmd == (0.0, 0.0)
+
+
+def test_stop(world, bot):
+    goal = bot.move_straight(0.1)
+    world.drive(lambda: world.x > 0.02)
+    assert bot.stop() == "STOPPED" and world.cmd == (0.0, 0.0)
+    assert goal.wait(timeout=0).result == "cancelled" and not bot.is_moving()
+
+
+def test_goals_carry_the_lease_and_closing_stops_the_robot(world):
+    watcher = Robot("r1", bus=world, lease=False)
+    bot = Robot("r1", bus=world)
+    assert bot.lease_key.startswith("zenav/r1/lease/") and watcher.lease_key is None
+    goal = bot.move_to_point(1.0, 0.0)
+    assert world.goals_sent()[-1]["lease"] == bot.lease_key
+    world.drive(lambda: world.x > 0.05)
+    bot.close()
+    world.step()
+    st = watcher.status()
+    assert st.goal_id == goal.id and st.result == "aborted" and world.cmd == (0.0, 0.0)
+    watcher.move_to_point(0.0, 0.0)
+    assert "lease" not in world.goals_sent()[-1]
+    watcher.close()
+
+
+def test_a_gone_navigator_aborts_the_goal(world, bot):
+    goal = bot.move_straight(0.1)
+    world.nav.close()  # withdraws its token
+    res = goal.wait(timeout=0)
+    assert res.result == "aborted" and res.message == "navigator gone"
+
+
+def test_a_goal_that_ended_unseen_is_known_from_nav_status(world, bot):
+    goal = bot.move_to_point(0.1, 0.0)
+    world.hide_state = True
+    world.drive(lambda: not world.nav.machine.active)
+    assert not goal.done()
+    assert goal.wait(timeout=0.01).result == "succeeded"
+
+
+def test_wait_times_out(world, bot):
+    goal = bot.move_straight(0.1)
+    with pytest.raises(TimeoutError, match=f"goal {goal.id} did not end in 0.01 s"):
+        goal.wait(timeout=0.01)
+
+
+@pytest.mark.parametrize(
+    "send, field",
+    [
+        (lambda bot: bot.move_to_point(math.nan, 0.0), "$.x"),
+        (lambda bot: bot.move_to_point(0.0, 0.0, tolerance=-1.0), "$.tolerance"),
+        (lambda bot: bot.follow_path([]), "$.points"),
+        (lambda bot: bot.turn_to_heading(1.0, speed=0.0), "$.speed"),
+        (lambda bot: bot.move_straight(0.0), "speed"),  # refused by the navigator
+        (lambda bot: bot.turn_to_point(0.0, 0.0), "x, y"),  # where the robot is
+    ],
+)
+def test_invalid_arguments_name_the_field(world, bot, send, field):
+    with pytest.raises(InvalidArgument) as e:
+        send(bot)
+    assert e.value.code == "invalid_argument" and field in e.value.message
+    assert isinstance(e.value, ZenavError) and isinstance(e.value, ValueError)
+
+
+def test_no_pose_is_unavailable_and_not_ready():
+    world = World()  # no pose published
+    with Robot("r1", bus=world) as bot:
+        with pytest.raises(Unavailable, match="no pose yet"):
+            bot.move_to_point(1.0, 0.0)
+        with pytest.raises(Unavailable, match="no pose in 0.01 s"):
+            bot.pose(timeout=0.01)
+        with pytest.raises(TimeoutError, match="navigator not ready after 0.05 s: no pose yet"):
+            bot.wait_ready(timeout=0.05, services=["navigator"])
+        with pytest.raises(TimeoutError, match="services not alive after 0.05 s: localizer, motor, odometry"):
+            bot.wait_ready(timeout=0.05)
+    world.nav.close()
+
+
+def test_wait_ready_and_pose(world, bot):
+    bot.wait_ready(timeout=1.0, services=["navigator"])  # the fresh pose the navigator has
+    with pytest.raises(Unavailable):
+        bot.pose(timeout=0.01)  # none since the robot connected
+    world.step()
+    assert bot.pose().t == world.clock.now()
+
+
+def test_a_goal_refused_on_a_stale_pose_is_sent_again_on_the_next(world, bot):
+    world.clock.advance(1.0)  # the newest pose is now stale
+
+    def fresh_pose():
+        assert world.refused.wait(5.0)
+        world.bus.publish("zenav/r1/pose", codec.encode(m.Pose(t=world.clock.now(), x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
+
+    helper = threading.Thread(target=fresh_pose)
+    helper.start()
+    goal = bot.move_to_point(0.2, 0.0)
+    helper.join(5.0)
+    assert len(world.goals_sent()) == 2 and goal.reply.state == "MOVING_TO_POINT"
+
+
+def test_bad_robot_id(world):
+    with pytest.raises(InvalidArgument, match="robot"):
+        Robot("no/such", bus=world)

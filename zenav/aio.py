@@ -1,0 +1,217 @@
+"""The robot library for asyncio programs: `zenav.robot`'s methods as coroutines.
+
+    import asyncio
+    from zenav.aio import Robot
+
+    async def main() -> None:
+        async with Robot("r1") as bot:
+            await bot.wait_ready()
+            goal = await bot.move_to_point(1.0, 0.0)
+            async for state in goal.updates():
+                print(state.distance_remaining)
+            print(await goal)                  # a Goal is awaitable: its Result
+
+    asyncio.run(main())
+
+Built on the synchronous `zenav.robot.Robot`: queries run in a worker thread, and
+goal ends and progress wake the event loop from Zenoh's thread, so waiting on a
+goal holds no thread.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import functools
+from collections.abc import AsyncIterator, Callable, Generator, Iterable, Sequence
+from typing import Any
+
+from zenav.common import messages as m
+from zenav.common.client import QueryBus
+from zenav.robot import CONNECT_TIMEOUT, DRIVE_SERVICES, POSE_TIMEOUT, QUERY_TIMEOUT, Result
+from zenav.robot import Goal as SyncGoal
+from zenav.robot import Robot as SyncRobot
+
+__all__ = ["Goal", "Robot"]
+
+
+class Goal:
+    """A goal the navigator took; `await goal` is `await goal.wait()`."""
+
+    def __init__(self, robot: Robot, goal: SyncGoal) -> None:
+        self.id, self.reply = goal.id, goal.reply
+        self._robot, self._goal = robot, goal
+
+    def __repr__(self) -> str:
+        return repr(self._goal)
+
+    def __await__(self) -> Generator[Any, None, Result]:
+        return self.wait().__await__()
+
+    def done(self) -> bool:
+        """Whether the goal has ended."""
+        return self._goal.done()
+
+    def result(self) -> Result | None:
+        """How the goal ended; None while it runs."""
+        return self._goal.result()
+
+    def feedback(self) -> m.NavState | None:
+        """The newest nav/state of this goal; None before the first."""
+        return self._goal.feedback()
+
+    async def cancel(self) -> bool:
+        """Stop the robot if this goal is still the running one; whether it was."""
+        return await asyncio.to_thread(self._goal.cancel)
+
+    async def wait(self, timeout: float | None = None) -> Result:
+        """The goal's Result once it ends; TimeoutError if it did not end in `timeout` seconds."""
+        try:
+            async with asyncio.timeout(timeout):
+                await self._robot._until(self._goal.done)
+        except TimeoutError:
+            try:
+                return await asyncio.to_thread(self._goal.wait, 0.0)  # asks nav/status whether it ended unseen
+            except TimeoutError:
+                raise TimeoutError(f"goal {self.id} did not end in {timeout} s") from None
+        return self._goal.wait(0.0)
+
+    async def updates(self, timeout: float | None = None) -> AsyncIterator[m.NavState]:
+        """Each new nav/state of this goal (the newest, if several came since the last), until it ends."""
+        last: m.NavState | None = None
+        deadline = None if timeout is None else asyncio.get_running_loop().time() + timeout
+        while True:
+            try:
+                async with asyncio.timeout_at(deadline):  # around the wait only: never across a yield
+                    await self._robot._until(functools.partial(self._news, last))
+            except TimeoutError:
+                raise TimeoutError(f"goal {self.id} did not end in {timeout} s") from None
+            st, ended = self._goal.feedback(), self._goal.done()
+            if st is not None and st is not last:
+                last = st
+                yield st
+            if ended:
+                return
+
+    def _news(self, last: m.NavState | None) -> bool:
+        """Whether a nav/state newer than `last` came, or the goal ended."""
+        return self._goal.feedback() is not last or self._goal.done()
+
+
+class Robot:
+    """One robot's navigation and localization, for asyncio programs (see `zenav.robot.Robot`)."""
+
+    def __init__(
+        self,
+        robot: str | None = None,
+        connect: str | None = None,
+        *,
+        mode: str | None = None,
+        lease: bool = True,
+        connect_timeout: float = CONNECT_TIMEOUT,
+        timeout: float = QUERY_TIMEOUT,
+        bus: QueryBus | None = None,
+    ) -> None:
+        """The arguments of `zenav.robot.Robot`; `open()` (or `async with`) connects."""
+        self._connect = functools.partial(
+            SyncRobot, robot, connect, mode=mode, lease=lease, connect_timeout=connect_timeout, timeout=timeout, bus=bus
+        )
+        self._sync: SyncRobot | None = None
+        self._changed = asyncio.Event()  # replaced by a fresh one at each change
+
+    async def __aenter__(self) -> Robot:
+        return await self.open()
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.close()
+
+    async def open(self) -> Robot:
+        """Connect (Unavailable if no router answers within connect_timeout)."""
+        if self._sync is None:
+            loop = asyncio.get_running_loop()
+            self._sync = await asyncio.to_thread(self._connect)
+
+            def wake() -> None:
+                try:
+                    loop.call_soon_threadsafe(self._wake)
+                except RuntimeError:  # the loop is closed
+                    pass
+
+            self._sync.on_change(wake)
+        return self
+
+    async def close(self) -> None:
+        """Withdraw the lease (the navigator stops a goal of this robot's) and close the session."""
+        if self._sync is not None:
+            await asyncio.to_thread(self._sync.close)
+
+    @property
+    def sync(self) -> SyncRobot:
+        """The synchronous robot underneath."""
+        if self._sync is None:
+            raise RuntimeError("the robot is not open: use `async with Robot(...)` or `await robot.open()`")
+        return self._sync
+
+    @property
+    def lease_key(self) -> str | None:
+        """The liveliness key sent as every goal's lease (None without a lease)."""
+        return self.sync.lease_key
+
+    async def wait_ready(self, timeout: float = 30.0, services: Iterable[str] = DRIVE_SERVICES) -> None:
+        """Until the navigator would take a goal (see `zenav.robot.Robot.wait_ready`)."""
+        await asyncio.to_thread(self.sync.wait_ready, timeout, tuple(services))
+
+    async def move_to_point(self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None) -> Goal:
+        """Drive to (x [m], y [m]) in the map frame."""
+        return await self._goal(self.sync.move_to_point, x, y, speed=speed, tolerance=tolerance)
+
+    async def turn_to_heading(self, heading: float, *, speed: float | None = None, tolerance: float | None = None) -> Goal:
+        """Turn in place to `heading` [rad]."""
+        return await self._goal(self.sync.turn_to_heading, heading, speed=speed, tolerance=tolerance)
+
+    async def turn_to_point(self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None) -> Goal:
+        """Turn in place to face (x [m], y [m])."""
+        return await self._goal(self.sync.turn_to_point, x, y, speed=speed, tolerance=tolerance)
+
+    async def move_straight(self, speed: float, *, distance: float | None = None) -> Goal:
+        """Drive on the current heading at `speed` [m/s], for `distance` [m] or until stopped."""
+        return await self._goal(self.sync.move_straight, speed, distance=distance)
+
+    async def follow_path(self, points: Iterable[Sequence[float]], *, speed: float | None = None, tolerance: float | None = None) -> Goal:
+        """Drive through the (x [m], y [m]) points in order."""
+        return await self._goal(self.sync.follow_path, [list(p) for p in points], speed=speed, tolerance=tolerance)
+
+    async def stop(self) -> str:
+        """Cancel whatever goal runs and command zero at once; the navigator's state."""
+        return await asyncio.to_thread(self.sync.stop)
+
+    async def is_moving(self) -> bool:
+        """Whether a goal runs."""
+        return await asyncio.to_thread(self.sync.is_moving)
+
+    async def pose(self, timeout: float = POSE_TIMEOUT) -> m.Pose:
+        """The newest pose; Unavailable if none comes in `timeout` s."""
+        return await asyncio.to_thread(self.sync.pose, timeout)
+
+    async def set_pose(self, x: float | None = None, y: float | None = None, theta: float | None = None) -> m.PoseStamped:
+        """Tell the localizer where the robot is; the pose it took."""
+        return await asyncio.to_thread(self.sync.set_pose, x, y, theta)
+
+    async def status(self) -> m.StatusReply:
+        """The navigator's nav/status."""
+        return await asyncio.to_thread(self.sync.status)
+
+    # ------------------------------------------------------------ internals
+    async def _goal(self, send: Any, *args: Any, **kwargs: Any) -> Goal:
+        return Goal(self, await asyncio.to_thread(send, *args, **kwargs))
+
+    def _wake(self) -> None:
+        event, self._changed = self._changed, asyncio.Event()
+        event.set()
+
+    async def _until(self, ready: Callable[[], bool]) -> None:
+        """Return once `ready()` holds, checking at each change a goal may have seen."""
+        while True:
+            event = self._changed
+            if ready():
+                return
+            await event.wait()

@@ -1,0 +1,402 @@
+"""The robot library: drive a zenav robot from a Python program over the wire contract.
+
+    from zenav import Robot
+
+    with Robot("r1") as bot:                  # the router: connect=..., or $ZENOH_CONNECT
+        bot.wait_ready(timeout=30)
+        result = bot.move_to_point(1.0, 0.0, speed=0.3).wait(timeout=20)
+        print(result.result, result.pose)
+
+A goal is sent without `wait` and followed on `nav/state`: its handle (`Goal`) knows
+its progress and its end, also when nobody was waiting on it. A newer goal preempts
+it (result `cancelled`); a navigator that goes away aborts it. The robot holds a
+liveliness token and names it as every goal's lease, so when the program ends, dies,
+freezes or loses the router, the navigator stops the robot (`lease=False` opts out:
+such goals run on until they end). Its session announces a LEASE_TIMEOUT transport
+lease, so the router withdraws the token of a frozen program (SIGSTOP, a hung
+laptop, a dropped Wi-Fi link) within that time.
+Error replies raise `ZenavError`s named by the contract's error code.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import os
+import threading
+import time
+import uuid
+import weakref
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import zenoh
+
+from zenav.common import keys
+from zenav.common import messages as m
+from zenav.common.bus import Handle, ZenohBus, undeclare_all
+from zenav.common.client import Client, Internal, InvalidArgument, QueryBus, Unavailable, ZenavError
+from zenav.common.keys import DEFAULT_CONNECT
+from zenav.common.navgoals import STOPPED, GoalEnd, GoalTracker
+
+__all__ = ["Goal", "Internal", "InvalidArgument", "Result", "Robot", "Unavailable", "ZenavError"]
+
+DRIVE_SERVICES = ("navigator", "localizer", "odometry", "motor")  # what a goal needs alive
+CONNECT_TIMEOUT = 5.0  # [s] how long to look for the router
+QUERY_TIMEOUT = 5.0  # [s] for a reply to a query (a goal is answered when it starts)
+POSE_TIMEOUT = 5.0  # [s] pose() waits this long for a first pose
+RETRIES = 2  # a goal refused on a stale pose, or before its lease was seen, is sent again this often
+ASK_EVERY = 0.05  # [s] of stack clock: wait_ready asks the navigator again on a pose at least this much newer
+LEASE_TIMEOUT = 0.3  # [s] transport lease of the robot's own session: a frozen program's goal stops this soon
+
+
+@dataclass(frozen=True)
+class Result:
+    """How a goal ended."""
+
+    goal_id: int
+    result: str  # succeeded, cancelled (stopped or preempted), aborted
+    message: str  # why, in the navigator's words ("arrived", "preempted by goal 4", "pose stale: ...")
+    pose: m.Pose | None  # the newest pose when the end was seen
+    elapsed: float  # [s] from the goal's start to its end
+
+    @property
+    def succeeded(self) -> bool:
+        """Whether the goal reached its target."""
+        return self.result == "succeeded"
+
+    def __str__(self) -> str:
+        p = self.pose
+        where = "" if p is None else f" at x {p.x:+.3f} y {p.y:+.3f} th {math.degrees(p.theta):+.1f} deg"
+        return f"goal {self.goal_id} {self.result}{': ' + self.message if self.message else ''}{where} after {self.elapsed:.1f} s"
+
+
+class Goal:
+    """A goal the navigator took: its progress, its end, and a way to cancel it."""
+
+    def __init__(self, robot: Robot, reply: m.GoalReply) -> None:
+        self.id = reply.goal_id
+        self.reply = reply  # the navigator's answer when the goal started (state, speed used)
+        self._robot = robot
+        self._state: m.NavState | None = None  # newest nav/state of this goal
+        self._seq = 0  # nav/state messages of this goal seen
+        self._result: Result | None = None
+        self._sent = time.monotonic()
+
+    def __repr__(self) -> str:
+        return f"Goal({self.id}, {self.reply.state}, {self._result.result if self._result else 'running'})"
+
+    def done(self) -> bool:
+        """Whether the goal has ended."""
+        return self._result is not None
+
+    def result(self) -> Result | None:
+        """How the goal ended; None while it runs."""
+        return self._result
+
+    def feedback(self) -> m.NavState | None:
+        """The newest nav/state of this goal (distance_remaining, eta, elapsed, next_point...); None before the first."""
+        return self._state
+
+    def cancel(self) -> bool:
+        """Stop the robot if this goal is still the running one; whether it was."""
+        return self._robot._cancel(self)
+
+    def wait(self, timeout: float | None = None) -> Result:
+        """Block until the goal ends; its Result. TimeoutError if it did not end in `timeout` seconds."""
+        with self._robot._cond:
+            self._robot._cond.wait_for(self.done, timeout)
+        if self._result is None:
+            self._robot._reconcile(self)
+        if self._result is None:
+            raise TimeoutError(f"goal {self.id} did not end in {timeout} s")
+        return self._result
+
+    def updates(self, timeout: float | None = None) -> Iterator[m.NavState]:
+        """Each new nav/state of this goal (the newest, if several came since the last), until it ends.
+
+        TimeoutError if the goal has not ended `timeout` seconds after the first call.
+        """
+        cond, seq = self._robot._cond, 0
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            with cond:
+                left = None if deadline is None else max(deadline - time.monotonic(), 0.0)
+                news = cond.wait_for(functools.partial(self._news, seq), left)
+            if not news:
+                self._robot._reconcile(self)
+                if not self.done():
+                    raise TimeoutError(f"goal {self.id} did not end in {timeout} s")
+            with cond:
+                fresh, st, seq, ended = self._seq > seq, self._state, self._seq, self.done()
+            if fresh and st is not None:
+                yield st
+            if ended:
+                return
+
+    def _news(self, seq: int) -> bool:
+        """Whether a nav/state came after the `seq`-th, or the goal ended."""
+        return self._seq > seq or self.done()
+
+
+class Robot:
+    """One robot's navigation and localization, through a Zenoh router."""
+
+    def __init__(
+        self,
+        robot: str | None = None,
+        connect: str | None = None,
+        *,
+        mode: str | None = None,
+        lease: bool = True,
+        connect_timeout: float = CONNECT_TIMEOUT,
+        timeout: float = QUERY_TIMEOUT,
+        bus: QueryBus | None = None,
+    ) -> None:
+        """Connect to the robot `robot` ($ZENAV_ROBOT, else r1) through the router at `connect`
+        ($ZENOH_CONNECT, else tcp/127.0.0.1:7447) as a Zenoh `mode` ($ZENOH_MODE, else client;
+        $ZENOH_CONFIG names a full Zenoh config). Unavailable if no router answers within
+        `connect_timeout` seconds. `timeout`: seconds to wait for each query's reply.
+        `bus`: talk through this bus instead (a session shared with other code, or a test's); close() leaves it open,
+        and the lease token is held on it (with that session's transport lease).
+        """
+        robot = robot or os.environ.get("ZENAV_ROBOT") or "r1"
+        try:
+            keys.check_robot_id(robot)
+        except ValueError as e:
+            raise InvalidArgument(f"robot: {e}") from None
+        own = None
+        if bus is None:
+            connect = connect or os.environ.get("ZENOH_CONNECT")
+            mode = mode or os.environ.get("ZENOH_MODE") or "client"
+            try:
+                bus = own = ZenohBus.open(connect, mode, connect_timeout=connect_timeout, lease=LEASE_TIMEOUT if lease else None)
+            except zenoh.ZError as e:
+                raise Unavailable(f"no Zenoh router at {connect or DEFAULT_CONNECT}: {e}") from None
+        self.client = Client(robot, bus=bus)
+        self.robot, self.timeout = robot, timeout
+        self._cond = threading.Condition()
+        self._track = GoalTracker()  # what nav/state showed of each goal
+        self._open: dict[int, Goal] = {}  # goals sent and not ended
+        self._listeners: list[Callable[[], None]] = []
+        self._handles: list[Handle] = []  # the navigator watch, the lease token
+        self.lease_key = keys.key(robot, f"lease/{os.getpid()}-{uuid.uuid4().hex[:8]}") if lease else None
+        try:
+            self._poses = self.client.latest("pose")
+            self.client.subscribe("nav/state", self._on_state)
+            self._handles.append(self.client.bus.watch_tokens(keys.alive(robot, "navigator"), self._on_navigator))
+            if self.lease_key is not None:
+                self._handles.append(self.client.bus.token(self.lease_key))
+        except BaseException:
+            _shut(self.client, self._handles, own)
+            raise
+        # Closed at interpreter exit too: an open Zenoh session can hang it.
+        self._finalizer = weakref.finalize(self, _shut, self.client, self._handles, own)
+
+    # ------------------------------------------------------------ lifecycle
+    def __enter__(self) -> Robot:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Withdraw the lease (the navigator stops a goal of this robot's) and close the session (not a `bus` given)."""
+        self._finalizer()
+
+    def wait_ready(self, timeout: float = 30.0, services: Iterable[str] = DRIVE_SERVICES) -> None:
+        """Block until the navigator would take a goal: `services` alive, then nav/status.not_ready
+        empty (a fresh and certain pose), asked again on each newer pose. TimeoutError says why not."""
+        deadline = time.monotonic() + timeout
+        self.client.wait_alive(services, timeout)
+        while True:
+            seen = self._poses.msg
+            try:
+                why = self.client.query("nav/status", timeout=max(deadline - time.monotonic(), 0.1)).not_ready
+            except Unavailable as e:
+                why = e.message
+            if not why:
+                return
+            try:
+                self._next_pose(seen, max(deadline - time.monotonic(), 0.0), ASK_EVERY)
+            except TimeoutError:
+                raise TimeoutError(f"navigator not ready after {timeout} s: {why}") from None
+
+    # ------------------------------------------------------------ goals
+    def move_to_point(self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None) -> Goal:
+        """Drive to (x [m], y [m]) in the map frame; speed [m/s] and tolerance [m] default to the navigator's."""
+        return self._goal("nav/move_to_point", {"x": x, "y": y, "speed": speed, "tolerance": tolerance})
+
+    def move_to_pose(
+        self,
+        x: float,
+        y: float,
+        theta: float,
+        *,
+        speed: float | None = None,
+        tolerance: float | None = None,
+        heading_tolerance: float | None = None,
+    ) -> Goal:
+        """Drive to (x [m], y [m]) and arrive with heading `theta` [rad]; tolerances [m] and [rad]."""
+        return self._goal(
+            "nav/move_to_pose",
+            {"x": x, "y": y, "theta": theta, "speed": speed, "tolerance": tolerance, "heading_tolerance": heading_tolerance},
+        )
+
+    def turn_to_heading(self, heading: float, *, speed: float | None = None, tolerance: float | None = None) -> Goal:
+        """Turn in place to `heading` [rad, CCW from +x]; speed [rad/s], tolerance [rad]."""
+        return self._goal("nav/turn_to_heading", {"heading": heading, "speed": speed, "tolerance": tolerance})
+
+    def turn_to_point(self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None) -> Goal:
+        """Turn in place to face (x [m], y [m]); speed [rad/s], tolerance [rad]."""
+        return self._goal("nav/turn_to_point", {"x": x, "y": y, "speed": speed, "tolerance": tolerance})
+
+    def move_straight(self, speed: float, *, distance: float | None = None) -> Goal:
+        """Drive on the current heading at `speed` [m/s, negative reverses], for `distance` [m] or until stopped."""
+        return self._goal("nav/move_straight", {"speed": speed, "distance": distance})
+
+    def follow_path(self, points: Iterable[Sequence[float]], *, speed: float | None = None, tolerance: float | None = None) -> Goal:
+        """Drive through the (x [m], y [m]) points in order; nav/state's next_point says which is next."""
+        pts = [list(p) for p in points]
+        return self._goal("nav/follow_path", {"points": pts, "speed": speed, "tolerance": tolerance})
+
+    def stop(self) -> str:
+        """Cancel whatever goal runs and command zero at once; the navigator's state."""
+        return str(self.client.query("nav/stop", timeout=self.timeout).state)
+
+    def is_moving(self) -> bool:
+        """Whether a goal runs (one this robot sent that has not ended, or any the navigator shows)."""
+        with self._cond:
+            if self._open:
+                return True
+            newest = self._track.newest
+        if newest is not None:
+            return newest.state != STOPPED
+        return bool(self.status().is_moving)
+
+    # ------------------------------------------------------------ pose and status
+    def pose(self, timeout: float = POSE_TIMEOUT) -> m.Pose:
+        """The newest pose (map frame: x, y [m], theta [rad], t, cov...); Unavailable if none comes in `timeout` s."""
+        try:
+            return self._poses.wait(timeout=timeout)
+        except TimeoutError:
+            raise Unavailable(f"no pose in {timeout} s: is the localizer running?") from None
+
+    def set_pose(self, x: float | None = None, y: float | None = None, theta: float | None = None) -> m.PoseStamped:
+        """Tell the localizer where the robot is (any subset of x, y [m], theta [rad]); the pose it took."""
+        request = {k: v for k, v in {"x": x, "y": y, "theta": theta}.items() if v is not None}
+        return self.client.query("localizer/set_pose", request, timeout=self.timeout)
+
+    def status(self) -> m.StatusReply:
+        """The navigator's nav/status: state, goal, result, pose, and not_ready (why a goal would be refused)."""
+        return self.client.query("nav/status", timeout=self.timeout)
+
+    def on_change(self, callback: Callable[[], None]) -> None:
+        """Call `callback()` whenever a goal's state may have changed (on Zenoh's thread: it must not block)."""
+        self._listeners.append(callback)
+
+    # ------------------------------------------------------------ internals
+    def _goal(self, suffix: str, fields: dict[str, Any]) -> Goal:
+        request = {k: v for k, v in fields.items() if v is not None}
+        if self.lease_key is not None:
+            request["lease"] = self.lease_key
+        goal = Goal(self, self._ask(suffix, request))
+        with self._cond:
+            self._settle(goal)
+            if not goal.done():
+                self._open[goal.id] = goal
+        return goal
+
+    def _ask(self, suffix: str, request: dict[str, Any]) -> m.GoalReply:
+        """Send a goal; on a stale pose (a stalled host) or a lease not yet seen, again on the next pose."""
+        for attempt in range(RETRIES + 1):
+            seen = self._poses.msg
+            try:
+                return self.client.query(suffix, request, timeout=self.timeout)
+            except Unavailable as e:
+                lease_unseen = self.lease_key is not None and self.lease_key in e.message
+                if attempt == RETRIES or not ("pose stale" in e.message or lease_unseen):
+                    raise
+                try:
+                    self._next_pose(seen, self.timeout)
+                except TimeoutError:
+                    raise e from None
+        raise AssertionError("unreachable")
+
+    def _next_pose(self, seen: m.Pose | None, timeout: float, step: float = 0.0) -> None:
+        """Block until a pose more than `step` seconds newer than `seen` (or from a restarted clock) arrives."""
+        self._poses.wait(lambda p: seen is None or p.t > seen.t + step or p.t < seen.t, timeout)
+
+    def _on_state(self, st: m.NavState) -> None:
+        """A nav/state (on Zenoh's thread): update and end the goals it concerns."""
+        with self._cond:
+            self._track.on_state(st)
+            for goal in list(self._open.values()):
+                self._settle(goal)
+            self._cond.notify_all()
+        self._changed()
+
+    def _on_navigator(self, key: str, alive: bool) -> None:
+        """The navigator's token came or went (on Zenoh's thread): a gone navigator ends every goal."""
+        if alive:
+            return
+        with self._cond:
+            for goal in list(self._open.values()):
+                self._finish(goal, GoalEnd("aborted", "navigator gone", None))
+            self._track.forget()
+            self._cond.notify_all()
+        self._changed()
+
+    def _changed(self) -> None:
+        for callback in list(self._listeners):
+            try:
+                callback()
+            except Exception:  # a listener must not break the subscription
+                pass
+
+    def _settle(self, goal: Goal) -> None:
+        """Bring a goal up to date with what nav/state showed (lock held)."""
+        st = self._track.state(goal.id)
+        if st is not None and st is not goal._state:
+            goal._state, goal._seq = st, goal._seq + 1
+        end = self._track.end(goal.id)
+        if end is not None:
+            self._finish(goal, end)
+
+    def _finish(self, goal: Goal, end: GoalEnd) -> None:
+        """Give a goal its Result, once (lock held)."""
+        if goal.done():
+            return
+        elapsed = time.monotonic() - goal._sent if end.elapsed is None else end.elapsed
+        goal._result = Result(goal.id, end.result, end.message, self._poses.msg, elapsed)
+        self._open.pop(goal.id, None)
+
+    def _reconcile(self, goal: Goal) -> None:
+        """A goal not seen to end: ask nav/status whether it did while unobserved."""
+        try:
+            st = self.status()
+        except ZenavError:
+            return
+        with self._cond:
+            if st.goal_id == goal.id and st.result is not None:
+                self._finish(goal, GoalEnd(st.result, "", None))
+            elif st.goal_id > goal.id:
+                self._finish(goal, GoalEnd("cancelled", f"ended unseen; the navigator has run goal {st.goal_id} since", None))
+            self._cond.notify_all()
+        self._changed()
+
+    def _cancel(self, goal: Goal) -> bool:
+        with self._cond:
+            running = not goal.done() and self._track.current(goal.id)
+        if running:
+            self.stop()
+        return running
+
+
+def _shut(client: Client, handles: list[Handle], own: ZenohBus | None) -> None:
+    """Withdraw the lease (the navigator stops at once) and the watch, close the client, then the session it opened."""
+    undeclare_all(handles)
+    client.close()
+    if own is not None:
+        own.close()
