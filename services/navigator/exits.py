@@ -11,7 +11,8 @@ Pure: times come in as arguments. A move ends on the first of:
 After the first four and `timeout` the robot holds zero for `rest_time`, then the error is
 re-checked: `succeeded` only if it is within the tolerance. A move that stopped at its target
 (`within_tolerance`, `passed`) but is found over it (a late VPS fix moved the pose) moves again,
-`retries` times at most; else it ends `aborted`, saying by how much.
+`retries` times at most (turning to face the point first when it lies off the heading line); else it
+ends `aborted`, saying by how much.
 """
 
 from __future__ import annotations

@@ -99,6 +99,7 @@ class _Run:
     controller: controllers.Controller | None = None
     locked: bool = False  # within lock_distance of the final point: no more turning toward it
     turning: bool = False  # move_to_pose: at the point, turning to the heading
+    facing: bool = False  # a correction: turning in place to face the point (it lies off the heading line)
     exit: str | None = None  # why the move ended (set when it stops)
     retries: int = 0  # corrections made after a re-check over the tolerance
     settle_from: float | None = None  # [s] pose t of the stop
@@ -294,7 +295,7 @@ class GoalMachine:
         if run.settle_from is None and now >= run.deadline:
             run.exit = exits.TIMEOUT
             self._stop(run, pose.t)  # zero from the next pose on, then the error is re-checked
-        angular = run.goal.state == TURNING_TO_HEADING or run.turning
+        angular = run.goal.state == TURNING_TO_HEADING or run.turning or run.facing
         step = p.progress_angle if angular else p.progress_distance
         if run.settle_from is not None or run.best is None or run.progress >= run.best + step:
             run.best, run.best_t = run.progress, now
@@ -349,8 +350,9 @@ class GoalMachine:
     def _retry(self, run: _Run, pose: PoseSample) -> bool:
         """Move again after a re-check over the tolerance (a late fix moved the pose), up to `retries` times.
 
-        Only a move that ended at its target (within_tolerance, passed) is corrected, a path from its last point;
-        a position is corrected straight on (forwards or back), never by turning toward the point.
+        Only a move that ended at its target (within_tolerance, passed) is corrected, a path from its last point:
+        straight on (forwards or back) when the point lies on the heading line, within half the tolerance;
+        else first turning in place to face it (or to back onto it, whichever turn is smaller).
         """
         if run.exit not in (exits.WITHIN_TOLERANCE, exits.PASSED) or run.retries >= self.params.retries:
             return False
@@ -361,7 +363,9 @@ class GoalMachine:
         if run.goal.points:
             run.index = len(run.goal.points) - 1
             self._aim(run, pose)
+            x, y = run.goal.points[-1]
             run.locked = True
+            run.facing = abs(_lateral(pose.x, pose.y, pose.theta, x, y)) > run.goal.tolerance / 2.0
         run.small.reset()
         run.big.reset()
         return True
@@ -394,9 +398,10 @@ class GoalMachine:
         if cmd is None:
             return None
         dist, turn = final_error(goal, run.origin, pose)
-        # Both bands are followed on every pose, so that each keeps its own time held.
-        settled = run.small.update(pose.t, dist <= p.settle_error and turn <= p.settle_heading_error)
-        near = run.big.update(pose.t, dist <= p.big_error and turn <= p.big_heading_error)
+        # Both bands are followed on every pose, so that each keeps its own time held (not while facing a point).
+        holding = not run.facing
+        settled = run.small.update(pose.t, holding and dist <= p.settle_error and turn <= p.settle_heading_error)
+        near = run.big.update(pose.t, holding and dist <= p.big_error and turn <= p.big_heading_error)
         if settled or near:
             run.exit = exits.SETTLED if settled else exits.BIG_ERROR
             return None
@@ -441,6 +446,10 @@ class GoalMachine:
                 return None
             run.turning, run.best = True, None  # at the point: turn in place to the heading
             return self._step_turn(run, pose, goal.heading, goal.heading_tolerance, p.turn_speed)
+        if run.facing:
+            cmd = self._face(run, pose, bearing, dist)
+            if cmd is not None:
+                return cmd
         lateral = dist * math.sin(bearing)  # [m] of the point off the robot's heading line
         if dist > 2.0 * p.lock_distance:
             run.locked = False
@@ -453,6 +462,17 @@ class GoalMachine:
             # A path's last leg: the turn onto it blends in, as at the points before.
             v = math.copysign(max(abs(v), p.through_speed), -1.0 if target.reverse else 1.0)
         return v, omega
+
+    def _face(self, run: _Run, pose: PoseSample, bearing: float, dist: float) -> tuple[float, float] | None:
+        """A correction's turn in place until the point lies within half the tolerance of the heading line; None when done."""
+        p = self.params
+        back = abs(bearing) > math.pi / 2.0  # backing onto the point is the smaller turn
+        heading = wrap_angle(pose.theta + bearing + (math.pi if back else 0.0))
+        tolerance = math.atan2(run.goal.tolerance / 2.0, max(dist, run.goal.tolerance))  # [rad]
+        cmd = self._step_turn(run, pose, heading, tolerance, p.turn_speed)
+        if cmd is None:
+            run.facing, run.exit, run.best = False, None, None  # faced: drive straight onto it
+        return cmd
 
     def _locked(self, run: _Run, pose: PoseSample, target: Target) -> tuple[float, float] | None:
         """Close to the final point: drive straight on, not turning toward the point, braking into it abeam."""

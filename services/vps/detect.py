@@ -46,6 +46,21 @@ class AprilTagDetector:
             refine_edges=True,
         )
 
+    def __del__(self) -> None:
+        """Free the detector, then its tag families (pupil-apriltags' own __del__ frees the families
+        first, which the detector still uses: an intermittent segfault); its __del__ then does nothing."""
+        det = getattr(self, "_det", None)
+        ptr = getattr(det, "tag_detector_ptr", None)
+        if det is None or ptr is None:
+            return
+        det.tag_detector_ptr = None
+        det.libc.apriltag_detector_destroy.restype = None
+        det.libc.apriltag_detector_destroy(ptr)
+        for family, tf in det.tag_families.items():
+            destroy = getattr(det.libc, f"{family}_destroy")
+            destroy.restype = None
+            destroy(tf)
+
     def detect(self, img: np.ndarray) -> list[Tag]:
         """Tags in `img` (H x W uint8)."""
         out = []

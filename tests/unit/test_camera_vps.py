@@ -124,3 +124,12 @@ def test_the_aruco_backend_finds_the_same_tags(renderer):
     assert sorted(t.id for t in aruco) == sorted(t.id for t in april)
     a, b = (next(t for t in tags if t.id == 0) for tags in (april, aruco))
     assert np.abs(a.corners - b.corners).max() < 1.5  # [px] same corners in the same order
+
+
+def test_the_apriltag_detector_frees_itself_before_its_families():
+    """pupil-apriltags frees the tag families before the detector that uses them (a segfault now and then)."""
+    det = detect.AprilTagDetector()
+    inner = det._det
+    assert inner.tag_detector_ptr is not None
+    del det
+    assert inner.tag_detector_ptr is None  # freed in order here: the library's own __del__ does nothing

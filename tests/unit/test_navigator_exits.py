@@ -162,6 +162,24 @@ def test_a_recheck_over_the_tolerance_moves_again_a_bounded_number_of_times():
     assert end.result == goals.ABORTED and end.exit == exits.WITHIN_TOLERANCE and "3.00 cm from the goal" in end.message
 
 
+def test_a_recheck_finding_the_point_sideways_turns_to_face_it_then_drives_onto_it():
+    """A late fix moves the pose 2 cm sideways after the stop: straight on cannot reach it; a turn in place then a drive does."""
+    mc = machine(rest_time=0.1, retries=1)
+    mc.start(to_point(1.0, 0.0), 0.0)
+    assert mc.on_pose(PoseSample(0.01, 0.995, 0.0, 0.0)) == ((0.0, 0.0), None)  # within: the move stops
+    cmd, end = mc.on_pose(PoseSample(0.12, 1.0, -0.02, 0.0))  # the re-check finds the point 2 cm to the left
+    assert end is None and cmd[0] == 0.0 and cmd[1] > 0.0  # turning in place toward it
+    bot = Unicycle(x=1.0, y=-0.02)
+    bot.t = 0.12
+    for _ in range(round(10.0 / DT)):
+        bot.step(cmd)
+        cmd, end = mc.on_pose(bot.sample())
+        if end is not None:
+            break
+    assert end is not None and end.result == goals.SUCCEEDED, end
+    assert math.hypot(1.0 - bot.x, bot.y) <= 0.01 and abs(bot.theta) > math.radians(30)  # it turned: not straight on
+
+
 # ---------------------------------------------------------------- the tolerance trades precision for time
 def test_a_larger_tolerance_ends_sooner():
     steps, errors = [], []
