@@ -54,10 +54,10 @@ class PoseError:
             self.err = (ex, ey, eth)
 
     def estimate(self, trial: Trial) -> PoseSample:
-        """The pose as the localizer would give it: truth plus the error, speeds of the odometry."""
+        """The pose as the localizer would give it: truth plus the error, speeds of the odometry, the error's sigmas."""
         s, odom, (ex, ey, eth) = trial.bot.state, trial.odom, self.err
         v, omega = (odom.v, odom.omega) if odom is not None and odom.t == trial.t else (0.0, 0.0)
-        return PoseSample(trial.t, s.x + ex, s.y + ey, wrap_angle(s.theta + eth), v, omega)
+        return PoseSample(trial.t, s.x + ex, s.y + ey, wrap_angle(s.theta + eth), v, omega, self.sigma, self.sigma / 0.3)
 
 
 @dataclass(frozen=True)

@@ -39,6 +39,8 @@ TURNING_TO_HEADING = "TURNING_TO_HEADING"
 MOVING_STRAIGHT = "MOVING_STRAIGHT"
 FOLLOWING_PATH = "FOLLOWING_PATH"
 SUCCEEDED, CANCELLED, ABORTED = "succeeded", "cancelled", "aborted"
+FACE_OFF_LINE = 0.8  # [-] a correction turns to face its point first when it lies this many tolerances off the heading line,
+NOISE_SIGMAS = 2.0  # [-] plus this many position sigmas: an offset the estimate's noise explains is not chased by a turn
 MAX_SWITCHES = 256  # path points passed on one pose at most (bunched points: the rest on the next poses)
 
 
@@ -351,8 +353,9 @@ class GoalMachine:
         """Move again after a re-check over the tolerance (a late fix moved the pose), up to `retries` times.
 
         Only a move that ended at its target (within_tolerance, passed) is corrected, a path from its last point:
-        straight on (forwards or back) when the point lies on the heading line, within half the tolerance;
-        else first turning in place to face it (or to back onto it, whichever turn is smaller).
+        straight on (forwards or back) when the point lies near the heading line (within FACE_OFF_LINE of the
+        tolerance, straight on then ends within it, or within what the estimate's noise explains); else first
+        turning in place to face it (or to back onto it, whichever turn is smaller).
         """
         if run.exit not in (exits.WITHIN_TOLERANCE, exits.PASSED) or run.retries >= self.params.retries:
             return False
@@ -365,7 +368,8 @@ class GoalMachine:
             self._aim(run, pose)
             x, y = run.goal.points[-1]
             run.locked = True
-            run.facing = abs(_lateral(pose.x, pose.y, pose.theta, x, y)) > run.goal.tolerance / 2.0
+            off_line = FACE_OFF_LINE * run.goal.tolerance + NOISE_SIGMAS * pose.sigma_xy  # [m]
+            run.facing = abs(_lateral(pose.x, pose.y, pose.theta, x, y)) > off_line
         run.small.reset()
         run.big.reset()
         return True

@@ -180,6 +180,15 @@ def test_a_recheck_finding_the_point_sideways_turns_to_face_it_then_drives_onto_
     assert math.hypot(1.0 - bot.x, bot.y) <= 0.01 and abs(bot.theta) > math.radians(30)  # it turned: not straight on
 
 
+def test_a_sideways_offset_the_estimates_noise_explains_is_not_chased_by_a_turn():
+    """1.2 cm off the line on a pose whose sigma is 0.6 cm: corrected straight on (no swing), then judged."""
+    mc = machine(rest_time=0.1, retries=1)
+    mc.start(to_point(1.0, 0.0), 0.0)
+    assert mc.on_pose(PoseSample(0.01, 0.995, 0.0, 0.0, sigma_xy=0.006)) == ((0.0, 0.0), None)
+    cmd, end = mc.on_pose(PoseSample(0.12, 0.98, -0.012, 0.0, sigma_xy=0.006))
+    assert end is None and cmd[0] > 0.0 and cmd[1] == 0.0  # straight on
+
+
 # ---------------------------------------------------------------- the tolerance trades precision for time
 def test_a_larger_tolerance_ends_sooner():
     steps, errors = [], []
