@@ -86,7 +86,7 @@ fi
 ca=$(openssl base64 -A < "$dir/ca.pem")
 
 # ------------------------------------------------------------------ users
-for user in sim odometry vps localizer navigator motor viewer $operators "$@"; do
+for user in sim odometry vps localizer navigator motor driver viewer $operators "$@"; do
     check "$user" "user name"
     password=$(sed -n "s/^$user://p" "$dir/users.txt")
     if [ -z "$password" ]; then
@@ -122,7 +122,7 @@ sed -e "s|/run/secrets/zenoh_users|$dir/users.txt|" \
     "$dir/router.docker.json5" > "$dir/router.json5"
 
 if [ "$(id -u)" = 0 ]; then
-    for f in users.txt router.pem router.key router.docker.json5 sim.json5 odometry.json5 vps.json5 localizer.json5 navigator.json5 motor.json5; do
+    for f in users.txt router.pem router.key router.docker.json5 sim.json5 odometry.json5 vps.json5 localizer.json5 navigator.json5 motor.json5 driver.json5; do
         chown 10001:10001 "$dir/$f"  # the image's user, which the compose deployment runs as
     done
 fi

@@ -26,7 +26,6 @@ pytestmark = pytest.mark.system
 
 REPO = Path(__file__).resolve().parents[2]
 ROUTER_UP = 30.0  # [s] for the router process to accept a login
-SERVICES = ("sim", "odometry", "vps", "localizer", "navigator", "motor")
 
 
 def unused_port() -> int:
@@ -129,6 +128,27 @@ def test_an_operator_commands_its_own_robot_only(router):
 
     tokens = [op1.liveliness().declare_token(f"zenav/{robot}/lease/goal") for robot in ("r1", "r2")]
     assert leases.settle({("zenav/r1/lease/goal", "")}) == {("zenav/r1/lease/goal", "")}
+    for token in tokens:
+        token.undeclare()
+
+
+def test_each_service_holds_only_its_own_tokens(router):
+    """Liveliness and instance tokens (duplicate detection) pass for their own service; the driver logs in too."""
+    watcher, alive = router.login("viewer"), Inbox()
+    watcher.liveliness().declare_subscriber("zenav/r1/**", alive.on_sample, history=True)
+    navigator, driver, operator = router.login("navigator"), router.login("driver"), router.login("operator-r1")
+    held = {
+        navigator: ["zenav/r1/alive/navigator", "zenav/r1/instance/navigator/host-1-a"],
+        driver: ["zenav/r1/alive/driver", "zenav/r1/instance/driver/host-2-b", "zenav/r1/alive/motor"],
+        operator: ["zenav/r1/instance/navigator/fake"],  # would make the real navigator report a duplicate
+    }
+    tokens = [session.liveliness().declare_token(key) for session, keys in held.items() for key in keys]
+    allowed = {(k, "") for k in held[navigator] + held[driver][:2]}
+    assert alive.settle(allowed) == allowed
+    encoders = Inbox()
+    watcher.declare_subscriber("zenav/r1/sensors/encoders", encoders.on_sample)
+    publish(driver, "zenav/r1/sensors/encoders", "driver")
+    assert encoders.settle({("zenav/r1/sensors/encoders", "driver")}) == {("zenav/r1/sensors/encoders", "driver")}
     for token in tokens:
         token.undeclare()
 
