@@ -10,6 +10,7 @@ from .modes import make_mode
 
 OUTLIERS_DEGRADED = 3  # fixes rejected in a row that make the status degraded
 GYRO_SILENT = 0.5  # [s] a gyro that was heard and is silent this long makes the status degraded
+ODOM_SILENT = 1.0  # [s] odometry heard before and silent this long: status error (the pose is not updated)
 
 
 class Localizer(Service):
@@ -94,7 +95,8 @@ class Localizer(Service):
 
     @timer("health_period")
     def check_health(self, now: float) -> None:
-        """Degraded while no fix is accepted, the gyro is silent or fixes keep disagreeing; report an odd latency."""
+        """Error while the odometry is silent; degraded while no fix is accepted, the gyro is silent or fixes keep
+        disagreeing; report an odd latency."""
         notes = []
         latency = self.mode.latency
         if latency is not None:
@@ -120,4 +122,8 @@ class Localizer(Service):
             if self.outliers_in_row >= OUTLIERS_DEGRADED:
                 status = "degraded"
                 notes.insert(0, f"{self.outliers_in_row} VPS fixes in a row disagree with the odometry")
+        odom = self.mode.odom
+        if odom is not None and now - odom.t > ODOM_SILENT:
+            status = "error"
+            notes.insert(0, f"no odometry for {now - odom.t:.1f} s: the pose is not updated")
         self.set_status(status, "; ".join(notes))

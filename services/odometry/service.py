@@ -12,13 +12,14 @@ from zenav.common import messages as m
 from zenav.common.bus import Bus
 from zenav.common.clock import Clock
 from zenav.common.config import Robot, Settings
-from zenav.common.runtime import Service, publish, subscribe
+from zenav.common.runtime import Service, publish, subscribe, timer
 from zenav.services.odometry import heading as hd
 from zenav.services.odometry import odometry as od
 
 NonNeg = Annotated[float, Meta(ge=0.0, le=1e3)]
 Positive = Annotated[float, Meta(gt=0.0, le=1e3)]
 
+ENCODERS_SILENT = 1.0  # [s] encoders heard before and silent this long: status error (no odometry)
 # The sensor topics each heading source listens to, besides the encoders.
 SOURCE_TOPICS = {"encoders": (), "gyro": ("sensors/imu",), "compass": ("sensors/compass",), "blend": ("sensors/imu",)}
 
@@ -75,6 +76,7 @@ class Odometry(Service):
     name = "odometry"
     config_type = OdometryConfig
     cfg: OdometryConfig
+    health_period = 0.5  # [s] how often a silent encoder stream is looked for
 
     def __init__(self, settings: Settings, bus: Bus, clock: Clock) -> None:
         super().__init__(settings, bus, clock)
@@ -114,6 +116,13 @@ class Odometry(Service):
         elif event == od.OK and not any(self.state.watch.silent):
             self.set_status("ok")
         return odom
+
+    @timer("health_period")
+    def check_health(self, now: float) -> None:
+        """Error while the encoder stream, heard before, is silent: no odom goes out (ok again with the next sample)."""
+        last = self.state.t
+        if last is not None and now - last > ENCODERS_SILENT:
+            self.set_status("error", f"no encoder sample for {now - last:.1f} s: no odometry (is the sim or driver running?)")
 
     def _silence(self, was: tuple[bool, bool], t: float) -> None:
         """Count, log and report each wheel whose encoder went silent while commanded (`was`: before this sample)."""

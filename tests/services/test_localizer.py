@@ -127,3 +127,15 @@ def test_a_sim_restart_starts_the_estimate_again(run):
     assert len(poses) == before + 1 and poses[-1].t == 0.01
     assert rig.svc.counters.values["clock_resets"] == 1
     rig.close()
+
+
+def test_diag_error_while_the_odometry_is_silent(run):
+    rig = make()
+    replay(rig, run, 3.0)
+    rig.clock.t = 4.5  # the odometry stops
+    rig.advance(0.5)
+    d = rig.got("diag/localizer")[-1]
+    assert d.status == "error" and "no odometry for" in d.message
+    replay(rig, run, 6.0, t_start=5.01)
+    assert rig.got("diag/localizer")[-1].status != "error"
+    rig.close()

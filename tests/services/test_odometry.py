@@ -136,3 +136,14 @@ def test_help(capsys):
     with pytest.raises(SystemExit) as e:
         main(Odometry, ["--help"])
     assert e.value.code == 0 and "zenav-odometry" in capsys.readouterr().out
+
+
+def test_silent_encoders_are_an_error_until_the_next_sample():
+    rig = make(heading_source="encoders")
+    assert diag(rig).status == "ok"  # nothing heard yet: nothing is silent
+    drive(rig, 0.5, 0.2, 0.0, imu=False)
+    rig.advance(1.5)  # the encoder stream stops
+    d = diag(rig)
+    assert d.status == "error" and "no encoder sample for" in d.message
+    drive(rig, 0.1, 0.2, 0.0, imu=False, start=(0.5 * 0.2 / R, 0.5 * 0.2 / R, 0.0))
+    assert diag(rig).status == "ok"
