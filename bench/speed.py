@@ -58,7 +58,12 @@ def study(harness: str, rtfs: Sequence[float], seeds: Sequence[int], run: Callab
     pooled: dict[float, dict[str, list[float]]] = {}
     rows = []
     for rtf in rtfs:
-        runs = [run(Spec(seed=s, trial="path", harness=harness), rtf) for s in seeds]
+        try:
+            runs = [run(Spec(seed=s, trial="path", harness=harness), rtf) for s in seeds]
+        except TimeoutError as e:  # the stack never became ready at this factor: it and every higher one fail
+            why = f"rtf {rtf:g}: {e}"
+            rows.append(Row(harness, rtf, 0, len(seeds), 0, 0.0, {k: math.nan for k in METRICS}, (), False, [why]))
+            break
         pool: dict[str, list[float]] = {k: [] for k in METRICS}
         for r in runs:
             for k, v in per_goal(r).items():

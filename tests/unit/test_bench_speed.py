@@ -41,3 +41,15 @@ def test_an_overrun_is_never_within_noise():
         return summary(spec, rtf, [1.0, 1.1, 0.9], overruns=int(rtf > 1))
 
     assert [r.within_noise for r in speed.study("processes", (1.0, 3.0), (1,), run)] == [True, False]
+
+
+def test_a_stack_never_ready_fails_its_factor_and_ends_the_study():
+    def run(spec, rtf):
+        if rtf >= 4.0:
+            raise TimeoutError("navigator not ready after 60.0 s")
+        return summary(spec, rtf, [1.0, 1.1, 0.9])
+
+    rows = speed.study("in-process", (1.0, 2.0, 4.0, 8.0), (1, 2), run)
+    assert [(r.rtf, r.within_noise) for r in rows] == [(1.0, True), (2.0, True), (4.0, False)]
+    assert rows[2].failed == 2 and "not ready" in rows[2].failures[0]
+    assert speed.highest(rows) == 2.0
