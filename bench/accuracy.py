@@ -49,10 +49,12 @@ class Spec:
     harness: str = "processes"  # processes, or in-process (one Zenoh session per service, one interpreter)
 
     def navigator(self) -> dict:
-        """The navigator's settings. Dead reckoning never learns where the map is, so its pose
-        stays "unknown" in the covariance; the run drives on it as a robot without a camera
-        that starts at the map's origin would, with the uncertainty checks off."""
-        ungated = {"max_position_sigma": math.inf, "max_heading_sigma": math.inf} if self.mode == "dead_reckoning" else {}
+        """The navigator's settings. Only the EKF modes carry a covariance the navigator's uncertainty
+        checks can trust: dead reckoning never learns where the map is (its pose stays "unknown"), and
+        the other comparison modes' sigmas are rules of thumb. Their runs drive with the checks off,
+        as a robot without a camera that starts at the map's origin would."""
+        gated = self.mode in ("ekf", "ekf_no_delay")
+        ungated = {} if gated else {"max_position_sigma": math.inf, "max_heading_sigma": math.inf}
         return {"controller": self.controller, **ungated}
 
     def settings(self, rtf: float) -> Settings:

@@ -21,7 +21,7 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--quick", action="store_true", help="a short run for CI (under 2 minutes): fewer seeds, modes and windows")
     p.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"report directory (default {DEFAULT_OUT}/)")
     p.add_argument("--only", action="append", choices=SECTIONS, help="measure only this section (repeatable)")
-    p.add_argument("--rtf", type=float, help="most the accuracy runs may use (default 5; the speed study may lower it)")
+    p.add_argument("--rtf", type=float, help="most the accuracy runs may use (default 3; the speed study may lower it)")
     p.add_argument("-v", "--verbose", action="store_true", help="show the in-process services' warnings")
     p.set_defaults(func=run)
 
