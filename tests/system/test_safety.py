@@ -41,7 +41,10 @@ def test_frozen_operator_stops_the_robot(rig, cli):
 def test_stop_overtakes_a_flood_of_goals(rig):
     fl = safety.stop_under_flood(rig)
     print(f"stop answered {fl.answered * 1000:.1f} ms, zero cmd_vel {fl.zero * 1000:.1f} ms, {fl.after}/{fl.goals} goals answered after it")
-    assert fl.after >= 1, f"every flooded goal was answered before the stop: {fl}"
+    # Whether goals still wait at the navigator when the stop arrives is a race this test cannot fix
+    # (a fast navigator drains all 30 first): that the stop goes ahead of queued goals is asserted
+    # deterministically in tests/services/test_navigator.py. Here: answered, and zero sent before the answer.
+    assert fl.answered < safety.WAIT, fl
     assert fl.zero <= fl.answered + 0.1, fl  # the zero goes out as the stop is handled, before its answer travels back
 
 
