@@ -62,7 +62,8 @@ def study(harness: str, rtfs: Sequence[float], seeds: Sequence[int], run: Callab
             runs = [run(Spec(seed=s, trial="path", harness=harness), rtf) for s in seeds]
         except TimeoutError as e:  # the stack never became ready at this factor: it and every higher one fail
             why = f"rtf {rtf:g}: {e}"
-            rows.append(Row(harness, rtf, 0, len(seeds), 0, 0.0, {k: math.nan for k in METRICS}, (), False, [why]))
+            nan = {k: math.nan for k in METRICS}
+            rows.append(Row(harness, rtf, 0, len(seeds), 0, 0.0, means=nan, differs=(), within_noise=False, failures=[why]))
             break
         pool: dict[str, list[float]] = {k: [] for k in METRICS}
         for r in runs:

@@ -366,10 +366,10 @@ class GoalMachine:
         if run.goal.points:
             run.index = len(run.goal.points) - 1
             self._aim(run, pose)
-            x, y = run.goal.points[-1]
+            target = _aimed(run)
             run.locked = True
             off_line = FACE_OFF_LINE * run.goal.tolerance + NOISE_SIGMAS * pose.sigma_xy  # [m]
-            run.facing = abs(_lateral(pose.x, pose.y, pose.theta, x, y)) > off_line
+            run.facing = abs(_lateral(pose.x, pose.y, pose.theta, target.x, target.y)) > off_line
         run.small.reset()
         run.big.reset()
         return True
