@@ -2,7 +2,7 @@
 (as `zenav up` runs it) or in this process (as the integration tests run it).
 
 A `Spec` names one run (scenario, seed, localizer mode, navigator controller, trial,
-harness); `run` drives it through the navigator and keeps the recording; `replay` feeds that
+harness, VPS source); `run` drives it through the navigator and keeps the recording; `replay` feeds that
 run's own odometry, fixes and sensors to every localizer mode offline
 (the localizer study, `evaluate`), so the fusion rules are compared on the very same
 data as the live one.
@@ -47,6 +47,7 @@ class Spec:
     trial: str = "square"  # square: seed 003's, `laps` laps; path: seed 002's path, then the turn sweep
     laps: float = 3.0  # square laps (a fraction: that many of its four goals)
     harness: str = "processes"  # processes, or in-process (one Zenoh session per service, one interpreter)
+    vps: str = "synthetic"  # synthetic: the truth plus the scenario's VPS errors; camera: the sim's frames, tags detected
 
     def navigator(self) -> dict:
         """The navigator's settings. Only the EKF modes carry a covariance the navigator's uncertainty
@@ -61,14 +62,25 @@ class Spec:
         return Settings.load(
             None,
             deployment={"scenario": self.scenario, "seed": self.seed},
-            sim={"rtf": rtf},
+            sim={"rtf": rtf, **self._camera()},
+            vps={"source": self.vps},
             localizer={"mode": self.mode},
             navigator=self.navigator(),
         )
 
+    def _camera(self) -> dict:
+        """The sim's settings for the camera VPS (it renders the frames)."""
+        return {"camera": True} if self.vps == "camera" else {}
+
     def args(self, rtf: float) -> list[str]:
         """The same settings as service command-line options."""
-        sets = {"sim.rtf": rtf, "localizer.mode": self.mode, **{f"navigator.{k}": v for k, v in self.navigator().items()}}
+        sets = {
+            "sim.rtf": rtf,
+            **{f"sim.{k}": str(v).lower() for k, v in self._camera().items()},
+            "vps.source": self.vps,
+            "localizer.mode": self.mode,
+            **{f"navigator.{k}": v for k, v in self.navigator().items()},
+        }
         options = [a for k, v in sets.items() for a in ("--set", f"{k}={v}")]
         return ["--scenario", self.scenario, "--seed", str(self.seed), *options]
 

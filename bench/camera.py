@@ -1,7 +1,10 @@
 """The overhead camera measured: render and detection time, fix accuracy, two robots.
 
     python -m zenav.bench.camera [--frames 100] [--quick]
-    python -m zenav.bench.camera --stack 1 [--processes]   # the whole stack: synthetic VPS vs camera, seed 003's square
+
+`zenav bench --only camera` measures the default and the worse camera with pupil-apriltags,
+and the whole stack with the camera VPS against the synthetic one; this command adds
+OpenCV's ArUco detector for comparison.
 
 Frames are rendered by the sim's camera model from known poses; the VPS pipeline
 (detect, undistort, plane homography from a calibration fitted to the fixed tags in
@@ -16,36 +19,25 @@ from __future__ import annotations
 import argparse
 import itertools
 import math
-import tempfile
 import time
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
 import msgspec
 import numpy as np
 
-from zenav import services
-from zenav.bench import trials
-from zenav.bench.scoring import Score, score
-from zenav.bench.trials import Recorder, Trial
 from zenav.common import codec
 from zenav.common import messages as m
-from zenav.common.app import parse_sets
-from zenav.common.config import Camera, Settings
+from zenav.common.config import Camera
 from zenav.common.geometry import wrap_angle
-from zenav.robot import Robot
 from zenav.services.vps import calibration, detect, locate
 from zenav.services.vps import frames as camera_frames
-from zenav.stack.inprocess import InProcessStack
-from zenav.stack.launcher import ProcStack
-from zenav.stack.router import Router
 from zenav.world.camera import Lens, tag_pixels
 from zenav.world.render import Body, Renderer
 
 # A worse camera: half the resolution, darker (longer exposure, more blur), noisier, more uneven light.
 WORSE = {"width": 320, "height": 240, "fx": 266.5, "fy": 266.5, "exposure": 0.03, "noise": 6.0, "lighting": 0.4, "k1": -0.12}
+CAMERAS = {"default 640x480": Camera(), "worse 320x240, blur, noise, distortion": msgspec.structs.replace(Camera(), **WORSE)}
 XS, YS = np.linspace(-0.4, 1.4, 7).tolist(), np.linspace(0.0, 1.0, 5).tolist()  # [m] the pose grid, inside the default view
 HEADINGS = (0.3, 1.9, -2.6, -1.0)  # [rad]
 MOTIONS = ((0.0, 0.0), (0.3, 1.0))  # (v [m/s], omega [rad/s])
@@ -157,90 +149,55 @@ def two_robots(p: Pipeline, trials: int, seed: int = 7) -> tuple[int, int, int]:
     return trials, both, wrong
 
 
-@contextmanager
-def _stack(sets: list[str], processes: bool, log_dir: Path) -> Iterator[str]:
-    """A stack with config overrides `sets` (SECTION.KEY=VALUE), up: as processes or in this process; yields its endpoint."""
-    if processes:
-        with ProcStack(("r1",), services.NAMES, log_dir, [a for kv in sets for a in ("--set", kv)]) as procs:
-            yield procs.endpoint
-        return
-    with Router() as router:
-        stack = InProcessStack(Settings.load(None, **parse_sets(sets)), router.endpoint).start()
-        try:
-            yield router.endpoint
-        finally:
-            stack.stop()
+@dataclass(frozen=True)
+class Measured:
+    """One camera measured: time per stage, fix accuracy, two robots told apart, the calibration's residual."""
+
+    timing: dict[str, Timing]
+    accuracy: Accuracy
+    pairs: tuple[int, int, int]  # (frames, both fixed, fixes given to the wrong robot)
+    cal_rms: float  # [m]
 
 
-def stack_run(source: str, calibration_file: str, laps: float, rtf: float, processes: bool, log_dir: Path) -> tuple[Score, int, int, dict]:
-    """The whole stack driving seed 003's square with the VPS `source`:
-    (pose score, fixes accepted, fixes audited, the vps's diag counters at the end)."""
-    camera = source == "camera"
-    sets = [f"sim.rtf={rtf}", f"sim.camera={str(camera).lower()}", f"vps.source={source}", f'camera.calibration="{calibration_file}"']
-    with _stack(sets, processes, log_dir) as endpoint:
-        with Robot("r1", endpoint, lease=False) as bot:
-            trial = Trial(Recorder(bot.client))
-            diag = bot.client.latest("diag/vps")
-            trials.wait_ready(bot, rtf)
-            trials.square(bot, trial.goals, rtf, laps)
-            counters = dict(diag.wait().counters)
-    audited = trial.rec.msgs["localizer/fixes"]
-    pose = score(trial.rec.series("pose"), trial.rec.series("sim/truth"))
-    return pose, sum(f.accepted for f in audited), len(audited), counters
+def measure(cfg: Camera, frames: int, backend: detect.Backend = "apriltag", pairs: int = 50) -> Measured:
+    """Everything this module measures, for one camera and detector."""
+    p = Pipeline(cfg, backend)
+    return Measured(timing(p, frames), accuracy(p), two_robots(p, pairs), p.cal.rms)
 
 
-def compare_sources(laps: float, rtf: float, processes: bool) -> None:
-    """Print the square's pose error with the synthetic VPS and with the camera's."""
-    with tempfile.TemporaryDirectory() as d:
-        path = str(Path(d) / "camera.json")
-        Pipeline(Camera()).cal.save(path)  # what `zenav camera calibrate --sim` writes
-        harness = "one process per service" if processes else "every service in this process"
-        print(f"The whole stack ({harness}), seed 003's square x {laps:g} at rtf {rtf:g}:")
-        print("| vps source | pose RMSE [mm] | pose max [mm] | heading RMSE [deg] | fixes accepted | vps diag |")
-        print("|---|---|---|---|---|---|")
-        for source in ("synthetic", "camera"):
-            pose, accepted, audited, counters = stack_run(source, path, laps, rtf, processes, Path(d))
-            keep = {k: v for k, v in counters.items() if k.endswith("_p50") or k in ("frames", "frames_refused", "fixes_captured")}
-            print(
-                f"| {source} | {pose.rmse * 1e3:.1f} | {pose.max * 1e3:.1f} | {math.degrees(pose.heading_rmse):.2f} | "
-                f"{accepted}/{audited} | {keep} |"
-            )
+def lines(measured: dict[str, Measured], frames: int) -> list[str]:
+    """The measurements as markdown: time per frame, accuracy, two robots."""
+    out = [
+        f"Milliseconds per frame over {frames} frames with two robots moving, p50 / p99 of the wall time (p50 of the "
+        "CPU time; other load on the host shows in the wall):",
+        "",
+        "| camera, detector | render (sim) | frame encode + decode | detect + locate (vps) | calibration rms [mm] |",
+        "|---|---|---|---|---|",
+        *(f"| {name} | {' | '.join(r.timing[k].cell() for k in STAGES)} | {r.cal_rms * 1000:.2f} |" for name, r in measured.items()),
+        "",
+        f"Fix accuracy over {len(XS) * len(YS)} positions x {len(HEADINGS)} headings, at rest and at (0.3 m/s, 1 rad/s):",
+        "",
+        "| camera, detector | fixes | position err p50 / p95 [mm] | heading err p50 / p95 [deg] | z pos / z heading p50 |",
+        "|---|---|---|---|---|",
+        *(r.accuracy.row(name) for name, r in measured.items()),
+        "",
+    ]
+    for name, r in measured.items():
+        n, both, wrong = r.pairs
+        out.append(f"- two robots, {name}: both fixed in {both}/{n} frames, fixes given to the wrong robot: {wrong}")
+    return out
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m zenav.bench.camera", description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=100, help="frames timed per camera (default 100)")
     ap.add_argument("--quick", action="store_true", help="only the default camera with pupil-apriltags")
-    ap.add_argument("--stack", type=float, metavar="LAPS", help="instead: the whole stack driving LAPS squares, synthetic VPS vs camera")
-    ap.add_argument("--rtf", type=float, default=1.0, help="realtime factor of --stack (default 1)")
-    ap.add_argument("--processes", action="store_true", help="--stack with one process per service (as `zenav up`)")
     args = ap.parse_args(argv)
-    if args.stack:
-        compare_sources(args.stack, args.rtf, args.processes)
-        return 0
-    default, worse = Camera(), msgspec.structs.replace(Camera(), **WORSE)
-    runs: list[tuple[str, Camera, detect.Backend]] = [("default 640x480, apriltag", default, "apriltag")]
+    (default, cfg), (worse, worse_cfg) = CAMERAS.items()
+    runs: list[tuple[str, Camera, detect.Backend]] = [(f"{default}, apriltag", cfg, "apriltag")]
     if not args.quick:
-        runs += [("default 640x480, aruco", default, "aruco"), ("worse 320x240, apriltag", worse, "apriltag")]
-    print("Milliseconds per frame, p50 / p99 of the wall time (p50 of the CPU time; other load on the host shows in the wall):")
-    print("| camera, detector | render (sim) | frame encode + decode | detect + locate (vps) | calibration rms [mm] |")
-    print("|---|---|---|---|---|")
-    pipes = []
-    for name, cfg, backend in runs:
-        p = Pipeline(cfg, backend)
-        pipes.append((name, p))
-        times = timing(p, args.frames)
-        print(f"| {name} | {' | '.join(times[k].cell() for k in STAGES)} | {p.cal.rms * 1000:.2f} |")
-    print()
-    print(f"Accuracy over {len(XS) * len(YS)} positions x {len(HEADINGS)} headings, at rest and at (0.3 m/s, 1 rad/s):")
-    print("| camera, detector | fixes | position err p50 / p95 [mm] | heading err p50 / p95 [deg] | z pos / z heading p50 |")
-    print("|---|---|---|---|---|")
-    for name, p in pipes:
-        print(accuracy(p).row(name))
-    print()
-    for name, p in pipes:
-        n, both, wrong = two_robots(p, 50)
-        print(f"two robots, {name}: both fixed in {both}/{n} frames, fixes given to the wrong robot: {wrong}")
+        runs += [(f"{default}, aruco", cfg, "aruco"), (f"{worse}, apriltag", worse_cfg, "apriltag")]
+    print("\n".join(lines({name: measure(c, args.frames, backend) for name, c, backend in runs}, args.frames)))
     return 0
 
 

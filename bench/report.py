@@ -20,9 +20,11 @@ from zenav.bench.latency import END_TO_END, Stats
 from zenav.bench.run import Results
 from zenav.bench.speed import highest_by_harness
 from zenav.bench.tables import fmt, table
+from zenav.stack.composed import ROBOT_SERVICES
 
 TARGET_P50, TARGET_P99 = 3.0, 8.0  # [ms] end to end at 100 Hz (the targets)
-TARGET_CPU = 0.5  # [CPU s per simulated s] the whole stack at 100 Hz
+TARGET_CPU = 0.35  # [CPU s per simulated s] the whole stack at 100 Hz
+TARGET_ROBOT_CPU = 0.15  # [CPU s per simulated s] the four services a real robot runs, at 100 Hz
 PACKAGES = ("zenav", "eclipse-zenoh", "numpy", "msgspec", "matplotlib")
 
 
@@ -102,7 +104,16 @@ def _targets(res: Results) -> list[str]:
         costs = cost.services(res.base)
         cpu = sum(c.cpu_per_sim_s for c in costs)
         measured = f"{fmt(cpu, 3)} CPU s per simulated s"
-        rows.append(["whole stack CPU at 100 Hz", f"< {TARGET_CPU:g} core", measured, _met(cpu < TARGET_CPU)])
+        rows.append(["whole stack CPU at 100 Hz", f"<= {TARGET_CPU:g} core", measured, _met(cpu <= TARGET_CPU)])
+        robot = sum(c.cpu_per_sim_s for c in costs if c.name in ROBOT_SERVICES)
+        rows.append(
+            [
+                f"{', '.join(ROBOT_SERVICES)} CPU at 100 Hz",
+                f"<= {TARGET_ROBOT_CPU:g} core",
+                f"{fmt(robot, 3)} CPU s per simulated s",
+                _met(robot <= TARGET_ROBOT_CPU),
+            ]
+        )
         if res.peer is not None:
             pe2e = Stats.of(res.peer.chain[END_TO_END])
             pcpu = sum(c.cpu_per_sim_s for c in cost.services(res.peer))
@@ -111,12 +122,12 @@ def _targets(res: Results) -> list[str]:
             rows.append(
                 [
                     "whole stack CPU, services as peers",
-                    f"< {TARGET_CPU:g} core",
+                    f"<= {TARGET_CPU:g} core",
                     f"{fmt(pcpu, 3)} CPU s per simulated s",
-                    _met(pcpu < TARGET_CPU),
+                    _met(pcpu <= TARGET_CPU),
                 ]
             )
-        if cpu >= TARGET_CPU:
+        if cpu > TARGET_CPU:
             top = sorted(costs, key=lambda c: -c.cpu_per_sim_s)[:3]
             notes.append("CPU: the largest are " + ", ".join(f"{c.name} {fmt(c.cpu_per_sim_s, 3)}" for c in top) + ".")
     if res.robots:
@@ -166,6 +177,8 @@ def write(res: Results, out: Path) -> Path:
         lines += ["", *tables.accuracy(res)]
     if res.paths:
         lines += ["", *tables.navigation(res)]
+    if res.cameras or res.camera_runs:
+        lines += ["", *tables.camera(res)]
     if res.costs:
         lines += ["", *tables.profile(res)]
     if res.fleet:

@@ -15,12 +15,13 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import msgspec
 
 from zenav.bench import accuracy, chain, cost, fleet, live, profile, rawhop, speed
+from zenav.bench import camera as camera_bench
 from zenav.bench.accuracy import Spec, Summary
 from zenav.bench.chain import Chain
 from zenav.bench.cost import Load
@@ -66,6 +67,8 @@ class Results:
     hot: dict[str, list[Hot]] = field(default_factory=dict)  # service -> its costliest functions
     fleet: list[Point] = field(default_factory=list)  # the router under N robots' traffic
     hosts: HostsResult | str | None = None  # the fleet over several hosts, or why it was not run
+    cameras: dict[str, camera_bench.Measured] = field(default_factory=dict)  # camera -> its frames timed and read
+    camera_runs: dict[str, list[tuple[Summary, Summary]]] = field(default_factory=dict)  # trial -> (synthetic, camera) per seed
 
 
 def run(plan: Plan, out: Path, command: str, say: Callable[[str], None] = lambda line: print(line, file=sys.stderr)) -> Results:
@@ -153,6 +156,16 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
             res.kinematic[ctrl] = [nav_eval.path_trial(params, PRESETS["default"], s) for s in range(plan.kinematic_seeds)]
             errs = [e for p in res.paths[ctrl] for e in p.errors["path"]]
             note(f"controller {ctrl}: path error mean {sum(errs) / max(len(errs), 1) * 100:.2f} cm over {len(errs)} runs")
+    if "camera" in plan.sections:
+        for name, cfg in camera_bench.CAMERAS.items():
+            res.cameras[name] = r = camera_bench.measure(cfg, plan.camera_frames)
+            note(f"camera {name}: detect + locate p50 {r.timing['detect'].wall[0]:.1f} ms, position p95 {r.accuracy.pos_mm[1]:.2f} mm")
+        specs = {f"{sc}, square": [Spec(scenario=sc, seed=plan.seeds[0], laps=plan.laps)] for sc in plan.camera_scenarios}
+        specs["default, path"] = [Spec(seed=s, trial="path") for s in plan.camera_path_seeds]
+        for trial, group in specs.items():
+            res.camera_runs[trial] = [(runs.get(s, res.rtf), runs.get(replace(s, vps="camera"), res.rtf)) for s in group]
+            cam = [c.pose.rmse for _, c in res.camera_runs[trial]]
+            note(f"camera VPS, {trial}: pose RMSE {', '.join(f'{x * 100:.2f}' for x in cam)} cm")
 
 
 def _sweep_point(robots: int, rate: float, window: float, logs: Path) -> Load:

@@ -1,6 +1,6 @@
 """The settle table: how every kind of move ends, against the truth, over seeded trials.
 
-    python -m zenav.bench.settle [--trials 100] [--pose-sigma 0.005] [--quick]
+    python -m zenav.bench.settle [--trials 100] [--pose-sigma 0.005] [--heading-sigma DEG] [--quick]
 
 Each move runs the navigator's goal machine on the world model's robot through the
 navigator study's harness (bench/studies: motor lag, deadband, slip, encoders), fed
@@ -23,7 +23,7 @@ import msgspec
 import numpy as np
 
 from zenav.bench.studies.harness import Trial
-from zenav.bench.studies.navigator import SETTLE, TIMEOUT, GoalDriver, PoseError
+from zenav.bench.studies.navigator import HEADING_ARM, SETTLE, TIMEOUT, GoalDriver, PoseError
 from zenav.common.config import Robot
 from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import PATH, PRESETS, SQUARE, Scenario
@@ -89,13 +89,13 @@ class Outcome:
     swing: float  # [rad] largest true heading change over the last SWING_WINDOW travelled (nan for turns)
 
 
-def run(move: Move, params: Params, scenario: Scenario, seed: int, sigma: float) -> Outcome:
+def run(move: Move, params: Params, scenario: Scenario, seed: int, sigma: float, heading_sigma: float | None = None) -> Outcome:
     """Drive one move on a fresh trial; measure it against the truth."""
     cfg = msgspec.structs.replace(params, **dict(move.overrides))
     trial = Trial(Robot(ticks_per_rev=scenario.ticks_per_rev), scenario, seed, camera=False)
     r = trial.bot.robot
     machine = GoalMachine(cfg, Wheelbase(r.track_width, r.wheel_radius, r.max_wheel_speed))
-    driver = GoalDriver(machine, move.goal, PoseError(sigma, scenario.vps_rate_hz, seed), trial)
+    driver = GoalDriver(machine, move.goal, PoseError(sigma, scenario.vps_rate_hz, seed, heading_sigma), trial)
     first = len(trial.streams.truth) - 1
     trial.run(driver, TIMEOUT)
     duration = trial.t - driver.t0
@@ -130,12 +130,15 @@ def _stats(values: Sequence[float], scale: float, digits: int = 2) -> str:
     return f"{p50:.{digits}f} / {p95:.{digits}f} / {v.max():.{digits}f}"
 
 
-def table(trials: int, sigma: float = LATE_VPS_SIGMA, params: Params | None = None, scenario: str = "default") -> str:
-    """The settle table (markdown), `trials` seeds per move."""
+def table(
+    trials: int, sigma: float = LATE_VPS_SIGMA, params: Params | None = None, scenario: str = "default", heading_sigma: float | None = None
+) -> str:
+    """The settle table (markdown), `trials` seeds per move; `heading_sigma` [rad] None: sigma seen over HEADING_ARM."""
     p, sc = params or Params(), PRESETS[scenario]
+    heading = sigma / HEADING_ARM if heading_sigma is None else heading_sigma
     lines = [
         f"Settle table: {trials} seeded trials per move, `{scenario}` scenario, late VPS pose error {sigma * 100:g} cm "
-        f"(1 sigma; heading {math.degrees(sigma / 0.3):.2f} deg), default tolerances {p.tolerance * 100:g} cm / "
+        f"(1 sigma; heading {math.degrees(heading):.2f} deg), default tolerances {p.tolerance * 100:g} cm / "
         f"{math.degrees(p.heading_tolerance):.2f} deg; errors are true final pose to goal",
         "",
         "| move | position error p50 / p95 / max [cm] | heading error p50 / p95 / max [deg] | time p50 / p95 / max [s] "
@@ -143,7 +146,7 @@ def table(trials: int, sigma: float = LATE_VPS_SIGMA, params: Params | None = No
         "|---|---|---|---|---|---|---|",
     ]
     for move in moves(p):
-        out = [run(move, p, sc, seed, sigma) for seed in range(trials)]
+        out = [run(move, p, sc, seed, sigma, heading) for seed in range(trials)]
         pos = _stats([o.position for o in out], 100.0) if move.goal.state != goals.TURNING_TO_HEADING else "-"
         exits = ", ".join(f"{k} {n}" for k, n in Counter(o.exit for o in out).most_common())
         lines.append(
@@ -157,9 +160,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="zenav-settle", description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--trials", type=int, default=100, help="seeded trials per move (default 100)")
     parser.add_argument("--pose-sigma", type=float, default=LATE_VPS_SIGMA, help="[m] late VPS pose error, 1 sigma (0: the truth)")
+    parser.add_argument(
+        "--heading-sigma", type=float, help=f"[deg] its heading error, 1 sigma (default: the position's over {HEADING_ARM:g} m)"
+    )
     parser.add_argument("--quick", action="store_true", help="3 trials per move (CI)")
     args = parser.parse_args(argv)
-    print(table(3 if args.quick else args.trials, args.pose_sigma))
+    heading = None if args.heading_sigma is None else math.radians(args.heading_sigma)
+    print(table(3 if args.quick else args.trials, args.pose_sigma, heading_sigma=heading))
     return 0
 
 

@@ -8,6 +8,7 @@ import statistics
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+from zenav.bench import camera as camera_bench
 from zenav.bench.accuracy import Summary
 from zenav.bench.cost import Load, ServiceCost, services
 from zenav.bench.latency import END_TO_END, STAGES, Stats
@@ -444,6 +445,51 @@ def _turns(res: Results) -> list[str]:
         f"heading error at each success over {len(errs)} turns: mean {fmt(m)}, sd {fmt(sd)}, max {fmt(mx)} deg; "
         f"{failed} turn(s) did not succeed.",
     ]
+
+
+# ------------------------------------------------------------------ camera
+def camera(res: Results) -> list[str]:
+    """The overhead camera: its frames timed and read, then the whole stack with it against the synthetic VPS."""
+    lines = ["## Overhead camera", ""]
+    if res.cameras:
+        lines += [
+            "Frames rendered by the sim's camera model from known poses, read by the vps's pipeline (decode, "
+            "pupil-apriltags, undistort, the plane homography of a calibration fitted to the fixed tags).",
+            "",
+            *camera_bench.lines(res.cameras, res.plan.camera_frames),
+        ]
+    if res.camera_runs:
+        rtf = next(iter(res.camera_runs.values()))[0][1].rtf
+        lines += [
+            "",
+            f"The whole stack, one process per service, rtf {rtf:g}: each trial with the synthetic VPS (the truth plus the "
+            "scenario's VPS errors: the reference scenarios' VPS) and with the camera VPS (the sim renders 10 frames a "
+            "second, the vps detects the robot's tag, 0.3 s link delay; the scenario's odometry errors and faults "
+            "either way). Goal error: the truth at each goal's end to its point (square corners, the path's end). [cm, deg]",
+            "",
+        ]
+        rows = []
+        for trial, pairs in res.camera_runs.items():
+            for k, source in enumerate(("synthetic", "camera")):
+                runs = [p[k] for p in pairs]
+                goals = [e for s in runs for e in s.errors["path" if s.spec.trial == "path" else "point"]]
+                rmse = [s.pose.rmse for s in runs]
+                rows.append(
+                    [
+                        trial,
+                        source,
+                        str(len(runs)),
+                        f"{_cm(statistics.fmean(rmse))} / {_cm(max(rmse))}",
+                        fmt(math.degrees(statistics.fmean(s.pose.heading_rmse for s in runs))),
+                        _spread([e * 100 for e in goals]),
+                        str(sum(len(s.failures) for s in runs)),
+                    ]
+                )
+        header = ["trial", "VPS", "runs", "pose RMSE mean / max", "heading RMSE", "goal error mean / sd / max", "goals failed"]
+        lines += table(header, rows)
+        labelled = [(f"{trial} {s.spec.vps} seed {s.spec.seed}", s) for trial, pairs in res.camera_runs.items() for p in pairs for s in p]
+        lines += _failures(labelled)
+    return lines
 
 
 # ------------------------------------------------------------------ profile

@@ -23,7 +23,7 @@ from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.app import deployment_args, settings_from_args, stop_on_signals
 from zenav.common.client import Unavailable
-from zenav.common.config import Camera
+from zenav.common.config import AUTO_CALIBRATION, CALIBRATION_FILE, Camera
 from zenav.services.vps import calibration, detect, frames, locate, overlay
 from zenav.services.vps.calibration import Calibration, CalibrationError
 from zenav.world.camera import Lens, tag_pixels
@@ -49,7 +49,13 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
         if name != "stream":
             v.add_argument("--image", help="read the frame from this picture file")
             v.add_argument("--timeout", type=float, default=5.0, help="wait this long for a frame on the bus [s] (default 5)")
-        v.add_argument("--output", "-o", help={"calibrate": "file to write (default [camera] calibration)"}.get(name, "PNG to write"))
+        v.add_argument(
+            "--output",
+            "-o",
+            help={"calibrate": f"file to write (default [camera] calibration; {CALIBRATION_FILE} when that is auto)"}.get(
+                name, "PNG to write"
+            ),
+        )
         v.set_defaults(func={"calibrate": run_calibrate, "snapshot": run_snapshot, "stream": run_stream}[name])
         if name == "snapshot":
             v.set_defaults(output="snapshot.png")
@@ -118,7 +124,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     except Unavailable as e:
         print(f"zenav camera calibrate: {e}", file=sys.stderr)
         return EXIT_UNAVAILABLE
-    path = args.output or cfg.calibration
+    path = args.output or (CALIBRATION_FILE if cfg.calibration == AUTO_CALIBRATION else cfg.calibration)
     cal.save(path)
     residual = f"corner residual {cal.rms * 1000:.2f} mm rms"
     print(f"wrote {path}: fixed tags {list(cal.anchors)}, {residual}, camera {cal.camera_height():.3f} m above the floor")
@@ -139,7 +145,10 @@ def run_snapshot(args: argparse.Namespace) -> int:
     cal: Calibration | None = None
     found = None
     try:
-        cal = Calibration.load(cfg.calibration)
+        if cfg.calibration == AUTO_CALIBRATION:
+            cal = calibration.calibrate(tags, Lens.of(cfg), cfg.anchors, cfg.anchor_size)
+        else:
+            cal = Calibration.load(cfg.calibration)
         found = locate.locate(tags, cal, cfg.robots, {a.id for a in cfg.anchors}, cfg.tag_size, cfg.tag_height, cfg.corner_sigma)
     except CalibrationError as e:
         print(f"zenav camera snapshot: no grid or fixes drawn: {e}", file=sys.stderr)

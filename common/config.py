@@ -184,6 +184,10 @@ DEFAULT_ANCHORS = tuple(
 )
 
 
+AUTO_CALIBRATION = "auto"  # [camera] calibration: fit it to the fixed tags in the frames, no file
+CALIBRATION_FILE = "camera-calibration.json"  # where `zenav camera calibrate` writes by default
+
+
 class Camera(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """The [camera] section: the overhead camera of the field, its fiducials, and how the VPS reads it."""
 
@@ -216,7 +220,8 @@ class Camera(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     robots: dict[Annotated[str, Meta(pattern=m.ROBOT_ID_PATTERN)], Annotated[int, Meta(ge=0, le=586)]] = msgspec.field(
         default_factory=lambda: {"r1": 0}
     )  # robot id -> the tag id on top of it
-    calibration: str = "camera-calibration.json"  # the file `zenav camera calibrate` writes and the VPS reads
+    # "auto": fitted to the fixed tags of the first frame that shows two; else the file `zenav camera calibrate` writes
+    calibration: str = AUTO_CALIBRATION
     link_delay: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.3  # [s] added after detection (the radio link)
     corner_sigma: Annotated[float, Meta(gt=0.0, le=100.0)] = 0.3  # [px] 1 sigma of a sharp tag corner, the base of a fix's covariance
 

@@ -10,8 +10,8 @@ first (no new commands; the motor zeros the wheels when it sees the navigator go
 the wheels were told zero, the world or the board last (its wheels keep the last
 command they got; the driver sends `m 0 0` as it stops).
 
-`PROFILES` names what runs together: `sim` (the default) the simulated robot, `robot`
-a real one through the driver, on the host's wall clock.
+`PROFILES` names what runs together: `sim` (the default) the simulated robot seen by
+its overhead camera, `robot` a real one through the driver, on the host's wall clock.
 """
 
 from __future__ import annotations
@@ -73,8 +73,13 @@ def _ordered(names: Iterable[str]) -> tuple[str, ...]:
 
 DEFAULT_PROFILE = "sim"
 PROFILES: dict[str, Profile] = {
-    # The simulated robot: the sim owns the clock, the vps sees the sim's truth.
-    "sim": Profile(_ordered(("sim", "motor", "odometry", "vps", "localizer", "navigator"))),
+    # The simulated robot: the sim owns the clock and renders the overhead camera's frames,
+    # the vps reads the robot's tag in them (docker-compose.yml sets the same). The synthetic
+    # VPS (the truth plus the scenario's errors, no pixels): --set vps.source=synthetic.
+    "sim": Profile(
+        _ordered(("sim", "motor", "odometry", "vps", "localizer", "navigator")),
+        {"sim": {"camera": True}, "vps": {"source": "camera"}},
+    ),
     # A real robot: the driver instead of the sim; every service on the host's clock
     # (it overrides the config file; the rest, e.g. [odometry] heading_source, is the
     # robot's config file's); no vps (add it with --services when a camera VPS runs on

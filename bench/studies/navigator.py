@@ -34,11 +34,15 @@ TIMEOUT = 120.0  # [s] a goal that has not ended by then is a timeout
 SETTLE = 0.5  # [s] the robot comes to rest after a goal before it is measured
 
 
+HEADING_ARM = 0.3  # [m] the default heading error is the position error seen over this arm (the VPS's heading from positions)
+
+
 class PoseError:
     """The estimate's error: AR(1) at the VPS rate (each fix pulls it back and adds a new one)."""
 
-    def __init__(self, sigma: float, rate: float, seed: int) -> None:
-        self.sigma = sigma  # [m] 1 sigma of the position error (heading: sigma / 0.3 m)
+    def __init__(self, sigma: float, rate: float, seed: int, heading_sigma: float | None = None) -> None:
+        self.sigma = sigma  # [m] 1 sigma of the position error
+        self.heading_sigma = sigma / HEADING_ARM if heading_sigma is None else heading_sigma  # [rad]
         self.period = 1.0 / rate  # [s]
         self.rng = np.random.default_rng([seed, ERROR_STREAM])
         self.err = (0.0, 0.0, 0.0)  # (x [m], y [m], theta [rad])
@@ -49,7 +53,7 @@ class PoseError:
         self._since += dt
         if self.sigma > 0 and self._since >= self.period:
             self._since, keep = 0.0, 0.8
-            sig = np.array([self.sigma, self.sigma, self.sigma / 0.3]) * math.sqrt(1 - keep**2)
+            sig = np.array([self.sigma, self.sigma, self.heading_sigma]) * math.sqrt(1 - keep**2)
             ex, ey, eth = (keep * np.array(self.err) + sig * self.rng.standard_normal(3)).tolist()
             self.err = (ex, ey, eth)
 
@@ -57,7 +61,7 @@ class PoseError:
         """The pose as the localizer would give it: truth plus the error, speeds of the odometry, the error's sigmas."""
         s, odom, (ex, ey, eth) = trial.bot.state, trial.odom, self.err
         v, omega = (odom.v, odom.omega) if odom is not None and odom.t == trial.t else (0.0, 0.0)
-        return PoseSample(trial.t, s.x + ex, s.y + ey, wrap_angle(s.theta + eth), v, omega, self.sigma, self.sigma / 0.3)
+        return PoseSample(trial.t, s.x + ex, s.y + ey, wrap_angle(s.theta + eth), v, omega, self.sigma, self.heading_sigma)
 
 
 @dataclass(frozen=True)

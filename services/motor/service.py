@@ -49,6 +49,7 @@ class Motor(Service):
         self.last_cmd_t = 0.0  # [s] clock time the last command was accepted
         self.count("watchdog_stops", 0)
         self.count("navigator_lost_stops", 0)
+        self.wheels_alive: dict[str, bool] = {}  # "sim" / "driver" -> its token is up (what turns the wheels)
 
     def on_clock_reset(self) -> None:
         # Times of the old clock would make the elapsed times negative.
@@ -93,6 +94,22 @@ class Motor(Service):
         self.warn("navigator_lost", "navigator gone: wheels stopped")
         now = self.clock.now()
         return self._output(now, ZERO, ZERO, now)
+
+    @on_liveliness("sim")
+    def sim_presence(self, alive: bool) -> None:
+        self._wheels_presence("sim", alive)
+
+    @on_liveliness("driver")
+    def driver_presence(self, alive: bool) -> None:
+        self._wheels_presence("driver", alive)
+
+    def _wheels_presence(self, name: str, alive: bool) -> None:
+        """Error while what turns the wheels (the sim or the motor board's driver), seen before, is gone."""
+        self.wheels_alive[name] = alive
+        if any(self.wheels_alive.values()):
+            self.set_status("ok")
+        else:
+            self.set_status("error", f"{name} gone: wheel commands reach no wheels (is the sim or the driver running?)")
 
     def on_stop(self) -> None:
         now = self.clock.now()

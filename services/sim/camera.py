@@ -16,10 +16,11 @@ from zenav.world.render import Body, Renderer
 
 
 class FieldCamera:
-    """Frames of the robot with tag `tag` (None: no tag, the floor only) at `rate_hz`, on the sim's step grid."""
+    """Frames of the robot with tag `tag` (None: no tag, the floor only) at `rate_hz`, on the sim's step grid;
+    `hidden(t)`: the robot is out of sight at t (the scenario's VPS outage: someone between camera and robot)."""
 
-    def __init__(self, cfg: Camera, seed: int, tag: int | None) -> None:
-        self.cfg, self.tag = cfg, tag
+    def __init__(self, cfg: Camera, seed: int, tag: int | None, hidden: Callable[[float], bool] = lambda t: False) -> None:
+        self.cfg, self.tag, self.hidden = cfg, tag, hidden
         self.renderer = Renderer(cfg, seed)
         self.period = 1.0 / cfg.rate_hz  # [s]
         self._next: float | None = None  # [s] time of the next frame
@@ -36,7 +37,9 @@ class FieldCamera:
 
     def frame(self, truth: m.Truth) -> m.CameraFrame:
         """The frame whose exposure is centred on truth.t."""
-        bodies = [] if self.tag is None else [Body(self.tag, truth.x, truth.y, truth.theta, truth.v, truth.omega)]
+        bodies = []
+        if self.tag is not None and not self.hidden(truth.t):
+            bodies.append(Body(self.tag, truth.x, truth.y, truth.theta, truth.v, truth.omega))
         img = self.renderer.render(truth.t, bodies)
         self.seq += 1
         h, w = img.shape
@@ -50,7 +53,8 @@ class Shutter:
         self.camera, self.send = camera, send
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="zenav-sim-camera")
         self._last: Future | None = None
-        self.error = ""  # why the last frame failed ("" when it did not)
+        self.error = ""  # why the last frame failed ("" once one is sent)
+        self.failed = 0  # frames that failed
 
     def take(self, truth: m.Truth) -> str | None:
         """Start a frame of this truth sample if one is due: "taken", "skipped" (the last still drawing) or None."""
@@ -64,8 +68,10 @@ class Shutter:
     def _shoot(self, truth: m.Truth) -> None:
         try:
             self.send(self.camera.frame(truth))
-        except Exception as e:  # reported by the caller through `error`: the worker must go on
+            self.error = ""
+        except Exception as e:  # reported by the caller through `error` and `failed`: the worker must go on
             self.error = f"{type(e).__name__}: {e}"
+            self.failed += 1
 
     def idle(self, timeout: float) -> bool:
         """Wait up to timeout [s] for the frame being drawn; whether none is left."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import time
+from functools import partial
 from typing import Annotated
 
 from msgspec import Meta, Struct
@@ -32,11 +33,15 @@ class SimConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     camera: bool = False  # render the overhead camera's frames ([camera]) on zenav/field/camera/frame
 
 
+OVERRUN_HOLD = 5.0  # [s] of the scheduling clock a fall behind keeps the status degraded
+
+
 class Sim(Service):
     """The simulated world: the robot of the scenario, its sensors, and the stack clock."""
 
     name = "sim"
     config_type = SimConfig
+    health_period = 0.5  # [s] how often the status is brought up to date
 
     def __init__(self, settings: Settings, bus: Bus, clock: Clock) -> None:
         super().__init__(settings, bus, clock)
@@ -53,9 +58,11 @@ class Sim(Service):
         self.shutter: Shutter | None = None
         if c.camera:
             cam = settings.section("camera", Camera)
-            self.shutter = Shutter(FieldCamera(cam, settings.deployment.seed, cam.robots.get(self.robot)), self._send_frame)
+            hidden = partial(faults.vps_outage, self.scen)  # the scenario's VPS outage hides the robot from the camera
+            self.shutter = Shutter(FieldCamera(cam, settings.deployment.seed, cam.robots.get(self.robot), hidden), self._send_frame)
         self.count("overruns", 0)
         self.count("command_timeouts", 0)
+        self._behind: tuple[float, str] | None = None  # (scheduling-clock time, why) of the last fall behind
 
     @classmethod
     def make_clock(cls, settings: Settings) -> Clock:
@@ -106,7 +113,10 @@ class Sim(Service):
         if owed > self.cfg.max_burst:
             # Too far behind (host too slow for the rtf, or stalled): drop the lost time.
             self.count("overruns")
-            self.warn("overrun", f"sim fell {owed} steps behind; running {self.cfg.max_burst} and resyncing")
+            why = f"sim fell {owed} steps behind; running {self.cfg.max_burst} and resyncing"
+            self.warn("overrun", why)
+            self._behind = (now, f"{why} (host too slow for rtf {self.cfg.rtf:g}, or stalled)")
+            self.check_health(now)
             owed = self.cfg.max_burst
             self.base = now - (self.steps + owed) / self.rate
         for _ in range(owed):
@@ -146,7 +156,19 @@ class Sim(Service):
         outcome = self.shutter.take(truth)
         if outcome is not None:
             self.count(f"frames_{outcome}")
-        if self.shutter.error:
-            self.count("frames_failed")
+        failed = self.shutter.failed - self.counters.values.get("frames_failed", 0)
+        if failed > 0:
+            self.count("frames_failed", failed)
             self.warn("frame", f"camera frame failed: {self.shutter.error}")
-            self.shutter.error = ""
+
+    @timer("health_period")
+    def check_health(self, now: float) -> None:
+        """Error while camera frames fail; degraded for a while after the sim fell behind the clock."""
+        if self._behind is not None and now - self._behind[0] > OVERRUN_HOLD:
+            self._behind = None
+        if self.shutter is not None and self.shutter.error:
+            self.set_status("error", f"camera frames fail: {self.shutter.error}")
+        elif self._behind is not None:
+            self.set_status("degraded", self._behind[1])
+        else:
+            self.set_status("ok")

@@ -11,6 +11,7 @@ from msgspec import Meta, Struct
 
 from zenav.common import codec, keys
 from zenav.common import messages as m
+from zenav.common.config import AUTO_CALIBRATION
 from zenav.common.config import Camera as CameraConfig
 from zenav.common.runtime import Service, timer
 from zenav.services.vps.calibration import Calibration
@@ -20,6 +21,8 @@ from zenav.world import faults
 from zenav.world.vps import Camera, Delivery, DeliveryQueue, make_rng
 
 TIMING_WINDOW = 50  # frames whose median pipeline and detection times diag reports
+INPUT_SILENT = 1.0  # [s] truth or frames heard before and silent this long: status error (no fixes)
+TAG_UNSEEN = 1.0  # [s] frames coming but this robot's tag not located this long: status degraded
 
 
 class VpsConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
@@ -36,6 +39,7 @@ class Vps(Service):
 
     name = "vps"
     config_type = VpsConfig
+    health_period = 0.5  # [s] how often a silent input or an unseen tag is looked for
 
     def __init__(self, *args) -> None:
         super().__init__(*args)
@@ -43,11 +47,13 @@ class Vps(Service):
         self.camera = Camera(self.settings.scenario, make_rng(self.settings.deployment.seed))
         self.queues: dict[str, DeliveryQueue] = {self.robot: DeliveryQueue()}
         self._last_t = -1.0  # [s] newest truth sample or frame
+        self._heard: float | None = None  # [s] clock time the newest truth sample or frame came
+        self._seen = 0.0  # [s] clock time this robot's tag was last located (camera)
         self.reader: Reader | None = None
         if self.cfg.source == "camera":
             cam = self.settings.section("camera", CameraConfig)
             check_fits(cam, self.limits)
-            self.reader = Reader(cam, Calibration.load(cam.calibration))
+            self.reader = Reader(cam, None if cam.calibration == AUTO_CALIBRATION else Calibration.load(cam.calibration))
             self.link_delay = cam.link_delay  # [s]
             self.queues = {robot: DeliveryQueue() for robot in cam.robots}
             self.timing: dict[str, deque[float]] = {k: deque(maxlen=TIMING_WINDOW) for k in ("pipeline_ms_p50", "detect_ms_p50")}
@@ -72,6 +78,7 @@ class Vps(Service):
     def on_truth(self, msg: m.Truth) -> None:
         """One truth sample: a capture when one is due."""
         self._restarted(msg.t)
+        self._heard = self.clock.now()
         d = self.camera.capture(msg)
         if d is not None:
             self.queues[self.robot].push(d)
@@ -88,6 +95,15 @@ class Vps(Service):
             self.warn("frame", f"refused a camera frame: {e}")
             return
         now = self.clock.now()
+        if self._heard is None:
+            self._seen = now  # the tag's absence counts from the first frame
+        self._heard = now
+        if got.uncalibrated:
+            self.count("frames_uncalibrated")
+            self.set_status("error", f"cannot calibrate the camera: {got.uncalibrated}")
+            return
+        if got.calibrated is not None:
+            self._calibrated(got.calibrated)
         self.count("frames")
         self.count("tags_unknown", got.located.unknown)
         self.count("tags_duplicate", got.located.duplicates)
@@ -95,10 +111,37 @@ class Vps(Service):
         for robot, fix in got.fixes:
             self.queues[robot].push(Delivery(now + self.link_delay, msg.seq, fix))
             self.count("fixes_captured")
+            if robot == self.robot:
+                self._seen = now
         self.timing["pipeline_ms_p50"].append((now - msg.t) * 1e3)  # exposure's middle to detection done, stack clock
         self.timing["detect_ms_p50"].append(got.detect_time * 1e3)
         for name, window in self.timing.items():
             self.counters.values[name] = round(statistics.median(window))
+
+    def _calibrated(self, cal: Calibration) -> None:
+        """A calibration fitted to the frames' fixed tags ([camera] calibration = "auto")."""
+        self.counters.values["calibration_rms_um"] = round(cal.rms * 1e6)
+        self.log.info(
+            "camera calibrated from fixed tags %s: corner residual %.2f mm rms, camera %.3f m above the floor",
+            list(cal.anchors),
+            cal.rms * 1e3,
+            cal.camera_height(),
+        )
+
+    @timer("health_period")
+    def check_health(self, now: float) -> None:
+        """Error while the input (truth or frames), heard before, is silent; degraded while frames come without this robot's tag."""
+        if self._heard is None:
+            return
+        what = "sim/truth sample" if self.reader is None else "camera frame"
+        if now - self._heard > INPUT_SILENT:
+            self.set_status("error", f"no {what} for {now - self._heard:.1f} s: no fixes")
+        elif self.reader is not None and self.reader.cal is not None and now - self._seen > TAG_UNSEEN:
+            tag = self.reader.cfg.robots.get(self.robot)
+            why = f"tag {tag} not seen for {now - self._seen:.1f} s" if tag is not None else "no tag in [camera] robots"
+            self.set_status("degraded", f"robot {self.robot}: {why}")
+        elif self.reader is None or self.reader.cal is not None:
+            self.set_status("ok")
 
     @timer("delivery_period")
     def deliver(self, now: float) -> None:

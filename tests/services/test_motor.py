@@ -147,6 +147,22 @@ def test_help(capsys):
     assert e.value.code == 0 and "zenav-motor" in capsys.readouterr().out
 
 
+def test_no_sim_nor_driver_is_an_error():
+    rig = make()
+    sim = rig.bus.token("zenav/r1/alive/sim")
+    rig.drain()
+    assert rig.svc.status == "ok"
+    sim.undeclare()
+    rig.drain()
+    assert rig.svc.status == "error" and "sim gone: wheel commands reach no wheels" in rig.svc.status_message
+    driver = rig.bus.token("zenav/r1/alive/driver")  # a real robot's board instead
+    rig.drain()
+    assert rig.svc.status == "ok"
+    driver.undeclare()
+    rig.drain()
+    assert rig.svc.status == "error" and rig.svc.status_message.startswith("driver gone")
+
+
 def test_stops_at_once_when_the_navigator_process_goes():
     rig = make()
     nav = rig.bus.token("zenav/r1/alive/navigator")

@@ -64,6 +64,37 @@ def test_burst_is_bounded_then_resyncs():
     assert rig.got("clock")[-1].t == pytest.approx(0.6)
 
 
+def test_falling_behind_is_degraded_for_a_while_then_ok():
+    rig = Rig(Sim)
+    rig.run(1.0)
+    assert rig.got("diag/sim")[-1].status == "ok"
+    rig.advance(2.0)  # a stall longer than max_burst steps
+    rig.run(1.0)
+    d = rig.got("diag/sim")[-1]
+    assert d.status == "degraded" and "fell 200 steps behind" in d.message and "rtf 1" in d.message
+    rig.run(5.0)  # on schedule again
+    assert rig.got("diag/sim")[-1].status == "ok"
+
+
+def test_failing_camera_frames_are_an_error_until_one_is_sent():
+    rig = Rig(Sim, sim={"camera": True}, camera={"width": 160, "height": 120, "fx": 133.25, "fy": 133.25})
+    assert rig.svc.shutter is not None
+    send = rig.svc.shutter.send
+    rig.svc.shutter.send = lambda frame: 1 / 0
+    for _ in range(100):
+        rig.advance(0.01)
+        assert rig.svc.shutter.idle(10.0)
+    d = rig.got("diag/sim")[-1]
+    assert d.status == "error" and "camera frames fail: ZeroDivisionError" in d.message
+    assert d.counters["frames_failed"] == 10
+    rig.svc.shutter.send = send
+    for _ in range(100):
+        rig.advance(0.01)
+        assert rig.svc.shutter.idle(10.0)
+    assert rig.got("diag/sim")[-1].status == "ok" and rig.svc.counters.values["frames_failed"] == 10
+    rig.close()
+
+
 def test_wheel_commands_drive_the_robot():
     rig = Rig(Sim)
     for _ in range(100):  # commands at 100 Hz, as the motor service sends them

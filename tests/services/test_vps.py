@@ -63,3 +63,16 @@ def test_scheduled_faults_act_on_the_fixes_captured_while_they_last():
     drive(rig, 0.0, 0.65)
     assert [f.t for f in rig.got("vps/pose")] == pytest.approx([0.0, 0.0, 0.1, 0.1, 1000.2, 0.3])
     rig.close()
+
+
+def test_silent_truth_is_an_error_until_the_next_sample():
+    rig = make(CLEAN)
+    rig.advance(1.0)
+    assert rig.svc.status == "ok"  # nothing heard yet: nothing is silent
+    drive(rig, 1.0, 1.5)
+    rig.advance(1.5)
+    assert rig.svc.status == "error" and "no sim/truth sample for" in rig.svc.status_message
+    drive(rig, 3.0, 3.5)
+    rig.advance(0.5)
+    assert rig.svc.status == "ok"
+    rig.close()

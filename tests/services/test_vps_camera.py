@@ -93,6 +93,51 @@ def test_no_calibration_is_a_clear_error(tmp_path):
         Rig(Vps, vps={"source": "camera"}, camera={"calibration": str(tmp_path / "none.json")})
 
 
+def test_auto_calibration_fits_the_first_frame_then_fixes(renderer):
+    rig = Rig(Vps, vps={"source": "camera"})  # [camera] calibration = "auto", the default
+    rig.bus.publish(FRAME, frame(renderer, 1.0, [Body(0, 0.2, 0.3, 0.5)]))
+    rig.drain()
+    c = rig.svc.counters.values
+    assert 0 < c["calibration_rms_um"] < 1000 and c["frames"] == 1  # fitted and used on the same frame
+    rig.advance(0.31)
+    [f] = fixes(rig, "r1")
+    assert math.hypot(f.x - 0.2, f.y - 0.3) < 0.002 and abs(f.theta - 0.5) < 0.01
+    rig.close()
+
+
+def test_no_fixed_tags_in_view_is_an_error_and_gives_no_fix(renderer):
+    anchors = [{"id": 200, "x": 0.0, "y": 0.0}, {"id": 201, "x": 1.0, "y": 0.0}]  # not on this field
+    rig = Rig(Vps, vps={"source": "camera"}, camera={"anchors": anchors})
+    rig.bus.publish(FRAME, frame(renderer, 0.0, [Body(0, 0.2, 0.3, 0.5)]))
+    rig.drain()
+    rig.advance(0.5)
+    assert fixes(rig, "r1") == [] and rig.svc.counters.values["frames_uncalibrated"] == 1
+    assert rig.svc.status == "error"
+    assert "cannot calibrate the camera: calibration needs 2 fixed tags in view, saw 0 (missing ids [200, 201])" in rig.svc.status_message
+    rig.close()
+
+
+def test_no_frames_is_an_error_and_a_hidden_tag_degraded(renderer, cal_file):
+    rig = make(cal_file)
+    rig.advance(2.0)
+    assert rig.svc.status == "ok"  # nothing heard yet: nothing is silent
+    rig.bus.publish(FRAME, frame(renderer, rig.t, [Body(0, 0.2, 0.3, 0.5)]))
+    rig.drain()
+    rig.advance(0.5)
+    assert rig.svc.status == "ok"
+    rig.advance(1.0)  # the frames stop
+    assert rig.svc.status == "error" and "no camera frame for 1.5 s" in rig.svc.status_message
+    for _ in range(15):  # frames again, the robot's tag out of view
+        rig.bus.publish(FRAME, frame(renderer, rig.t, []))
+        rig.advance(0.1)
+    assert rig.svc.status == "degraded" and "robot r1: tag 0 not seen for" in rig.svc.status_message
+    rig.bus.publish(FRAME, frame(renderer, rig.t, [Body(0, 0.2, 0.3, 0.5)]))
+    rig.drain()
+    rig.advance(0.5)
+    assert rig.svc.status == "ok"
+    rig.close()
+
+
 def test_the_sim_publishes_frames_the_vps_reads(cal_file):
     cam = FieldCamera(Camera(), seed=1, tag=0)
     assert [cam.due(t) for t in (0.0, 0.05, 0.1, 0.19, 0.2)] == [True, False, True, False, True]  # 10 Hz
@@ -105,6 +150,21 @@ def test_the_sim_publishes_frames_the_vps_reads(cal_file):
     [f] = fixes(rig, "r1")
     assert math.hypot(f.x - 0.4, f.y - 0.6) < 0.002
     rig.close()
+
+
+def test_the_scenarios_vps_outage_hides_the_robot_from_the_camera(cal_file):
+    rig = Rig(Sim, sim={"camera": True}, scenario={"vps_outage_start": 0.1, "vps_outage_duration": 0.1})
+    for _ in range(25):
+        rig.advance(0.01)
+        assert rig.svc.shutter is not None and rig.svc.shutter.idle(10.0)
+    rig.close()
+    vps = make(cal_file)
+    for data in [d for k, d in rig.bus.published if k == FRAME]:  # frames at 0.01, 0.11 (in the outage), 0.21
+        vps.bus.publish(FRAME, data)
+    vps.drain()
+    vps.advance(0.5)
+    assert [round(f.t, 2) for f in fixes(vps, "r1")] == [0.01, 0.21]
+    vps.close()
 
 
 def test_the_sim_renders_frames_beside_its_steps():

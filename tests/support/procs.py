@@ -53,14 +53,20 @@ def stderr_lines(proc: subprocess.Popen) -> queue.Queue:
     return lines
 
 
+# The synthetic VPS instead of the sim profile's camera: the scenario's VPS errors and faults
+# act, and no frame is rendered or detected on the test machine (tests/system/test_up.py runs the camera).
+SYNTHETIC_VPS = ("--set", "vps.source=synthetic", "--set", "sim.camera=false")
+
+
 class Stack:
-    """`zenav up` as a process tree, with a client on its router."""
+    """`zenav up` as a process tree with the synthetic VPS (`extra` may set it back), with a client on its router."""
 
     def __init__(self, tmp, extra=(), connect=None, duration: float = 600.0) -> None:
         self.endpoint = connect or f"tcp/127.0.0.1:{free_port()}"
         where = ["--connect", self.endpoint] if connect else ["--listen", self.endpoint]
+        argv = ["up", *where, "--log-dir", str(tmp), "--duration", str(duration), *SYNTHETIC_VPS, *extra]
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "zenav.cli", "up", *where, "--log-dir", str(tmp), "--duration", str(duration), *extra],
+            [sys.executable, "-m", "zenav.cli", *argv],
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,
             text=True,

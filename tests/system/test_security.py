@@ -28,7 +28,7 @@ from tests.support.matching import Inbox, publish, wait_matching
 from zenav.common.bus import ZenohBus, zenoh_config
 from zenav.common.client import Client, Unavailable
 from zenav.common.keys import QUERIES
-from zenav.services import NAMES
+from zenav.services import NAMES, PROFILES
 from zenav.stack.inprocess import free_port
 
 pytestmark = pytest.mark.system
@@ -126,11 +126,13 @@ def deployment(secure_router):
 
 @pytest.fixture
 def services(secure_router):
-    """The six services as processes, each logged in as itself (ZENOH_CONFIG), as compose runs them."""
+    """The six services as processes, each logged in as itself (ZENOH_CONFIG), as compose runs them
+    (with the sim profile's settings: the sim's camera frames pass the ACL to the vps)."""
     endpoint, secrets = secure_router
+    sets = {name: [a for s in PROFILES["sim"].sets() if s.startswith(f"{name}.") for a in ("--set", s)] for name in NAMES}
     procs = {
         name: subprocess.Popen(
-            [sys.executable, "-m", f"zenav.services.{name}", "--connect", endpoint],
+            [sys.executable, "-m", f"zenav.services.{name}", "--connect", endpoint, *sets[name]],
             env={**os.environ, "ZENOH_CONFIG": str(secrets / f"{name}.json5")},
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,
@@ -251,6 +253,8 @@ def test_the_services_run_under_the_acl_and_only_an_operator_drives(deployment, 
         viewer.latest(f"diag/{svc}").wait(timeout=STACK_UP)
     viewer.latest("pose").wait(timeout=STACK_UP)
     assert viewer.query("localizer/pose").t >= 0.0
+    vps = viewer.latest("diag/vps").wait(lambda d: d.counters.get("fixes_captured", 0) > 0, timeout=STACK_UP)
+    assert vps.counters["frames"] > 0  # the sim's frames reached the vps through the router's rules
 
     with pytest.raises(Unavailable):  # no reply: the router dropped the query
         viewer.query("nav/move_to_point", {"x": GOAL[0], "y": GOAL[1]})

@@ -69,6 +69,9 @@ def test_up_serves_the_contract_to_a_plain_client(up, tmp_path):
     for s in NAMES:
         d = c.latest[f"diag/{s}"]
         assert d["service"] == s and {"msgs_in", "msgs_out", "bad_input", "dropped_stale"} <= set(d["counters"])
+    # the sim profile's camera: the sim renders frames, the vps calibrates itself on them and reads the robot's tag
+    vps = c.wait(lambda latest: latest["diag/vps"]["counters"].get("fixes_captured", 0) > 0, timeout=30)["diag/vps"]
+    assert vps["counters"]["frames"] > 0 and 0 < vps["counters"]["calibration_rms_um"] < 5000, vps
     # drive with cmd_vel (t = 0: a client without the stack clock), watch odom follow truth
     t0 = c.latest["sim/truth"]
     o0 = c.latest["odom"]

@@ -7,7 +7,9 @@ import argparse
 import pytest
 
 from zenav.bench import plan
+from zenav.bench.accuracy import Spec
 from zenav.cli import bench as cli
+from zenav.common.app import parse_sets
 
 
 def parse(*argv: str) -> argparse.Namespace:
@@ -34,3 +36,13 @@ def test_an_unknown_section_is_refused(capsys):
     with pytest.raises(SystemExit):
         parse("--only", "everything")
     assert "invalid choice" in capsys.readouterr().err
+
+
+def test_a_camera_run_sets_the_sim_and_the_vps_alike_in_both_harnesses():
+    spec = Spec(vps="camera")
+    args = spec.args(2.0)
+    sets = parse_sets([args[i + 1] for i, a in enumerate(args) if a == "--set"])
+    assert sets["sim"] == {"rtf": 2.0, "camera": True} and sets["vps"] == {"source": "camera"}
+    s = spec.settings(2.0)
+    assert s.sections["sim"] == {"rtf": 2.0, "camera": True} and s.sections["vps"] == {"source": "camera"}
+    assert parse_sets([a for a in Spec().args(1.0) if a.startswith("vps.")]) == {"vps": {"source": "synthetic"}}

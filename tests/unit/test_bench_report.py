@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
-from tests.support.bench import headings, results, sections
+from dataclasses import replace
+
+from tests.support.bench import headings, results, sections, summary
+from zenav.bench import camera as camera_bench
 from zenav.bench import plan, report
+from zenav.bench.accuracy import Spec
 from zenav.bench.run import Results
 
 
@@ -26,3 +30,20 @@ def test_an_empty_run_writes_only_the_header(tmp_path):
     res = Results(plan.only(plan.FULL, ["speed"]), "zenav bench --only speed", 1.7e9)
     text = report.write(res, tmp_path).read_text()
     assert "## Targets" in text and "## Latency" not in text and "## Navigation" not in text
+
+
+def test_the_camera_section_compares_the_camera_vps_with_the_synthetic(tmp_path):
+    res = Results(plan.only(plan.FULL, ["camera"]), "zenav bench --only camera", 1.7e9)
+    timing = {k: camera_bench.Timing((5.0, 9.0), 4.0) for k in camera_bench.STAGES}
+    accuracy = camera_bench.Accuracy(280, 280, (0.2, 0.3), (0.06, 0.2), (0.1, 0.2))
+    res.cameras = {"default 640x480": camera_bench.Measured(timing, accuracy, (50, 50, 0), 0.0007)}
+    path = Spec(trial="path")
+    res.camera_runs = {"default, path": [(summary(path, 3.0, [1.0]), summary(replace(path, vps="camera"), 3.0, [1.0], ("timeout",)))]}
+    text = report.write(res, tmp_path).read_text()
+    assert headings(text) == ["# zenav benchmark", "## Targets", "## Overhead camera"]
+    assert "| default 640x480 | 5.0 / 9.0 (4.0) | 5.0 / 9.0 (4.0) | 5.0 / 9.0 (4.0) | 0.70 |" in text
+    assert "| default 640x480 | 280/280 | 0.20 / 0.30 | 0.06 / 0.20 | 0.10 / 0.20 |" in text
+    assert "both fixed in 50/50 frames, fixes given to the wrong robot: 0" in text
+    assert "| default, path | synthetic | 1 | 1.00 / 1.00 | 0.57 | 0.50 / 0.00 / 0.50 | 0 |" in text
+    assert "| default, path | camera | 1 | 1.00 / 1.00 | 0.57 | 0.50 / 0.00 / 0.50 | 1 |" in text
+    assert "- default, path camera seed 1: timeout" in text

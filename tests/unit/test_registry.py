@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import json
+import re
+from pathlib import Path
+
 import pytest
 
 from zenav import services
@@ -13,7 +17,18 @@ from zenav.common.config import Settings
 def test_the_sim_profile_is_the_default_stack():
     assert services.DEFAULT_PROFILE == "sim"
     assert services.NAMES == services.PROFILES["sim"].services == ("sim", "motor", "odometry", "vps", "localizer", "navigator")
-    assert services.PROFILES["sim"].sets() == [] and services.PROFILES["sim"].demo
+    assert services.PROFILES["sim"].sets() == ["sim.camera=true", 'vps.source="camera"'] and services.PROFILES["sim"].demo
+
+
+def test_compose_runs_the_sim_profile_with_its_settings():
+    """docker-compose.yml starts each service itself: it must pass the sim profile's settings."""
+    text = (Path(__file__).resolve().parents[2] / "docker-compose.yml").read_text()
+    commands = dict(re.findall(r"^  (\w+):\n(?:    .*\n)*?    command: (\[.*\])", text, re.MULTILINE))
+    for name in services.NAMES:
+        argv = json.loads(commands[name])
+        assert argv[:3] == ["python3", "-m", f"zenav.services.{name}"]
+        sets = parse_sets([argv[i + 1] for i, a in enumerate(argv) if a == "--set"])
+        assert sets.get(name, {}) == services.PROFILES["sim"].settings.get(name, {}), name
 
 
 def test_the_robot_profile_runs_the_driver_instead_of_the_sim_on_the_wall_clock():
