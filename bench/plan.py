@@ -42,6 +42,9 @@ class Plan:
     camera_frames: int = 200  # frames rendered and read per camera (bench/camera.py)
     camera_scenarios: tuple[str, ...] = ("default", "harsh")  # the square with the camera VPS and with the synthetic, first seed
     camera_path_seeds: tuple[int, ...] = (1, 2, 3)  # seed 002's path trial with the camera VPS and with the synthetic
+    # Realtime factor of those runs: the sim renders each frame in its own process, so faster than
+    # realtime the rendering delays its steps on a small machine; 1 is how `zenav up` runs it.
+    camera_rtf: float = 1.0
     sections: tuple[str, ...] = SECTIONS
     limit: float | None = None  # [s] the whole run should take less (the quick plan's CI budget)
 
