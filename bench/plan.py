@@ -8,7 +8,7 @@ from zenav.common.scenarios import PRESETS
 from zenav.services.localizer.base import MODES
 from zenav.services.navigator.params import CONTROLLERS
 
-SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "camera", "profile", "fleet")
+SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "settle", "camera", "profile", "fleet")
 
 
 @dataclass(frozen=True)
@@ -39,6 +39,7 @@ class Plan:
     fleet_robots: tuple[int, ...] = (1, 2, 5, 10, 20)  # robots' traffic played through one router (bench/fleet.py)
     fleet_window: float = 10.0  # [s] each robot count plays
     fleet_hosts: int = 3  # namespaces, one router each (0: not run)
+    settle_trials: int = 100  # seeded trials per move of the settle table (bench/settle.py)
     camera_frames: int = 200  # frames rendered and read per camera (bench/camera.py)
     camera_scenarios: tuple[str, ...] = ("default", "harsh")  # the square with the camera VPS and with the synthetic, first seed
     camera_path_seeds: tuple[int, ...] = (1, 2, 3)  # seed 002's path trial with the camera VPS and with the synthetic
@@ -93,6 +94,7 @@ QUICK = Plan(
     profile_seconds=3.0,
     fleet_robots=(1, 5),
     fleet_window=3.0,
+    settle_trials=3,
     camera_frames=20,
     camera_scenarios=("default",),
     camera_path_seeds=(1,),

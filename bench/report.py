@@ -177,6 +177,8 @@ def write(res: Results, out: Path) -> Path:
         lines += ["", *tables.accuracy(res)]
     if res.paths:
         lines += ["", *tables.navigation(res)]
+    if res.settle:
+        lines += ["", *tables.settle(res)]
     if res.cameras or res.camera_runs:
         lines += ["", *tables.camera(res)]
     if res.costs:

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import msgspec
 
-from zenav.bench import accuracy, chain, cost, fleet, live, profile, rawhop, speed
+from zenav.bench import accuracy, chain, cost, fleet, live, profile, rawhop, settle, speed
 from zenav.bench import camera as camera_bench
 from zenav.bench.accuracy import Spec, Summary
 from zenav.bench.chain import Chain
@@ -67,6 +67,7 @@ class Results:
     hot: dict[str, list[Hot]] = field(default_factory=dict)  # service -> its costliest functions
     fleet: list[Point] = field(default_factory=list)  # the router under N robots' traffic
     hosts: HostsResult | str | None = None  # the fleet over several hosts, or why it was not run
+    settle: dict[str, str] = field(default_factory=dict)  # pose error -> the settle table (markdown)
     cameras: dict[str, camera_bench.Measured] = field(default_factory=dict)  # camera -> its frames timed and read
     camera_runs: dict[str, list[tuple[Summary, Summary]]] = field(default_factory=dict)  # trial -> (synthetic, camera) per seed
 
@@ -156,6 +157,11 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
             res.kinematic[ctrl] = [nav_eval.path_trial(params, PRESETS["default"], s) for s in range(plan.kinematic_seeds)]
             errs = [e for p in res.paths[ctrl] for e in p.errors["path"]]
             note(f"controller {ctrl}: path error mean {sum(errs) / max(len(errs), 1) * 100:.2f} cm over {len(errs)} runs")
+    if "settle" in plan.sections:
+        res.settle["the synthetic late VPS's pose error"] = settle.table(plan.settle_trials)
+        camera = settle.table(plan.settle_trials, settle.CAMERA_SIGMA, heading_sigma=settle.CAMERA_HEADING_SIGMA)
+        res.settle["the camera VPS's pose error"] = camera
+        note(f"settle table: {plan.settle_trials} trials per move, two pose errors")
     if "camera" in plan.sections:
         for name, cfg in camera_bench.CAMERAS.items():
             res.cameras[name] = r = camera_bench.measure(cfg, plan.camera_frames)

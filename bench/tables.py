@@ -447,6 +447,22 @@ def _turns(res: Results) -> list[str]:
     ]
 
 
+# ------------------------------------------------------------------ settle
+def settle(res: Results) -> list[str]:
+    """How every kind of move ends, against the truth, with each pose error (bench/settle.py)."""
+    lines = [
+        "## Settle table",
+        "",
+        "The navigator's goal machine on the world model's robot (the navigator study's harness), each move from "
+        "(0, 0, 0) at the default tolerances, fed the truth plus a pose error that jumps at the VPS rate. Errors are "
+        "the true final pose to the goal; the arrival swing is the largest true heading change over the last 5 cm "
+        "travelled (for a pose, its final turn in place included).",
+    ]
+    for name, text in res.settle.items():
+        lines += ["", f"### With {name}", "", text]
+    return lines
+
+
 # ------------------------------------------------------------------ camera
 def camera(res: Results) -> list[str]:
     """The overhead camera: its frames timed and read, then the whole stack with it against the synthetic VPS."""

@@ -12,7 +12,7 @@ from zenav.cli.main import EXIT_OK
 
 # The bench's sections (bench/plan.py SECTIONS; a test keeps them equal): named here so
 # that building the parser imports none of the bench's optional packages.
-SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "camera", "profile", "fleet")
+SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "settle", "camera", "profile", "fleet")
 DEFAULT_OUT = Path("bench-report")  # a scratch directory: the committed report is written with --out docs/bench
 
 

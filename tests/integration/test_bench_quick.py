@@ -23,6 +23,7 @@ TINY = dataclasses.replace(
     laps=0.25,
     controllers=(Spec().controller,),
     kinematic_seeds=1,
+    settle_trials=1,
     limit=None,
 )
 
@@ -32,7 +33,7 @@ def test_a_tiny_bench_writes_the_report_with_its_sections(tmp_path):
     res = run(TINY, tmp_path, "zenav bench (test slice)", say=lines.append)
     path = report.write(res, tmp_path)
     text = path.read_text()
-    assert headings(text) == sections("default")
+    assert headings(text) == sections("default", settle=True)
     for png in ("latency.png", "run_ekf.png"):
         assert (tmp_path / png).stat().st_size > 10_000
     # the measurements are real: chains went through all five services, the robot drove and was localized
@@ -45,3 +46,4 @@ def test_a_tiny_bench_writes_the_report_with_its_sections(tmp_path):
     assert res.paths[TINY.controllers[0]][0].goals == 7  # the path, then six turns
     assert [(r.harness, r.goals) for r in res.speed] == [("in-process", 7)]
     assert any("speed" in line for line in lines)
+    assert "| point 1.5 m |" in res.settle["the camera VPS's pose error"]  # one trial of every move, with each pose error

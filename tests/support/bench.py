@@ -95,8 +95,8 @@ def headings(text: str) -> list[str]:
     return [line.split(" (")[0] for line in text.splitlines() if line.startswith("#")]
 
 
-def sections(*scenarios: str) -> list[str]:
-    """The headings of a report with every section, its accuracy measured in `scenarios`."""
+def sections(*scenarios: str, settle: bool = False) -> list[str]:
+    """The headings of a report with every section, its accuracy measured in `scenarios` (`settle`: and the settle table)."""
     return [
         "# zenav benchmark",
         "## Targets",
@@ -109,4 +109,5 @@ def sections(*scenarios: str) -> list[str]:
         "## Localization accuracy",
         *(f"### {s}" for s in scenarios),
         "## Navigation",
+        *(["## Settle table", "### With the synthetic late VPS's pose error", "### With the camera VPS's pose error"] if settle else []),
     ]

@@ -47,3 +47,11 @@ def test_the_camera_section_compares_the_camera_vps_with_the_synthetic(tmp_path)
     assert "| default, path | synthetic | 1 | 1.00 / 1.00 | 0.57 | 0.50 / 0.00 / 0.50 | 0 |" in text
     assert "| default, path | camera | 1 | 1.00 / 1.00 | 0.57 | 0.50 / 0.00 / 0.50 | 1 |" in text
     assert "- default, path camera seed 1: timeout" in text
+
+
+def test_the_settle_section_writes_a_table_per_pose_error(tmp_path):
+    res = Results(plan.only(plan.FULL, ["settle"]), "zenav bench --only settle", 1.7e9)
+    res.settle = {"the synthetic late VPS's pose error": "| move |\n|---|\n| point 0.3 m |", "the camera VPS's pose error": "| move |"}
+    text = report.write(res, tmp_path).read_text()
+    assert headings(text)[2:] == ["## Settle table", "### With the synthetic late VPS's pose error", "### With the camera VPS's pose error"]
+    assert "| point 0.3 m |" in text
