@@ -133,7 +133,8 @@ def payloads(topics: dict[str, dict[str, int]], queries: dict[str, str], total: 
 
         def with_params(case, suffix=suffix, t=typ, key=key) -> Get | None:
             selector = zenoh.Selector(key, str(zenoh.Parameters(case[0])))
-            error = refusal(lambda: codec.from_params(dict(selector.parameters), t))  # what the service will see
+            seen = {k: v for k, v in dict(selector.parameters).items() if not k.startswith("_")}  # `_` names are Zenoh's, ignored
+            error = refusal(lambda: codec.from_params(seen, t))  # what the service will see
             return Get(suffix, selector, None, error) if error else None
 
         gets += draw(malformed(typ), per_target, with_payload) + draw(malformed_params(typ), per_target, with_params)
