@@ -32,7 +32,7 @@ from zenav.common.config import Camera
 from zenav.common.geometry import wrap_angle
 from zenav.services.vps import calibration, detect, locate
 from zenav.services.vps import frames as camera_frames
-from zenav.world.camera import Lens, tag_pixels
+from zenav.world.camera import tag_pixels
 from zenav.world.render import Body, Renderer
 
 # A worse camera: half the resolution, darker (longer exposure, more blur), noisier, more uneven light.
@@ -71,7 +71,7 @@ class Pipeline:
     def __init__(self, cfg: Camera, backend: detect.Backend = "apriltag", seed: int = 1) -> None:
         self.cfg, self.renderer, self.detector = cfg, Renderer(cfg, seed), detect.make(backend, tag_pixels(cfg))
         tags = self.detector.detect(self.renderer.render(0.0, []))
-        self.cal = calibration.calibrate(tags, Lens.of(cfg), cfg.anchors, cfg.anchor_size)
+        self.cal = calibration.calibrate(tags, cfg)
 
     def locate(self, img: np.ndarray, robots: dict[str, int]) -> locate.Located:
         c = self.cfg

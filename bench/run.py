@@ -168,8 +168,8 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
             note(f"camera {name}: detect + locate p50 {r.timing['detect'].wall[0]:.1f} ms, position p95 {r.accuracy.pos_mm[1]:.2f} mm")
         specs = {f"{sc}, square": [Spec(scenario=sc, seed=plan.seeds[0], laps=plan.laps)] for sc in plan.camera_scenarios}
         specs["default, path"] = [Spec(seed=s, trial="path") for s in plan.camera_path_seeds]
+        rtf = plan.camera_rtf
         for trial, group in specs.items():
-            rtf = plan.camera_rtf
             res.camera_runs[trial] = [(runs.get(s, rtf), runs.get(replace(s, vps="camera"), rtf)) for s in group]
             cam = [c.pose.rmse for _, c in res.camera_runs[trial]]
             note(f"camera VPS, {trial}: pose RMSE {', '.join(f'{x * 100:.2f}' for x in cam)} cm")

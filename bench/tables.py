@@ -16,6 +16,7 @@ from zenav.bench.live import Live
 from zenav.bench.profile import RATE
 from zenav.bench.scoring import summary
 from zenav.bench.speed import METRICS, highest_by_harness
+from zenav.common.config import Camera
 from zenav.common.scenarios import HEADINGS, PATH
 from zenav.stack.composed import ROBOT_SERVICES
 
@@ -475,13 +476,14 @@ def camera(res: Results) -> list[str]:
             *camera_bench.lines(res.cameras, res.plan.camera_frames),
         ]
     if res.camera_runs:
-        rtf = next(iter(res.camera_runs.values()))[0][1].rtf
+        rtf, cam = next(iter(res.camera_runs.values()))[0][1].rtf, Camera()  # the runs' [camera] is the default
         lines += [
             "",
             f"The whole stack, one process per service, rtf {rtf:g}: each trial with the synthetic VPS (the truth plus the "
-            "scenario's VPS errors: the reference scenarios' VPS) and with the camera VPS (the sim renders 10 frames a "
-            "second, the vps detects the robot's tag, 0.3 s link delay; the scenario's odometry errors and faults "
-            "either way). Goal error: the truth at each goal's end to its point (square corners, the path's end). [cm, deg]",
+            f"scenario's VPS errors: the reference scenarios' VPS) and with the camera VPS (the sim renders {cam.rate_hz:g} "
+            f"frames a second, the vps detects the robot's tag, {cam.link_delay:g} s link delay; the scenario's odometry "
+            "errors and faults either way). Goal error: the truth at each goal's end to its point (square corners, the "
+            "path's end). [cm, deg]",
             "",
         ]
         rows = []

@@ -26,7 +26,7 @@ from zenav.common.client import Unavailable
 from zenav.common.config import AUTO_CALIBRATION, CALIBRATION_FILE, Camera
 from zenav.services.vps import calibration, detect, frames, locate, overlay
 from zenav.services.vps.calibration import Calibration, CalibrationError
-from zenav.world.camera import Lens, tag_pixels
+from zenav.world.camera import tag_pixels
 from zenav.world.render import Renderer
 
 FRAME_KEY = keys.field_key("camera/frame")
@@ -117,7 +117,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
         if img.shape != (cfg.height, cfg.width):
             raise RuntimeError(f"frame is {img.shape[1]}x{img.shape[0]}, [camera] says {cfg.width}x{cfg.height}")
         tags = detect.make("apriltag", tag_pixels(cfg)).detect(img)
-        cal = calibration.calibrate(tags, Lens.of(cfg), cfg.anchors, cfg.anchor_size)
+        cal = calibration.calibrate(tags, cfg)
     except (RuntimeError, frames.FrameError, CalibrationError) as e:
         print(f"zenav camera calibrate: {e}", file=sys.stderr)
         return EXIT_FAILED
@@ -145,10 +145,7 @@ def run_snapshot(args: argparse.Namespace) -> int:
     cal: Calibration | None = None
     found = None
     try:
-        if cfg.calibration == AUTO_CALIBRATION:
-            cal = calibration.calibrate(tags, Lens.of(cfg), cfg.anchors, cfg.anchor_size)
-        else:
-            cal = Calibration.load(cfg.calibration)
+        cal = calibration.configured(cfg) or calibration.calibrate(tags, cfg)
         found = locate.locate(tags, cal, cfg.robots, {a.id for a in cfg.anchors}, cfg.tag_size, cfg.tag_height, cfg.corner_sigma)
     except CalibrationError as e:
         print(f"zenav camera snapshot: no grid or fixes drawn: {e}", file=sys.stderr)

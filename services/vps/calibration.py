@@ -17,7 +17,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from zenav.common.config import Anchor, ConfigError
+from zenav.common.config import AUTO_CALIBRATION, Camera, ConfigError
 from zenav.services.vps.detect import Tag
 from zenav.world.camera import Lens
 
@@ -111,9 +111,15 @@ class Calibration:
             raise CalibrationError(f"camera calibration {p} is unreadable ({e}): run `zenav camera calibrate` again") from None
 
 
-def calibrate(tags: list[Tag], lens: Lens, anchors: tuple[Anchor, ...], size: float) -> Calibration:
-    """Fit the floor homography to the fixed tags seen in one frame (`size` [m]: their black square's edge)."""
-    known = {a.id: a for a in anchors}
+def configured(cfg: Camera) -> Calibration | None:
+    """The calibration file [camera] names; None when it says "auto" (fit one to the frames' fixed tags)."""
+    return None if cfg.calibration == AUTO_CALIBRATION else Calibration.load(cfg.calibration)
+
+
+def calibrate(tags: list[Tag], cfg: Camera) -> Calibration:
+    """Fit the floor homography to the fixed tags ([camera] anchors, anchor_size) seen in one frame, through cfg's lens."""
+    lens, size = Lens.of(cfg), cfg.anchor_size
+    known = {a.id: a for a in cfg.anchors}
     seen = [t for t in tags if t.id in known]
     ids = sorted({t.id for t in seen})
     if len(ids) != len(seen):

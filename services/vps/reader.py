@@ -15,7 +15,7 @@ from zenav.common import messages as m
 from zenav.common.config import Camera
 from zenav.services.vps import detect, frames, locate
 from zenav.services.vps.calibration import Calibration, CalibrationError, calibrate
-from zenav.world.camera import Lens, tag_pixels
+from zenav.world.camera import tag_pixels
 
 
 @dataclass(frozen=True)
@@ -52,7 +52,7 @@ class Reader:
         fitted = None
         if self.cal is None:
             try:
-                self.cal = fitted = calibrate(tags, Lens.of(c), c.anchors, c.anchor_size)
+                self.cal = fitted = calibrate(tags, c)
             except CalibrationError as e:
                 return Read([], locate.Located(), time.perf_counter() - start, uncalibrated=str(e))
         found = locate.locate(tags, self.cal, c.robots, self.anchors, c.tag_size, c.tag_height, c.corner_sigma)

@@ -11,9 +11,9 @@ from msgspec import Meta, Struct
 
 from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common.config import AUTO_CALIBRATION
 from zenav.common.config import Camera as CameraConfig
 from zenav.common.runtime import Service, timer
+from zenav.services.vps import calibration
 from zenav.services.vps.calibration import Calibration
 from zenav.services.vps.frames import FrameError, check_fits
 from zenav.services.vps.reader import Reader
@@ -53,7 +53,7 @@ class Vps(Service):
         if self.cfg.source == "camera":
             cam = self.settings.section("camera", CameraConfig)
             check_fits(cam, self.limits)
-            self.reader = Reader(cam, None if cam.calibration == AUTO_CALIBRATION else Calibration.load(cam.calibration))
+            self.reader = Reader(cam, calibration.configured(cam))
             self.link_delay = cam.link_delay  # [s]
             self.queues = {robot: DeliveryQueue() for robot in cam.robots}
             self.timing: dict[str, deque[float]] = {k: deque(maxlen=TIMING_WINDOW) for k in ("pipeline_ms_p50", "detect_ms_p50")}

@@ -15,7 +15,6 @@ from zenav.services.vps import calibration, detect
 from zenav.services.vps.calibration import CalibrationError
 from zenav.services.vps.frames import encode
 from zenav.services.vps.service import Vps
-from zenav.world.camera import Lens
 from zenav.world.render import Body, Renderer
 
 FRAME = keys.field_key("camera/frame")
@@ -31,7 +30,7 @@ def renderer() -> Renderer:
 def cal_file(renderer, tmp_path_factory) -> str:
     tags = detect.make().detect(renderer.render(0.0, []))
     path = tmp_path_factory.mktemp("cal") / "camera.json"
-    calibration.calibrate(tags, Lens.of(Camera()), Camera().anchors, Camera().anchor_size).save(path)
+    calibration.calibrate(tags, Camera()).save(path)
     return str(path)
 
 

@@ -10,7 +10,7 @@ from zenav.common.config import Camera
 from zenav.common.geometry import wrap_angle
 from zenav.services.vps import calibration, detect, locate
 from zenav.services.vps.calibration import Calibration, CalibrationError
-from zenav.world.camera import Lens, tag_pixels
+from zenav.world.camera import tag_pixels
 from zenav.world.render import Body, Renderer
 
 CFG = Camera(yaw=0.1, tilt=0.03)  # a mount a little off level, the default lens (barrel distortion)
@@ -32,7 +32,7 @@ def detector() -> detect.Detector:
 
 @pytest.fixture(scope="module")
 def cal(renderer, detector) -> Calibration:
-    return calibration.calibrate(detector.detect(renderer.render(0.0, [])), Lens.of(CFG), CFG.anchors, CFG.anchor_size)
+    return calibration.calibrate(detector.detect(renderer.render(0.0, [])), CFG)
 
 
 def fixes_of(cal, detector, img, h=CFG.tag_height, cfg=CFG):
@@ -93,10 +93,10 @@ def test_a_tag_of_the_wrong_size_is_refused(renderer, detector, cal):
 
 def test_calibration_needs_fixed_tags(renderer, detector):
     with pytest.raises(CalibrationError, match="needs 2 fixed tags in view, saw 0"):
-        calibration.calibrate([], Lens.of(CFG), CFG.anchors, CFG.anchor_size)
+        calibration.calibrate([], CFG)
     tags = detector.detect(renderer.render(0.0, []))
     with pytest.raises(CalibrationError, match="seen twice"):
-        calibration.calibrate([*tags, tags[0]], Lens.of(CFG), CFG.anchors, CFG.anchor_size)
+        calibration.calibrate([*tags, tags[0]], CFG)
 
 
 def test_no_calibration_names_what_to_run(tmp_path):
