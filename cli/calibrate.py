@@ -58,14 +58,14 @@ def run(args: argparse.Namespace) -> int:
     if args.side <= 0.0 or args.runs < 1:
         print("zenav calibrate: --side must be > 0 and --runs >= 1", file=sys.stderr)
         return EXIT_USAGE
-    cw, ccw = [tuple(e) for e in args.cw], [tuple(e) for e in args.ccw]
-    if bool(cw) != bool(ccw):
+    if bool(args.cw) != bool(args.ccw):
         print("zenav calibrate: give both --cw and --ccw errors, or neither (to drive)", file=sys.stderr)
         return EXIT_USAGE
-    if not cw:
+    runs = [u.Run(c, u.square(args.side, c, nominal.track), tuple(e)) for c in (True, False) for e in (args.cw if c else args.ccw)]
+    if not runs:
         try:
             with Client(args.robot or "r1", args.connect, connect_timeout=CONNECT_TIMEOUT) as client:
-                cw, ccw = drive_runs(client, args, robot, nominal)
+                runs = drive_runs(client, args, robot, nominal)
         except ZenavError as e:
             print(f"zenav calibrate: {e}", file=sys.stderr)
             return EXIT_UNAVAILABLE
@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"zenav calibrate: {e}", file=sys.stderr)
             return EXIT_FAILED
     try:
-        fit = u.fit(args.side, cw, ccw, nominal)
+        fit = u.fit(runs, nominal)
     except ValueError as e:
         print(f"zenav calibrate: {e}", file=sys.stderr)
         return EXIT_FAILED
@@ -122,9 +122,9 @@ def set_keys(text: str, section: str, values: dict[str, float]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def drive_runs(client: Client, args: argparse.Namespace, robot: Robot, nominal: u.Geometry) -> tuple[list, list]:
-    """Drive the squares, measure each end: (clockwise errors, counter-clockwise errors) [m]."""
-    errors: dict[bool, list] = {True: [], False: []}
+def drive_runs(client: Client, args: argparse.Namespace, robot: Robot, nominal: u.Geometry) -> list[u.Run]:
+    """Drive the squares clockwise, then counter-clockwise; measure each end."""
+    runs: list[u.Run] = []
     vps: queue.Queue[m.VpsPose] = queue.Queue()
     if args.measure == "vps":
         client.subscribe("vps/pose", vps.put)
@@ -137,10 +137,10 @@ def drive_runs(client: Client, args: argparse.Namespace, robot: Robot, nominal: 
             sq = u.Square(args.side, clockwise, nominal, robot.ticks_per_rev or 1, speed=args.speed)
             still = drive_square(client, sq)
             end = mean_pose(vps, since=still) if args.measure == "vps" else typed_end()
-            err = start_frame(start, end)
-            errors[clockwise].append((err[0] - sq.pose[0], err[1] - sq.pose[1]))
-            print(f"  end error {errors[clockwise][-1][0] * 1e3:+.1f}, {errors[clockwise][-1][1] * 1e3:+.1f} mm")
-    return errors[True], errors[False]
+            x, y = start_frame(start, end)
+            runs.append(u.Run(clockwise, sq.trace, (x - sq.pose[0], y - sq.pose[1])))
+            print(f"  end error {runs[-1].error[0] * 1e3:+.1f}, {runs[-1].error[1] * 1e3:+.1f} mm")
+    return runs
 
 
 def drive_square(client: Client, sq: u.Square) -> float:

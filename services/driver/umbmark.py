@@ -6,7 +6,8 @@ a tape on the floor). The error (measured minus dead-reckoned, in the start fram
 along the first leg, y to its left) has two systematic causes (Borenstein & Feng,
 1996): a track width that is not the nominal one (turns over- or under-shoot) and
 wheels of unequal radii (straight legs curve). `fit` finds both by least squares on
-the exact model of the square (`end_error`), without the paper's small-angle forms.
+the exact model of each run as its encoders counted it (`end_error`), without the
+paper's small-angle forms or its assumption that every turn and leg ended exactly.
 """
 
 from __future__ import annotations
@@ -47,30 +48,47 @@ def _arc(x: float, y: float, th: float, ds: float, dth: float) -> tuple[float, f
     return x + chord * math.cos(th + h), y + chord * math.sin(th + h), th + dth
 
 
-def end_error(side: float, clockwise: bool, track_scale: float, ratio: float, track: float) -> tuple[float, float]:
-    """The end position [m] (start frame) of a square the robot drove perfectly by its nominal odometry,
-    when its true track is `track_scale` x nominal `track` [m] and right/left radius is `ratio` (mean kept)."""
+class Run(NamedTuple):
+    """One square as driven: what the encoders counted, and where it ended."""
+
+    clockwise: bool
+    trace: Sequence[tuple[float, float]]  # (left, right) wheel distance [m] counted each step, on the nominal radii
+    error: tuple[float, float]  # [m] measured end minus dead-reckoned end, in the start frame
+
+
+def square(side: float, clockwise: bool, track: float) -> list[tuple[float, float]]:
+    """The trace of a square of `side` [m] driven perfectly by the nominal odometry of `track` [m]: legs
+    counted `side`, turns in place counted +-90 deg (what a run typed in by hand is assumed to be)."""
+    arc = math.pi / 4.0 * track * (-1.0 if clockwise else 1.0)  # each wheel's distance in a turn
+    return [(side, side), (-arc, arc)] * LEGS
+
+
+def _end(left: np.ndarray, right: np.ndarray, track: float) -> np.ndarray:
+    """Where wheel distances `left`, `right` [m] per step (each an arc) take a robot of `track` [m]: (x, y)."""
+    ds, dth = (left + right) / 2.0, (right - left) / track
+    before = np.concatenate(([0.0], np.cumsum(dth)[:-1]))  # heading at the start of each step
+    chord = ds * np.sinc(dth / (2.0 * np.pi))  # sin(h) / h, h = dth / 2
+    return np.array([np.sum(chord * np.cos(before + dth / 2.0)), np.sum(chord * np.sin(before + dth / 2.0))])
+
+
+def end_error(trace: Sequence[tuple[float, float]], track_scale: float, ratio: float, track: float) -> tuple[float, float]:
+    """The end error [m] (true end minus dead-reckoned end, start frame) of a run that counted `trace` on the
+    nominal `track` [m], when the true track is `track_scale` x nominal and right/left radius is `ratio` (mean kept)."""
+    d = np.asarray(trace, dtype=float).reshape(-1, 2)
     k_left, k_right = 2.0 / (1.0 + ratio), 2.0 * ratio / (1.0 + ratio)  # true radius / nominal
-    true_track = track * track_scale
-    turn = -math.pi / 2.0 if clockwise else math.pi / 2.0
-    x = y = th = 0.0
-    for _ in range(LEGS):
-        d_left, d_right = side * k_left, side * k_right  # both wheels counted `side`
-        x, y, th = _arc(x, y, th, (d_left + d_right) / 2.0, (d_right - d_left) / true_track)
-        d_right, d_left = turn * track / 2.0 * k_right, -turn * track / 2.0 * k_left  # counted +-turn * track / 2
-        x, y, th = _arc(x, y, th, (d_left + d_right) / 2.0, (d_right - d_left) / true_track)
-    return x, y
+    e = _end(d[:, 0] * k_left, d[:, 1] * k_right, track * track_scale) - _end(d[:, 0], d[:, 1], track)
+    return float(e[0]), float(e[1])
 
 
-def fit(side: float, cw: Sequence[tuple[float, float]], ccw: Sequence[tuple[float, float]], nominal: Geometry) -> Fit:
-    """The geometry that explains the end errors [m] of the clockwise and counter-clockwise runs of a square of `side` [m]."""
-    if not cw or not ccw:
+def fit(runs: Sequence[Run], nominal: Geometry) -> Fit:
+    """The geometry that explains the end errors of `runs`, clockwise and counter-clockwise. The model
+    replays each run's own trace, so a run that over- or under-shot a turn or a leg is fitted as driven."""
+    if {run.clockwise for run in runs} != {True, False}:
         raise ValueError("UMBmark needs at least one clockwise and one counter-clockwise run")
-    runs = [(True, e) for e in cw] + [(False, e) for e in ccw]
-    measured = np.array([v for _, e in runs for v in e], dtype=float)
+    measured = np.array([v for run in runs for v in run.error], dtype=float)
 
     def model(q: np.ndarray) -> np.ndarray:
-        return np.array([v for c, _ in runs for v in end_error(side, c, q[0], q[1], nominal.track)])
+        return np.array([v for run in runs for v in end_error(run.trace, q[0], q[1], nominal.track)])
 
     q = np.array([1.0, 1.0])  # (track_scale, ratio): the nominal robot
     for _ in range(FIT_STEPS):
@@ -120,6 +138,7 @@ class Square:
         self.heading = 0.0  # [rad] the heading the current phase holds or turns to (unwrapped)
         self.leg_start = (0.0, 0.0)
         self.last: tuple[int, int] | None = None
+        self.trace: list[tuple[float, float]] = []  # (left, right) [m] counted at each step
 
     @property
     def done(self) -> bool:
@@ -130,6 +149,7 @@ class Square:
         if self.last is not None:
             dl = ((left - self.last[0] + 2**31) % 2**32 - 2**31) * self.per_tick * self.nominal.radius_left
             dr = ((right - self.last[1] + 2**31) % 2**32 - 2**31) * self.per_tick * self.nominal.radius_right
+            self.trace.append((dl, dr))
             self.pose = _arc(*self.pose, (dl + dr) / 2.0, (dr - dl) / self.nominal.track)
         self.last = (left, right)
         while not self.done:

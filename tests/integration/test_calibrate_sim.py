@@ -39,8 +39,9 @@ def test_calibrate_squares_on_the_sim_recover_the_track_width(make_stack, client
     robot = stack.settings.robot
     nominal = u.Geometry(robot.track_width, robot.wheel_radius, robot.wheel_radius)
     args = argparse.Namespace(side=SIDE, runs=1, speed=0.15, measure="vps")
-    cw, ccw = calibrate.drive_runs(client, args, robot, nominal)
-    assert math.hypot(*cw[0]) > 0.02  # a 5 % track error shows
-    fit = u.fit(SIDE, cw, ccw, nominal)
-    assert math.isclose(fit.geometry.track, robot.track_width * (1.0 + TRACK_ERR), rel_tol=0.003), fit
-    assert math.isclose(fit.ratio, 1.0, abs_tol=0.003), fit
+    runs = calibrate.drive_runs(client, args, robot, nominal)
+    assert [r.clockwise for r in runs] == [True, False]
+    assert math.hypot(*runs[0].error) > 0.02  # a 5 % track error shows
+    fit = u.fit(runs, nominal)
+    assert math.isclose(fit.geometry.track, robot.track_width * (1.0 + TRACK_ERR), rel_tol=0.001), fit
+    assert math.isclose(fit.ratio, 1.0, abs_tol=0.001), fit

@@ -26,7 +26,7 @@ def test_start_frame():
 
 
 def test_errors_given_are_fitted_and_written(tmp_path, capsys):
-    cw, ccw = u.end_error(1.0, True, 1.04, 1.0, NOMINAL_TRACK), u.end_error(1.0, False, 1.04, 1.0, NOMINAL_TRACK)
+    cw, ccw = (u.end_error(u.square(1.0, c, NOMINAL_TRACK), 1.04, 1.0, NOMINAL_TRACK) for c in (True, False))
     config = tmp_path / "robot.toml"
     config.write_text('[deployment]\nclock = "wall"\n\n[robot]\ntrack_width = 0.1156\n')
     code = main(["calibrate", "--config", str(config), f"--cw={cw[0]},{cw[1]}", f"--ccw={ccw[0]},{ccw[1]}"])
