@@ -1,16 +1,16 @@
 """Many robots: the router alone under N robots' traffic, then a fleet over several hosts.
 
 Router load: a player process publishes every topic of N robots at its contract rate
-(docs/contract.md: sensors, clock, truth and the chain at 100 Hz, compass, fixes and
-vps at 10 Hz, nav/state at 5 Hz, six diags at 1 Hz), each message a Clock stamped
+(docs/contract.md: sensors, truth and the chain at 100 Hz, clock at 20 Hz, compass,
+fixes and vps at 10 Hz, nav/state at 5 Hz, six diags at 1 Hz), each message a Clock stamped
 with the wall clock; a sink process holds one session per subscribing service, each
 subscribed to what that service reads, so the router fans out as for real stacks.
 Per N: the router's CPU and the delivery latency (sink arrival - stamp).
 
 Hosts: network namespaces joined by veth pairs to a bridge (in a namespace of its own,
 addresses in 10.213.7.0/24, which exist only inside them), one router per host linked
-to the others, one robot per host publishing its clock, and a watcher per host on
-`zenav/*/clock`. Every watcher must hear every robot; then one host's router is killed
+to the others, one robot's traffic played per host, and a watcher per host on
+`zenav/*/sensors/encoders`. Every watcher must hear every robot; then one host's router is killed
 and the others must go on hearing each other without a gap.
 """
 
@@ -39,7 +39,7 @@ from zenav.stack.launcher import ProcStack
 
 # (suffix, rate [Hz], sessions that read it: the services subscribed to it, the first the latency probe's)
 TRAFFIC = (
-    ("clock", 100.0, 5),
+    ("clock", 20.0, 5),
     ("sensors/encoders", 100.0, 1),
     ("sensors/imu", 100.0, 2),
     ("odom", 100.0, 1),
@@ -54,6 +54,7 @@ TRAFFIC = (
     ("diag/all", 6.0, 0),  # six services' diag at 1 Hz
 )
 SESSIONS = 5  # the most services reading one topic (clock: all but the sim)
+PROBE = "sensors/encoders"  # the topic whose delivery latency is measured (100 Hz, read by the first session)
 TICK = 0.01  # [s] the player's pace
 READY = "ready"
 ALL = "all"  # a watcher has heard every robot
@@ -93,7 +94,7 @@ def play(connect: str, robots: list[str], duration: float) -> float:
 def sink(connect: str, robots: list[str], timeout: float) -> dict:
     """Subscribe as the services would; at the end marker, the probe's count and latencies [ms].
 
-    The probe (every robot's clock on the first session) is a Python callback; the other
+    The probe (every robot's PROBE topic on the first session) is a Python callback; the other
     subscriptions take their samples into a one-slot ring in Zenoh, so the router does all of
     the fan-out while this process stays light."""
     buses = [ZenohBus.open(connect) for _ in range(SESSIONS)]
@@ -110,7 +111,7 @@ def sink(connect: str, robots: list[str], timeout: float) -> dict:
     for i, bus in enumerate(buses):
         for r in robots:
             for suffix, _, readers in TRAFFIC:
-                if i == 0 and suffix == "clock":
+                if i == 0 and suffix == PROBE:
                     bus.subscribe(keys.key(r, suffix), probe)
                 elif i < readers:
                     rings.append(bus.session.declare_subscriber(keys.key(r, suffix), zenoh.handlers.RingChannel(1)))
@@ -123,8 +124,9 @@ def sink(connect: str, robots: list[str], timeout: float) -> dict:
 
 
 def expected(robots: int, duration: float) -> int:
-    """Probe samples the sink should see from the player's run (every robot's clock)."""
-    return robots * round(duration * 100.0)
+    """Probe samples the sink should see from the player's run (every robot's PROBE topic)."""
+    rate = next(r for s, r, _ in TRAFFIC if s == PROBE)
+    return robots * round(duration * rate)
 
 
 @dataclass(frozen=True)
@@ -257,20 +259,20 @@ class HostsResult:
 
 def watch(connect: str, robots: list[str]) -> None:
     """Print READY once subscribed, ALL once every robot was heard, then, when stdin closes, the
-    arrival times [s, wall] of every robot's clock as JSON."""
+    arrival times [s, wall] of every robot's PROBE samples as JSON."""
     bus = ZenohBus.open(connect)
     heard: dict[str, list[float]] = {}
     lock = threading.Lock()
     everyone = threading.Event()
 
-    def on_clock(key: str, data: bytes) -> None:
+    def on_sample(key: str, data: bytes) -> None:
         with lock:
             heard.setdefault(key.split("/")[1], []).append(time.time())
             if not everyone.is_set() and all(r in heard for r in robots):
                 everyone.set()
                 print(ALL, flush=True)
 
-    bus.subscribe("zenav/*/clock", on_clock)
+    bus.subscribe(f"zenav/*/{PROBE}", on_sample)
     print(READY, flush=True)
     sys.stdin.read()  # the bench closes it to end the watch
     with lock:

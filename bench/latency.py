@@ -1,8 +1,8 @@
 """Sensor-to-wheel latency through the stack, stage by stage, on the host's wall clock.
 
 Every message of the chain carries the t of the encoder sample it descends from, and
-the sim stamps the `clock` message of that t with its wall clock just before it
-publishes the sample. An observer subscribed to the chain stamps each arrival. For
+the sim stamps the `sim/truth` message of that t with its wall clock, taken just
+before it publishes the sample. An observer subscribed to the chain stamps each arrival. For
 each t, end to end = arrival of `motors/wheels` - the sim's stamp (now - t on
 motors/wheels at a realtime factor of 1), and it splits exactly into: delivery (sim
 to a subscriber: one hop, the observer's own), then per service the hop into it plus
@@ -52,11 +52,11 @@ class ChainRecorder:
         self.recording = False
         self.stamp: dict[float, float] = {}  # t -> sim's wall clock at t [s]
         self.arrival: dict[str, dict[float, float]] = {topic: {} for topic in CHAIN}  # topic -> t -> wall [s]
-        client.subscribe("clock", self._on_clock)
+        client.subscribe("sim/truth", self._on_truth)
         for topic in CHAIN:
             client.subscribe(topic, self._stamper(topic))
 
-    def _on_clock(self, msg: m.Clock) -> None:
+    def _on_truth(self, msg: m.Truth) -> None:
         if self.recording:
             with self._lock:
                 self.stamp[msg.t] = msg.wall

@@ -92,7 +92,7 @@ class SimClock:
     is a sim restart; so is a run of REFUSED_RUN refused ticks that agree with each other.
     """
 
-    def __init__(self, max_extrapolation: float = 0.05, future: float = FUTURE_STAMP, jump: float = CLOCK_JUMP) -> None:
+    def __init__(self, max_extrapolation: float = 0.25, future: float = FUTURE_STAMP, jump: float = CLOCK_JUMP) -> None:
         self._lock = threading.Lock()
         self._t: float | None = None
         self._wall = 0.0

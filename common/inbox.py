@@ -1,6 +1,7 @@
 """A service's input queue: a priority lane before the normal one, bounded in items and bytes.
 
-Bus threads put; the one worker takes. Items of the priority lane (e.g. nav/stop) are
+Bus threads put; the one worker takes (one worker may serve several inboxes that share
+one condition: runtime.Executor). Items of the priority lane (e.g. nav/stop) are
 taken before anything in the normal lane, whatever is queued there. A put that would
 pass either bound is refused (the caller counts it); the priority lane has its own
 item bound so that a flood of normal input cannot keep a stop out.
@@ -17,11 +18,12 @@ from typing import Any
 class Inbox:
     """Two FIFO lanes under one lock; `get` prefers the priority lane."""
 
-    def __init__(self, max_items: int, max_bytes: int) -> None:
+    def __init__(self, max_items: int, max_bytes: int, ready: threading.Condition | None = None) -> None:
         self.max_items, self.max_bytes = max_items, max_bytes  # [items], [bytes] of the normal lane
         self._lanes: tuple[deque, deque] = (deque(), deque())  # (priority, normal) of (item, size)
         self._bytes = 0  # [bytes] queued in both lanes
-        self._ready = threading.Condition(threading.Lock())
+        # Inboxes of services that share one worker share this condition: a put wakes that worker.
+        self._ready = ready or threading.Condition(threading.Lock())
 
     def put(self, item: Any, size: int = 0, priority: bool = False) -> bool:
         """Queue an item of `size` bytes; False (not queued) when it would pass a bound."""

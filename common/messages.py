@@ -58,6 +58,7 @@ class Truth(Topic, frozen=True, kw_only=True):
     theta: Angle  # [rad]
     v: Velocity  # [m/s] forward
     omega: Velocity  # [rad/s] CCW
+    wall: Annotated[float, Meta(ge=0.0, le=1e11)] = 0.0  # [s] the sim host's wall clock (epoch) at the step; 0: unknown
 
 
 class Encoders(Topic, frozen=True, kw_only=True):

@@ -6,8 +6,10 @@ rest of the stack through one shared Zenoh session: a sample published here reac
 the local subscribers once (directly) and the network once (the session's
 publishers send only to remote subscribers, its subscribers take only remote
 samples). Queries, liveliness tokens and their watchers go through the session.
-`ComposedStack` runs named services of one robot this way, one worker thread each,
-each with its own config section, diag, counters and liveliness token.
+`ComposedStack` runs named services of one robot this way on one worker thread
+(runtime.Executor: a sample from outside wakes it once, and the chain through the
+process runs on it without a thread switch), each service with its own config
+section, diag, counters and liveliness token.
 """
 
 from __future__ import annotations
@@ -23,10 +25,10 @@ from zenav import services as registry
 from zenav.common.app import LOG_HELP, PEER_LISTEN, deployment_args, settings_from_args, setup_logging, stop_on_signals, watch_parent
 from zenav.common.bus import MSGPACK, Handle, MemoryBus, QueryCallback, SampleCallback, TokenCallback, ZenohBus
 from zenav.common.config import ConfigError, Settings
-from zenav.common.runtime import Duplicate, Service
+from zenav.common.runtime import Duplicate, Executor, Service
 
 ROBOT_SERVICES = ("odometry", "localizer", "navigator", "motor")  # what runs on the robot's own computer
-JOIN_TIMEOUT = 5.0  # [s] a service's worker thread gets this long to end after stop
+JOIN_TIMEOUT = 5.0  # [s] the worker thread gets this long to end after stop
 _MSGPACK = zenoh.Encoding(MSGPACK)
 
 
@@ -162,32 +164,35 @@ class ComposedStack:
         self.names = [n for n in registry.ALL if n in set(services)]  # the registry's start order
         self.bus: LocalBus | None = None
         self.services: dict[str, Service] = {}
-        self._threads: dict[str, threading.Thread] = {}
+        self.executor = Executor()
+        self._thread: threading.Thread | None = None
 
     def start(self) -> ComposedStack:
-        """Open the session, then start every named service (Duplicate: the ones started are stopped again)."""
+        """Open the session, start every named service, then the worker (Duplicate: the ones started are stopped again)."""
         dep = self.settings.deployment
         self.bus = LocalBus(ZenohBus.open(dep.connect, mode=dep.zenoh_mode, listen=PEER_LISTEN if dep.zenoh_mode == "peer" else None))
         try:
             for name in self.names:
                 cls = registry.load(name)
                 svc = cls(self.settings, self.bus, cls.make_clock(self.settings))
+                self.executor.add(svc)
                 svc.start()
-                th = threading.Thread(target=svc.run, name=f"zenav-{name}", daemon=True)
-                th.start()
-                self.services[name], self._threads[name] = svc, th
+                self.services[name] = svc
         except BaseException:
             self.stop()
             raise
+        self._thread = threading.Thread(target=self.executor.run, name="zenav-composed", daemon=True)
+        self._thread.start()
         return self
 
     def stop(self) -> None:
-        """Stop the services in the registry's stop order, then close the session."""
+        """End the worker, close the services in the registry's stop order (each its on_stop), then the session."""
+        self.executor.stop()
+        if self._thread is not None:
+            self._thread.join(timeout=JOIN_TIMEOUT)
+            self._thread = None
         for name in registry.stop_order(self.services):
-            svc = self.services.pop(name)
-            svc.stop()
-            self._threads.pop(name).join(timeout=JOIN_TIMEOUT)
-            svc.close()
+            self.services.pop(name).close()
         if self.bus is not None:
             self.bus.close()
             self.bus = None

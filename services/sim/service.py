@@ -31,6 +31,7 @@ class SimConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     max_burst: Annotated[int, Meta(ge=1, le=10_000)] = 50  # [steps] most steps one tick catches up before resyncing
     encoder_start: m.Ticks = 0  # [ticks] count both encoders read at start (to exercise the int32 wrap)
     camera: bool = False  # render the overhead camera's frames ([camera]) on zenav/field/camera/frame
+    clock_rate_hz: Annotated[float, Meta(ge=1.0, le=2000.0)] = 20.0  # [Hz] of sim time: clock ticks (at most one a step)
 
 
 OVERRUN_HOLD = 5.0  # [s] of the scheduling clock a fall behind keeps the status degraded
@@ -142,8 +143,10 @@ class Sim(Service):
             if fx.imu:
                 self.publish("sensors/imu", imu)
         # The control path's sample first; the clock and the truth of the same t after it.
-        self.publish("clock", m.Clock(t=t, rtf=self.cfg.rtf, wall=wall))
-        truth = m.Truth(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega)
+        # The clock ticks at clock_rate_hz (services extrapolate between ticks), from the first step on.
+        if sensors.due(self.steps - 1, self.cfg.clock_rate_hz, self.rate):
+            self.publish("clock", m.Clock(t=t, rtf=self.cfg.rtf, wall=wall))
+        truth = m.Truth(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega, wall=wall)
         self.publish("sim/truth", truth)
         if sensors.due(self.steps, self.scen.compass_rate_hz, self.rate):
             self.publish("sensors/compass", m.Compass(t=fx.stamp, heading=self.bot.compass()))

@@ -32,7 +32,9 @@ def test_topics_lists_keys_types_rates_and_tokens(stack, router, capsys):
     assert code == EXIT_OK, err
     rows = {line.split()[0]: line.split() for line in out[2:] if line.startswith("zenav/r1/")}
     assert rows["zenav/r1/clock"][1] == "Clock" and rows["zenav/r1/sensors/encoders"][1] == "Encoders"
-    assert 20.0 < float(rows["zenav/r1/clock"][2]) < 200.0 and rows["zenav/r1/clock"][3] == "Hz"
+    encoders, clock = float(rows["zenav/r1/sensors/encoders"][2]), float(rows["zenav/r1/clock"][2])
+    assert 20.0 < encoders < 200.0 and rows["zenav/r1/clock"][3] == "Hz"
+    assert 5.0 < clock < encoders  # [sim] clock_rate_hz 20 against the 100 Hz sensors
     tokens = [line.strip() for line in out if line.startswith("  ")]
     assert {"zenav/r1/alive/sim", "zenav/r1/alive/navigator"} <= set(tokens)
 

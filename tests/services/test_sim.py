@@ -3,6 +3,7 @@
 import math
 
 import msgpack
+import msgspec
 import pytest
 
 from tests.support.rig import Rig
@@ -30,14 +31,22 @@ def reset(rig, **req):
 def test_rates_over_one_second_of_sim_time():
     rig = Rig(Sim)
     rig.run(1.0)
-    for suffix in ("clock", "sim/truth", "sensors/encoders", "sensors/imu"):
+    for suffix in ("sim/truth", "sensors/encoders", "sensors/imu"):
         msgs = rig.got(suffix)
         assert len(msgs) == 100, suffix
         assert [x.t for x in msgs] == pytest.approx([i / 100 for i in range(1, 101)])
     compass = rig.got("sensors/compass")
     assert [c.t for c in compass] == pytest.approx([i / 10 for i in range(1, 11)])
-    clocks = rig.got("clock")
+    clocks = rig.got("clock")  # [sim] clock_rate_hz = 20, from the first step
+    assert [c.t for c in clocks] == pytest.approx([0.01 + i / 20 for i in range(20)])
     assert all(c.rtf == 1.0 and c.wall > 0 for c in clocks)
+    assert all(x.wall > 0 for x in rig.got("sim/truth"))
+
+
+def test_the_clock_ticks_at_its_rate_up_to_every_step():
+    rig = Rig(Sim, sim={"clock_rate_hz": 1000.0})
+    rig.run(0.1)
+    assert [c.t for c in rig.got("clock")] == pytest.approx([i / 100 for i in range(1, 11)])
     assert rig.svc.counters.values["overruns"] == 0
 
 
@@ -58,10 +67,10 @@ def test_fixed_steps_catch_up_a_late_tick():
 def test_burst_is_bounded_then_resyncs():
     rig = Rig(Sim)
     rig.advance(2.0)  # a stall: at most 50 steps, the rest of the time is dropped
-    assert len(rig.got("clock")) == 50 and rig.svc.counters.values["overruns"] == 1
+    assert len(rig.got("sim/truth")) == 50 and rig.svc.counters.values["overruns"] == 1
     rig.run(0.1)  # back on schedule from the resync, no more bursts
-    assert len(rig.got("clock")) == 60 and rig.svc.counters.values["overruns"] == 1
-    assert rig.got("clock")[-1].t == pytest.approx(0.6)
+    assert len(rig.got("sim/truth")) == 60 and rig.svc.counters.values["overruns"] == 1
+    assert rig.got("sim/truth")[-1].t == pytest.approx(0.6)
 
 
 def test_falling_behind_is_degraded_for_a_while_then_ok():
@@ -152,7 +161,11 @@ def sensor_stream(seed_at_start, reset_seed):
     for i in range(100):
         command(rig, 6.0 + (i % 7), 4.0)
         rig.run(0.01)
-    return [(k, d) for k, d in rig.bus.published[start:] if k.split("/", 2)[2] in SENSOR_TOPICS]
+    out = [(k, d) for k, d in rig.bus.published[start:] if k.split("/", 2)[2] in SENSOR_TOPICS]
+    unstamped = [
+        (k, codec.encode(msgspec.structs.replace(codec.decode(d, m.Truth), wall=0.0)) if k.endswith("truth") else d) for k, d in out
+    ]
+    return unstamped  # the wall clock differs between runs
 
 
 def test_reset_reseeds_so_runs_repeat():
@@ -192,7 +205,8 @@ def test_diag_reports_rates_and_counters():
     rig.run(1.0)
     rig.advance(0.001)
     [diag] = rig.got("diag/sim")
-    assert diag.rates["clock"] == pytest.approx(100.0, rel=0.02)
+    assert diag.rates["sim/truth"] == pytest.approx(100.0, rel=0.02)
+    assert diag.rates["clock"] == pytest.approx(20.0, rel=0.02)
     assert diag.rates["sensors/compass"] == pytest.approx(10.0, rel=0.02)
     assert diag.counters["overruns"] == 0 and diag.counters["command_timeouts"] == 0
     assert "zenav/r1/alive/sim" in rig.bus.alive()

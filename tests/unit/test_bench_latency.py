@@ -20,6 +20,11 @@ class FakeClient:
         self.callbacks[suffix] = callback
 
 
+def stamp(t: float, wall: float) -> m.Truth:
+    """The sim's truth of step t, stamped with its wall clock."""
+    return m.Truth(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0, wall=wall)
+
+
 def test_stages_split_end_to_end_exactly(monkeypatch):
     client = FakeClient()
     rec = ChainRecorder(client)
@@ -28,13 +33,13 @@ def test_stages_split_end_to_end_exactly(monkeypatch):
     monkeypatch.setattr("zenav.bench.latency.time.time", lambda: wall[0])
     steps = {"sensors/encoders": 0.001, "odom": 0.002, "pose": 0.0005, "cmd_vel": 0.0007, "motors/wheels": 0.0004}  # [s]
     for t in (0.01, 0.02, 0.03):
-        client.callbacks["clock"](m.Clock(t=t, wall=wall[0]))
+        client.callbacks["sim/truth"](stamp(t, wall[0]))
         for topic in CHAIN:
             wall[0] += steps[topic]
             client.callbacks[topic](m.Wheels(t=t, left=0.0, right=0.0))
         wall[0] += 0.1
     # t = 0.04 never reaches the wheels: left out; a repeated wheels t keeps the first arrival
-    client.callbacks["clock"](m.Clock(t=0.04, wall=wall[0]))
+    client.callbacks["sim/truth"](stamp(0.04, wall[0]))
     client.callbacks["sensors/encoders"](m.Encoders(t=0.04, left=0, right=0))
     wall[0] += 5.0
     client.callbacks["motors/wheels"](m.Wheels(t=0.03, left=0.0, right=0.0))
@@ -49,7 +54,7 @@ def test_stages_split_end_to_end_exactly(monkeypatch):
 def test_nothing_is_recorded_outside_the_window():
     client = FakeClient()
     rec = ChainRecorder(client)
-    client.callbacks["clock"](m.Clock(t=0.01, wall=1.0))
+    client.callbacks["sim/truth"](m.Truth(t=0.01, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0, wall=1.0))
     for topic in CHAIN:
         client.callbacks[topic](m.Wheels(t=0.01, left=0.0, right=0.0))
     assert rec.stages()[END_TO_END] == []
