@@ -63,7 +63,9 @@ class Bus(Protocol):
 
     def subscribe(self, key: str, callback: SampleCallback) -> Handle: ...
 
-    def queryable(self, key: str, callback: QueryCallback) -> Handle: ...
+    def queryable(self, key: str, callback: QueryCallback, urgent: bool = False) -> Handle:
+        """Serve queries on `key`. `urgent` (nav/stop): on a link of its own where the bus has links,
+        so the query never waits behind other input still on the wire."""
 
     def token(self, key: str) -> Handle: ...
 
@@ -129,7 +131,7 @@ class MemoryBus:
         self._subs.append(entry)
         return _MemHandle(self._subs, entry)
 
-    def queryable(self, key: str, callback: QueryCallback) -> Handle:
+    def queryable(self, key: str, callback: QueryCallback, urgent: bool = False) -> Handle:
         entry = (zenoh.KeyExpr(key), callback)
         self._queryables.append(entry)
         return _MemHandle(self._queryables, entry)
@@ -274,10 +276,18 @@ class _ZQuery:
 
 
 class ZenohBus:
-    """A bus on one Zenoh session (closed with the bus)."""
+    """A bus on one Zenoh session (closed with the bus), and for urgent queryables a second one.
 
-    def __init__(self, session: zenoh.Session) -> None:
+    A link carries its samples in order: a stop sent while megabytes of goals from another
+    client are on their way to this process (in the router's queue and the sockets) would
+    arrive after them, Zenoh's real-time priority notwithstanding. Urgent queryables are
+    declared on a second session, opened like the first on the first such declaration: a
+    link of its own to the router that nothing else fills."""
+
+    def __init__(self, session: zenoh.Session, reopen: Callable[[], zenoh.Session] | None = None) -> None:
         self.session = session
+        self._reopen = reopen  # opens another session like this one (None: urgent queryables share it)
+        self._urgent: zenoh.Session | None = None
         self._pubs: dict[str, zenoh.Publisher] = {}
         self._lock = threading.Lock()
         self._handles: list = []
@@ -292,7 +302,11 @@ class ZenohBus:
         lease: float | None = None,
     ) -> ZenohBus:
         """Open a session (zenoh.ZError if `connect_timeout` passes with no router); `lease` [s] as in zenoh_config."""
-        return cls(zenoh.open(zenoh_config(mode, connect, listen, connect_timeout=connect_timeout, lease=lease)))
+
+        def make() -> zenoh.Session:
+            return zenoh.open(zenoh_config(mode, connect, listen, connect_timeout=connect_timeout, lease=lease))
+
+        return cls(make(), reopen=make)
 
     def publish(self, key: str, data: bytes) -> None:
         pub = self._pubs.get(key)
@@ -316,8 +330,14 @@ class ZenohBus:
         self._handles.append(h)
         return h
 
-    def queryable(self, key: str, callback: QueryCallback) -> Handle:
-        h = self.session.declare_queryable(key, _direct(lambda q: callback(_ZQuery(q, key))))
+    def queryable(self, key: str, callback: QueryCallback, urgent: bool = False) -> Handle:
+        session = self.session
+        if urgent and self._reopen is not None:
+            with self._lock:
+                if self._urgent is None:
+                    self._urgent = self._reopen()
+                session = self._urgent
+        h = session.declare_queryable(key, _direct(lambda q: callback(_ZQuery(q, key))))
         self._handles.append(h)
         return h
 
@@ -353,5 +373,6 @@ class ZenohBus:
         return out
 
     def close(self) -> None:
-        if not self.session.is_closed():
-            self.session.close()
+        for session in (self._urgent, self.session):
+            if session is not None and not session.is_closed():
+                session.close()

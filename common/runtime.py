@@ -17,9 +17,10 @@ A service is a class whose methods are declared as handlers:
 
 Bus callbacks only enqueue; one worker runs every handler in arrival order, and
 timers on the service clock in between (services composed in one process share one
-worker: `Executor`). Queries declared `priority` (and liveliness
-events) go in a lane the worker empties before anything else, so a stop is never
-queued behind other input. The queue is bounded in items and bytes ([limits]): a full
+worker: `Executor`). Queries declared `priority` (and liveliness events) go in a lane
+the worker empties before anything else, so a stop is never queued behind other input;
+on Zenoh they are served on a session of their own (bus.ZenohBus), so a stop is not
+behind other input on the wire either. The queue is bounded in items and bytes ([limits]): a full
 one drops new input (`dropped_overflow`).
 
 Sizes are checked in the bus callback, before anything is decoded: a payload over
@@ -160,7 +161,7 @@ def timer(period: float | str) -> Callable:
 def query(suffix: str, typ: type | None = None, *, priority: bool = False, acts: bool = True) -> Callable:
     """Serve queries on `suffix`; the method returns a reply, or None to reply later.
 
-    `priority`: taken before any other queued input. `acts=False`: read-only, so a
+    `priority`: taken before any other queued input, and served on a link of its own. `acts=False`: read-only, so a
     wildcard query may reach it; an acting query runs only on its exact key.
     """
 
@@ -297,7 +298,7 @@ class Service:
             if hasattr(fn, "_zenav_query"):
                 suffix, typ, priority, acts = fn._zenav_query
                 enqueue = self._query_enqueuer(bound, suffix, typ, priority, acts)
-                self._handles.append(self.bus.queryable(self.key(suffix), enqueue))
+                self._handles.append(self.bus.queryable(self.key(suffix), enqueue, urgent=priority))
             if hasattr(fn, "_zenav_liveliness"):
                 self._handles.append(self.watch(keys.alive(self.robot, fn._zenav_liveliness), bound))
             if hasattr(fn, "_zenav_timer"):

@@ -131,8 +131,8 @@ class LocalBus:
                     remote.handle.undeclare()
                     del self._remote[key]
 
-    def queryable(self, key: str, callback: QueryCallback) -> Handle:
-        return self.rest.queryable(key, callback)
+    def queryable(self, key: str, callback: QueryCallback, urgent: bool = False) -> Handle:
+        return self.rest.queryable(key, callback, urgent)
 
     def token(self, key: str) -> Handle:
         return self.rest.token(key)
