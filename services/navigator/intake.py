@@ -91,15 +91,19 @@ def follow_path(req: m.FollowPath, cfg: Params) -> Resolved:
 
     A point without one: the last takes `tolerance`, the others `waypoint_tolerance`.
     """
-    if len(req.points) > cfg.max_path_points:
-        raise Invalid(f"points: {len(req.points)} is over [navigator] max_path_points = {cfg.max_path_points}")
-    bad = next((i for i, p in enumerate(req.points) if len(p) == 3 and p[2] <= 0.0), None)
-    if bad is not None:
-        raise Invalid(f"points[{bad}]: the tolerance (third value) must be > 0")
+    pts = req.points
+    if len(pts) > cfg.max_path_points:
+        raise Invalid(f"points: {len(pts)} is over [navigator] max_path_points = {cfg.max_path_points}")
     speed, tol = _speed(req.speed, cfg), req.tolerance or cfg.tolerance
     through = req.waypoint_tolerance or cfg.waypoint_tolerance
-    points = tuple((p[0], p[1]) for p in req.points)
-    tols = tuple(p[2] if len(p) == 3 else through for p in req.points[:-1]) + (req.points[-1][2] if len(req.points[-1]) == 3 else tol,)
+    if max(map(len, pts)) == 2:  # no point names its tolerance: no loop in Python (a stop may wait on this)
+        points, tols = tuple(pts), (through,) * (len(pts) - 1) + (tol,)
+    else:
+        bad = next((i for i, p in enumerate(pts) if len(p) == 3 and p[2] <= 0.0), None)
+        if bad is not None:
+            raise Invalid(f"points[{bad}]: the tolerance (third value) must be > 0")
+        points = tuple((p[0], p[1]) for p in pts)
+        tols = tuple(p[2] if len(p) == 3 else through for p in pts[:-1]) + (pts[-1][2] if len(pts[-1]) == 3 else tol,)
     goal = Goal(goals.FOLLOWING_PATH, points=points, speed=speed, tolerance=tols[-1], point_tolerances=tols, timeout=_timeout(req, cfg))
     info = {"type": "follow_path", "points": req.points, "speed": speed, "tolerance": tols[-1], "waypoint_tolerance": through}
     return goal, info

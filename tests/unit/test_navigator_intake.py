@@ -36,3 +36,13 @@ def test_paths_longer_than_the_limit_and_zero_speed_straights_are_invalid():
         intake.follow_path(m.FollowPath(points=[(0.0, 1.0)] * 4), CFG)
     with pytest.raises(intake.Invalid, match="speed"):
         intake.move_straight(m.MoveStraight(speed=0.0), CFG)
+
+
+def test_path_tolerances_named_by_points_or_not():
+    opts = dict(tolerance=0.02, waypoint_tolerance=0.04)
+    plain, _ = intake.follow_path(m.FollowPath(points=[(0.0, 1.0), (1.0, 1.0), (1.0, 0.0)], **opts), CFG)
+    assert plain.points == ((0.0, 1.0), (1.0, 1.0), (1.0, 0.0)) and plain.point_tolerances == (0.04, 0.04, 0.02)
+    named, _ = intake.follow_path(m.FollowPath(points=[(0.0, 1.0, 0.03), (1.0, 1.0), (1.0, 0.0, 0.05)], **opts), CFG)
+    assert named.points == plain.points and named.point_tolerances == (0.03, 0.04, 0.05)
+    with pytest.raises(intake.Invalid, match=r"points\[1\]: the tolerance"):
+        intake.follow_path(m.FollowPath(points=[(0.0, 1.0), (1.0, 1.0, 0.0), (1.0, 0.0)]), CFG)
