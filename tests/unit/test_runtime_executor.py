@@ -1,0 +1,56 @@
+"""Services composed in one process share one worker: runtime.Executor."""
+
+import threading
+
+from tests.support.echo import Echo
+from zenav.common import codec, keys
+from zenav.common import messages as m
+from zenav.common.bus import MemoryBus
+from zenav.common.clock import ManualClock
+from zenav.common.config import Settings
+from zenav.common.runtime import Executor, Service, publish, subscribe
+
+
+class Forward(Service):
+    """Encoders in, a command out (as the chain's first services would)."""
+
+    name = "navigator"
+
+    def __init__(self, *a):
+        super().__init__(*a)
+        self.threads: list[int] = []
+
+    @subscribe("sensors/encoders")
+    @publish("cmd_vel")
+    def on_encoders(self, msg: m.Encoders) -> m.CmdVel:
+        self.threads.append(threading.get_ident())
+        return m.CmdVel(t=msg.t, v=0.1, omega=0.0)
+
+
+def test_a_message_passes_through_the_composed_services_on_the_executors_thread():
+    bus, clock = MemoryBus(), ManualClock(1.0)
+    executor = Executor()
+    services = [Forward(Settings.load(None), bus, clock), Echo(Settings.load(None), bus, clock)]
+    for svc in services:
+        executor.add(svc)
+        svc.start()
+    wheels: list[tuple[int, m.Wheels]] = []
+    arrived = threading.Event()
+
+    def on_wheels(key: str, data: bytes) -> None:
+        wheels.append((threading.get_ident(), codec.decode(data, m.Wheels)))
+        arrived.set()
+
+    bus.subscribe(keys.key("r1", "motors/wheels"), on_wheels)
+    worker = threading.Thread(target=executor.run)
+    worker.start()
+    try:
+        bus.publish(keys.key("r1", "sensors/encoders"), codec.encode(m.Encoders(t=0.5, left=1, right=2)))
+        assert arrived.wait(5.0)
+    finally:
+        executor.stop()
+        worker.join(5.0)
+    assert not worker.is_alive()
+    assert services[0].threads == [worker.ident] and [(ident, w.t, w.left) for ident, w in wheels] == [(worker.ident, 0.5, 0.1)]
+    for svc in services:
+        svc.close()
