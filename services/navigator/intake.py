@@ -7,7 +7,7 @@ that cannot be driven raises `Invalid`, naming the field (an invalid_argument re
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, cast
 
 from zenav.common import messages as m
 from zenav.common.geometry import wrap_angle
@@ -97,7 +97,7 @@ def follow_path(req: m.FollowPath, cfg: Params) -> Resolved:
     speed, tol = _speed(req.speed, cfg), req.tolerance or cfg.tolerance
     through = req.waypoint_tolerance or cfg.waypoint_tolerance
     if max(map(len, pts)) == 2:  # no point names its tolerance: no loop in Python (a stop may wait on this)
-        points, tols = tuple(pts), (through,) * (len(pts) - 1) + (tol,)
+        points, tols = cast(tuple[tuple[float, float], ...], tuple(pts)), (through,) * (len(pts) - 1) + (tol,)
     else:
         bad = next((i for i, p in enumerate(pts) if len(p) == 3 and p[2] <= 0.0), None)
         if bad is not None:
