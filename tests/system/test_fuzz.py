@@ -60,9 +60,9 @@ def declared(monkeypatch):
     seen: list[tuple[ZenohBus, str, str]] = []
     for method in ("subscribe", "queryable"):
 
-        def spy(bus, key, callback, method=method, original=getattr(ZenohBus, method)):  # noqa: B008 (bind per loop)
+        def spy(bus, key, callback, method=method, original=getattr(ZenohBus, method), **options):  # noqa: B008 (bind per loop)
             seen.append((bus, method, key))
-            return original(bus, key, callback)
+            return original(bus, key, callback, **options)
 
         monkeypatch.setattr(ZenohBus, method, spy)
     return seen
