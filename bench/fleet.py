@@ -35,11 +35,12 @@ from zenav.bench.latency import Stats
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.bus import ZenohBus, zenoh_config
+from zenav.services.sim.service import SimConfig
 from zenav.stack.launcher import ProcStack
 
 # (suffix, rate [Hz], sessions that read it: the services subscribed to it, the first the latency probe's)
 TRAFFIC = (
-    ("clock", 20.0, 5),
+    ("clock", SimConfig().clock_rate_hz, 5),
     ("sensors/encoders", 100.0, 1),
     ("sensors/imu", 100.0, 2),
     ("odom", 100.0, 1),

@@ -71,7 +71,7 @@ def _end(left: np.ndarray, right: np.ndarray, track: float) -> np.ndarray:
     return np.array([np.sum(chord * np.cos(before + dth / 2.0)), np.sum(chord * np.sin(before + dth / 2.0))])
 
 
-def end_error(trace: Sequence[tuple[float, float]], track_scale: float, ratio: float, track: float) -> tuple[float, float]:
+def end_error(trace: Sequence[tuple[float, float]] | np.ndarray, track_scale: float, ratio: float, track: float) -> tuple[float, float]:
     """The end error [m] (true end minus dead-reckoned end, start frame) of a run that counted `trace` on the
     nominal `track` [m], when the true track is `track_scale` x nominal and right/left radius is `ratio` (mean kept)."""
     d = np.asarray(trace, dtype=float).reshape(-1, 2)
@@ -86,9 +86,10 @@ def fit(runs: Sequence[Run], nominal: Geometry) -> Fit:
     if {run.clockwise for run in runs} != {True, False}:
         raise ValueError("UMBmark needs at least one clockwise and one counter-clockwise run")
     measured = np.array([v for run in runs for v in run.error], dtype=float)
+    traces = [np.asarray(run.trace, dtype=float).reshape(-1, 2) for run in runs]  # once, not at every evaluation
 
     def model(q: np.ndarray) -> np.ndarray:
-        return np.array([v for run in runs for v in end_error(run.trace, q[0], q[1], nominal.track)])
+        return np.array([v for d in traces for v in end_error(d, q[0], q[1], nominal.track)])
 
     q = np.array([1.0, 1.0])  # (track_scale, ratio): the nominal robot
     for _ in range(FIT_STEPS):

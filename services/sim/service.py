@@ -31,7 +31,8 @@ class SimConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     max_burst: Annotated[int, Meta(ge=1, le=10_000)] = 50  # [steps] most steps one tick catches up before resyncing
     encoder_start: m.Ticks = 0  # [ticks] count both encoders read at start (to exercise the int32 wrap)
     camera: bool = False  # render the overhead camera's frames ([camera]) on zenav/field/camera/frame
-    clock_rate_hz: Annotated[float, Meta(ge=1.0, le=2000.0)] = 20.0  # [Hz] of sim time: clock ticks (at most one a step)
+    # [Hz] of sim time: clock ticks (at most one a step); at rtf 1 a tick at least every SimClock's 0.25 s of extrapolation
+    clock_rate_hz: Annotated[float, Meta(ge=5.0, le=2000.0)] = 20.0
 
 
 OVERRUN_HOLD = 5.0  # [s] of the scheduling clock a fall behind keeps the status degraded

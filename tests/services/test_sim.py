@@ -218,7 +218,7 @@ def test_make_clock_scales_wall_time():
     assert clock.wall_delay(0.01) == pytest.approx(0.002)
 
 
-@pytest.mark.parametrize("bad", [{"rtf": 1000.0}, {"rtf": 0.0}, {"command_timeout": 0.0}, {"speed": 1.0}])
+@pytest.mark.parametrize("bad", [{"rtf": 1000.0}, {"rtf": 0.0}, {"command_timeout": 0.0}, {"speed": 1.0}, {"clock_rate_hz": 2.0}])
 def test_bad_config_fails_fast(bad):
     with pytest.raises(ConfigError, match="sim"):
         Settings.load(None, sim=bad).section("sim", SimConfig)
