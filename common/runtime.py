@@ -20,7 +20,9 @@ timers on the service clock in between (services composed in one process share o
 worker: `Executor`). Queries declared `priority` (and liveliness events) go in a lane
 the worker empties before anything else, so a stop is never queued behind other input;
 on Zenoh they are served on a session of their own (bus.ZenohBus), so a stop is not
-behind other input on the wire either. The queue is bounded in items and bytes ([limits]): a full
+behind other input on the wire either. Before the worker gets to it, such a query (on
+its exact key) runs the service's `on_priority` hook at once on the bus's thread: the
+navigator commands zero there, without waiting for the input the worker has in hand. The queue is bounded in items and bytes ([limits]): a full
 one drops new input (`dropped_overflow`).
 
 Sizes are checked in the bus callback, before anything is decoded: a payload over
@@ -333,6 +335,11 @@ class Service:
     def on_start(self) -> None:
         """Hook: runs once before the liveliness token is declared."""
 
+    def on_priority(self, suffix: str, queued: bool) -> None:
+        """Hook: a priority query on `suffix` (its exact key) just arrived and is `queued` for the
+        worker (False: the queue refused it). Runs at once on the bus's thread, beside the
+        worker: keep it short and thread-safe."""
+
     def on_clock_reset(self) -> None:
         """Hook: the stack clock started again (sim restarted); drop time-indexed state."""
 
@@ -475,7 +482,11 @@ class Service:
                     "max_payload" if big else "max_params",
                 )
                 reply_error(q, "invalid_argument", text, read_params=psize <= lim.max_params)
-            elif not self._put(("query", fn, exact, typ, q), size + psize, priority):
+                return
+            queued = self._put(("query", fn, exact, typ, q), size + psize, priority)
+            if priority and q.key == exact:
+                self.on_priority(suffix, queued)
+            if not queued:
                 reply_error(q, "unavailable", f"{self.name} is overloaded: input queue full")
 
         return enqueue

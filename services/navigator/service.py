@@ -6,13 +6,16 @@ is seen alive (the request is answered `unavailable` if it is not seen within
 `lease_grace`), and is aborted, with the robot stopped, when the token disappears
 (its holder closed, died, or went silent past its session's transport lease: the
 robot library's LEASE_TIMEOUT). A goal without a lease runs until it ends or is stopped.
-nav/stop goes ahead of every other queued input. Targets outside the [field] are
+nav/stop goes ahead of every other queued input, and commands zero the moment it
+arrives (`on_priority`, on the bus's thread): until the worker has handled it, the
+worker sends no cmd_vel, so nothing computed before the stop follows its zero. Targets outside the [field] are
 refused. Diag status is `error` while the motor is gone, or while a goal is wanted
 and no usable pose comes.
 """
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from typing import Any
 
@@ -53,11 +56,12 @@ class Navigator(Service):
         self._shown: tuple | None = None  # (state, goal_id, result) last published
         self._motor_gone = False  # the motor's token went (and has not come back)
         self._pose_wanted = False  # a goal was refused or aborted for want of a usable pose
+        self._cmd_lock = threading.Lock()  # cmd_vel from the worker vs the zero of an arriving stop
+        self._stops = 0  # nav/stop queries arrived (queued) but not yet handled: no cmd_vel from the worker
 
     # ------------------------------------------------------------ inputs
     @subscribe("pose")
-    @publish("cmd_vel")
-    def on_pose(self, msg: m.Pose) -> m.CmdVel | None:
+    def on_pose(self, msg: m.Pose) -> None:
         """Run the goal on each pose: the command acts on (and carries the t of) this pose."""
         last = self.machine.pose
         if last is not None and msg.t < last.t:
@@ -71,7 +75,10 @@ class Navigator(Service):
         self._show_changes()
         if self.status != "ok":
             self._health(self.clock.now())
-        return None if cmd is None else m.CmdVel(t=msg.t, v=cmd[0], omega=cmd[1])
+        if cmd is not None:
+            with self._cmd_lock:
+                if self._stops <= 0:
+                    self.publish("cmd_vel", m.CmdVel(t=msg.t, v=cmd[0], omega=cmd[1]))
 
     @timer("check_period")
     def check(self, now: float) -> None:
@@ -150,10 +157,13 @@ class Navigator(Service):
 
     @query("nav/stop", priority=True)
     def stop_query(self, req: m.Empty, q: Query) -> m.StopReply:
-        """Cancel the goal (and a goal waiting for its lease) and command zero at once, ahead of any queued input."""
-        self._zero()
+        """Cancel the goal (and a goal waiting for its lease) and command zero, ahead of any queued input
+        (on_priority commanded zero already, when the query arrived)."""
         self._drop_pending("cancelled by nav/stop before its lease was seen")
         end = self.machine.cancel("stopped")
+        with self._cmd_lock:
+            self._zero()
+            self._stops -= 1
         if end is not None:
             self._ended(end, zero=False)
         self._pose_wanted = False
@@ -176,6 +186,12 @@ class Navigator(Service):
             not_ready=self.machine.refusal(self.clock.now()) or "",
             exit=self.machine.exit,
         )
+
+    def on_priority(self, suffix: str, queued: bool) -> None:
+        """nav/stop arrived (bus thread): zero now; the worker sends no cmd_vel until it has handled the stop."""
+        with self._cmd_lock:
+            self._zero()
+            self._stops += queued
 
     def on_clock_reset(self) -> None:
         """The sim restarted: poses start again from t = 0, and the goal is void."""

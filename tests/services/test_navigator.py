@@ -349,6 +349,39 @@ def test_stop_is_dispatched_before_queued_long_paths(rig):
     assert [reply(q).goal_id for q in held] == list(range(1, 16))
 
 
+def test_stop_commands_zero_on_arrival_and_nothing_computed_before_it_follows(rig):
+    reply(rig.query("nav/move_straight", {"speed": 0.2}))
+    rig.step(5)
+    sent = len(rig.published("cmd_vel"))
+    assert rig.cmd[0] > 0.0
+    stop = rig.bus.query("zenav/r1/nav/stop")  # arrived; the worker has not taken it yet
+    assert rig.published("cmd_vel")[sent:] == [m.CmdVel(t=0.0, v=0.0, omega=0.0)] and not stop.replies
+    s = rig.bot.state  # the pose the worker had in hand when the stop arrived
+    rig.nav.on_pose(m.Pose(t=rig.clock.now(), x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega))
+    assert len(rig.published("cmd_vel")) == sent + 1 and rig.cmd == (0.0, 0.0)
+    rig.nav.drain()
+    assert reply(stop, m.StopReply).state == "STOPPED" and rig.nav.machine.result == "cancelled"
+    reply(rig.query("nav/move_straight", {"speed": 0.2}))  # the next goal drives again
+    rig.step(3)
+    assert rig.cmd[0] > 0.0
+
+
+def test_a_stop_the_full_queue_refuses_still_commands_zero():
+    r = Rig()
+    r.pose()
+    reply(r.query("nav/move_straight", {"speed": 0.2}))
+    r.step(3)
+    lane = r.nav.limits.queue_items  # the priority lane's bound
+    stops = [r.bus.query("zenav/r1/nav/stop") for _ in range(lane + 1)]
+    assert reply(stops[-1], m.StopReply).error == "unavailable" and r.cmd == (0.0, 0.0)
+    r.nav.drain()
+    assert all(reply(q, m.StopReply).state == "STOPPED" for q in stops[:-1])
+    reply(r.query("nav/move_straight", {"speed": 0.2}))  # the refused stop holds nothing back
+    r.step(3)
+    assert r.cmd[0] > 0.0
+    r.nav.close()
+
+
 def test_a_10k_point_path_is_followed_from_its_first_point(rig):
     rep = reply(rig.query("nav/follow_path", long_path(10_000)))
     assert rep.state == "FOLLOWING_PATH"
@@ -376,6 +409,7 @@ def test_a_wildcard_get_reaches_only_the_read_only_queries(rig):
     [status] = [codec.decode(d, m.StatusReply) for ok, d in q.replies if ok]
     assert status.state == "MOVING_TO_POINT"
     assert rig.nav.counters.values["wildcard_refused"] == 7  # six goals and stop
+    assert rig.cmd[0] > 0.0  # the stop it reached did not command zero either
 
 
 @pytest.mark.parametrize(
