@@ -1,6 +1,7 @@
 """Safety figures measured on real processes: a frozen operator, a stop under a flood, bad inputs.
 
-    python -m zenav.bench.safety
+    python -m zenav.bench.safety               # each figure once
+    python -m zenav.bench.safety --floods 30   # and the stop under a flood 30 times (spread)
 
 A router and the whole stack run as processes (their logs in a temporary folder);
 the operator and the flood are child processes too (bench/safety_rig.py); the bad
@@ -10,10 +11,12 @@ the processes).
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
 import signal
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -207,24 +210,41 @@ def _get(session: zenoh.Session, selector: str) -> list[bytes]:
     return [r.err.payload.to_bytes() if r.err is not None else b"" for r in session.get(selector, timeout=WAIT)]
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     """Measure and print the figures."""
+    ap = argparse.ArgumentParser(prog="python -m zenav.bench.safety", description=__doc__.splitlines()[0])
+    ap.add_argument("--floods", type=int, default=1, metavar="N", help="run the stop under a flood N times (default 1)")
+    args = ap.parse_args(argv)
+    if not 1 <= args.floods <= 1000:
+        ap.error("--floods: 1 to 1000")
     with tempfile.TemporaryDirectory(prefix="zenav-safety-") as logs:
-        return _measure(Rig(Path(logs)))
+        return _measure(Rig(Path(logs)), args.floods)
 
 
-def _measure(rig: Rig) -> int:
+def _spread(values: list[float]) -> str:
+    """min / median / max in ms."""
+    return " / ".join(f"{v * 1000:.1f}" for v in (min(values), statistics.median(values), max(values)))
+
+
+def _measure(rig: Rig, floods: int) -> int:
     try:
         for cli in (False, True):
             f = frozen_operator(rig, cli)
             who = "zenav goto --wait" if cli else "a Robot"
             print(f"frozen operator ({who}, SIGSTOP mid-goal): zero cmd_vel after {f.cmd_vel:.3f} s, ", end="")
             print(f"zero wheels after {f.wheels:.3f} s ({f.message})")
-        fl = stop_under_flood(rig)
+        runs = [stop_under_flood(rig) for _ in range(floods)]
+        fl = runs[0]
         print(
             f"nav/stop after {fl.goals} follow_path goals of {FLOOD_POINTS} points: answered in {fl.answered * 1000:.1f} ms, "
             f"zero cmd_vel {fl.zero * 1000:.1f} ms, {fl.after} of the goals answered after it"
         )
+        if floods > 1:
+            print(
+                f"  over {floods} runs, min / median / max: answered {_spread([r.answered for r in runs])} ms, "
+                f"zero cmd_vel {_spread([r.zero for r in runs])} ms; "
+                f"under 50 ms: answered {sum(r.answered < 0.05 for r in runs)}, zero {sum(r.zero < 0.05 for r in runs)}"
+            )
         for g in bad_inputs(rig):
             print(f"largest pose gap, {g.what}: {g.gap * 1000:.0f} ms ({g.counter} = {g.count})")
         w = wildcard_get(rig)
