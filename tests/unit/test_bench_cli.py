@@ -6,7 +6,7 @@ import argparse
 
 import pytest
 
-from zenav.bench import plan
+from zenav.bench import plan, safety
 from zenav.bench.accuracy import Spec
 from zenav.cli import bench as cli
 from zenav.common.app import parse_sets
@@ -46,3 +46,10 @@ def test_a_camera_run_sets_the_sim_and_the_vps_alike_in_both_harnesses():
     s = spec.settings(2.0)
     assert s.sections["sim"] == {"rtf": 2.0, "camera": True} and s.sections["vps"] == {"source": "camera"}
     assert parse_sets([a for a in Spec().args(1.0) if a.startswith("vps.")]) == {"vps": {"source": "synthetic"}}
+
+
+def test_safety_bench_refuses_a_flood_count_out_of_range(capsys):
+    with pytest.raises(SystemExit) as e:
+        safety.main(["--floods", "0"])
+    assert e.value.code == 2 and "--floods: 1 to 1000" in capsys.readouterr().err
+    assert safety._spread([0.003, 0.001, 0.002]) == "1.0 / 2.0 / 3.0"
