@@ -1,6 +1,8 @@
 """The bus a service talks through: Zenoh for real, in-memory for unit and service tests.
 
-Callbacks given to a bus run on the bus's threads (Zenoh's) and must only enqueue.
+Callbacks given to a bus run on the bus's threads (Zenoh's): they must be short and
+never block (a service queues its input there, or serves a sample at once when it is
+idle: runtime.Service).
 """
 
 from __future__ import annotations
@@ -240,8 +242,8 @@ def zenoh_config(
 def _direct(fn: Callable) -> zenoh.handlers.Callback:
     """Run `fn` on Zenoh's network thread, in arrival order across all of a session's
     subscriptions. (Zenoh's default runs each callback on a thread of its own, so two
-    topics from one publisher could be enqueued out of order.) Safe because every
-    zenav callback only enqueues."""
+    topics from one publisher could be enqueued out of order.) Safe because zenav's
+    callbacks are short and never block: they queue, or run one sample's handler."""
     return zenoh.handlers.Callback(fn, indirect=False)
 
 

@@ -49,6 +49,16 @@ class Inbox:
             self._bytes -= size
             return True, item
 
+    def wait(self, timeout: float) -> None:
+        """Block until something is queued or `timeout` s passed."""
+        with self._ready:
+            if not (self._lanes[0] or self._lanes[1]):
+                self._ready.wait(timeout)
+
+    def empty(self) -> bool:
+        """Nothing queued in either lane."""
+        return not (self._lanes[0] or self._lanes[1])
+
     def qsize(self) -> int:
         """Items queued in both lanes."""
         return len(self._lanes[0]) + len(self._lanes[1])

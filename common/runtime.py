@@ -15,12 +15,15 @@ A service is a class whose methods are declared as handlers:
         @query("nav/stop", Empty, priority=True)
         def stop(self, req: Empty, q: Query) -> StopReply: ...
 
-Bus callbacks only enqueue; one worker runs every handler in arrival order, and
-timers on the service clock in between (services composed in one process share one
-worker: `Executor`). Queries declared `priority` (and liveliness events) go in a lane
-the worker empties before anything else, so a stop is never queued behind other input;
-on Zenoh they are served on a session of their own (bus.ZenohBus), so a stop is not
-behind other input on the wire either. Before the worker gets to it, such a query (on
+One handler runs at a time, in arrival order, with timers on the service clock in
+between. A sample that finds the service idle and nothing queued is served at once on
+the bus's thread that brought it (`inline`, what the deployments set: no thread
+switch); anything else is queued for the service's worker (services composed in one
+process share one worker: `Executor`), and queries always are. Queries declared
+`priority` (and liveliness events) go in a lane the worker empties before anything
+else, so a stop is never queued behind other input; on Zenoh they are served on a
+session of their own (bus.ZenohBus), so a stop is not behind other input on the wire
+either. Before the worker gets to it, such a query (on
 its exact key) runs the service's `on_priority` hook at once on the bus's thread: the
 navigator commands zero there, without waiting for the input the worker has in hand.
 The queue is bounded in items and bytes ([limits]): a full one drops new input
@@ -242,6 +245,8 @@ class Service:
         self.instance = _instance_id()  # this process's (and object's) id in instance/<service>/<id>
         self._others: set[str] = set()  # instance ids of other instances of this service seen alive
         self._started = False
+        self._busy = threading.Lock()  # held while this service's code runs (worker, or a bus thread serving inline)
+        self.inline = False  # serve a sample on the bus's thread when nothing is queued (set by the deployments)
 
     # ------------------------------------------------------------ helpers
     def key(self, suffix: str) -> str:
@@ -367,21 +372,20 @@ class Service:
     def run(self) -> None:
         """Process input and timers until stop()."""
         while not self._stop.is_set():
-            delay = self._run_timers()
-            got, item = self._inbox.get(timeout=0.1 if delay is None else min(delay, 0.1))
-            if got and item is not None:
-                self._dispatch(item)
+            delay = self.turn(Executor.ROUND)
+            self._inbox.wait(0.1 if delay is None else min(delay, 0.1))
 
     def turn(self, budget: int) -> float | None:
-        """Without blocking: dispatch up to `budget` queued items, then the due timers (the
-        Executor's step). Wall seconds until the next timer (None: unknown)."""
-        for _ in range(budget):
-            got, item = self._inbox.get()
-            if not got:
-                break
-            if item is not None:
-                self._dispatch(item)
-        return self._run_timers()
+        """Without blocking: dispatch up to `budget` queued items, then the due timers (a
+        worker's step). Wall seconds until the next timer (None: unknown)."""
+        with self._busy:
+            for _ in range(budget):
+                got, item = self._inbox.get()
+                if not got:
+                    break
+                if item is not None:
+                    self._dispatch(item)
+            return self._run_timers()
 
     def drain(self, limit: int = 100_000) -> int:
         """Process everything queued and every due timer, without blocking (tests)."""
@@ -403,6 +407,20 @@ class Service:
             return True
         self.counters.inc("dropped_overflow")
         return False
+
+    def _take(self, item: tuple, size: int) -> None:
+        """A sample from a bus thread: served on that thread if the service is idle and nothing
+        older is queued (no thread switch: `inline`), else queued for the worker."""
+        if self.inline and self._busy.acquire(blocking=False):
+            try:
+                if self._inbox.empty():
+                    self._dispatch(item)
+                    return
+                self._put(item, size)
+            finally:
+                self._busy.release()
+            return
+        self._put(item, size)
 
     def _refuse_duplicate(self) -> None:
         """Raise Duplicate, naming the other instance, if this service's token is declared."""
@@ -435,7 +453,7 @@ class Service:
         if len(data) > self.limits.max_payload:
             self._oversize("clock", len(data), self.limits.max_payload, "max_payload")
             return
-        self._put(("clock", self._on_clock, "clock", m.Clock, data), len(data))
+        self._take(("clock", self._on_clock, "clock", m.Clock, data), len(data))
 
     def _on_clock(self, msg: m.Clock) -> None:
         clock = self.clock
@@ -459,7 +477,7 @@ class Service:
             if len(data) > limit:
                 self._oversize(suffix, len(data), limit, "max_payload")
                 return
-            self._put(("msg", fn, suffix, typ, data), len(data))
+            self._take(("msg", fn, suffix, typ, data), len(data))
 
         return enqueue
 
@@ -623,7 +641,8 @@ class Executor:
 
     The services' inboxes share one condition: input from outside wakes the worker once,
     and a message one service publishes to another in the process is taken on the same
-    thread in the next round, without a thread switch. Each round gives every service a
+    thread in the next round, without a thread switch (or at once on the bus's thread that
+    brought it, when that service is idle: `Service.inline`). Each round gives every service a
     turn of up to ROUND items (priority lane first) and its due timers, in the order given.
     """
 

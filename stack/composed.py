@@ -7,9 +7,10 @@ the local subscribers once (directly) and the network once (the session's
 publishers send only to remote subscribers, its subscribers take only remote
 samples). Queries, liveliness tokens and their watchers go through the session.
 `ComposedStack` runs named services of one robot this way on one worker thread
-(runtime.Executor: a sample from outside wakes it once, and the chain through the
-process runs on it without a thread switch), each service with its own config
-section, diag, counters and liveliness token.
+(runtime.Executor), each service with its own config section, diag, counters and
+liveliness token: a sample from outside runs the chain through the process on the
+thread that brought it while the services are idle (runtime.Service.inline), on the
+worker otherwise, without a thread switch either way.
 """
 
 from __future__ import annotations
@@ -175,6 +176,7 @@ class ComposedStack:
             for name in self.names:
                 cls = registry.load(name)
                 svc = cls(self.settings, self.bus, cls.make_clock(self.settings))
+                svc.inline = True
                 self.executor.add(svc)
                 svc.start()
                 self.services[name] = svc

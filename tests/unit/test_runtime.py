@@ -1,6 +1,8 @@
 """The service runtime on the in-memory bus with a manual clock."""
 
 import math
+import threading
+import time
 
 import msgpack
 import pytest
@@ -257,6 +259,73 @@ def test_a_priority_query_is_taken_before_everything_queued():
     assert s.order == ["stop"] and stop.replies and not any(q.replies for q in held)
     s.drain()
     assert s.order == ["stop"] + ["follow"] * 15 + ["pose"]
+    s.close()
+
+
+def test_inline_a_sample_is_served_on_the_bus_thread_when_nothing_is_queued():
+    s, bus = lanes()
+    s.inline = True
+    pose = codec.encode(m.Pose(t=0.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0))
+    bus.publish("zenav/r1/pose", pose)
+    assert s.order == ["pose"] and s._inbox.qsize() == 0  # no worker needed
+    q = bus.query("zenav/r1/nav/follow_path", codec.encode({"points": [[0.1, 0.0]]}))  # queries are queued
+    bus.publish("zenav/r1/pose", pose)  # behind the query: queued, order kept
+    assert s.order == ["pose"] and s._inbox.qsize() == 2
+    s.drain()
+    assert s.order == ["pose", "follow", "pose"] and q.replies
+    s.close()
+
+
+def test_inline_a_sample_waits_in_the_queue_while_the_service_is_busy():
+    s, bus = lanes()
+    s.inline = True
+    pose = codec.encode(m.Pose(t=0.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0))
+    with s._busy:  # the worker (or another bus thread) is running the service
+        bus.publish("zenav/r1/pose", pose)
+        assert s.order == [] and s._inbox.qsize() == 1
+    s.turn(8)  # the worker's next turn takes it
+    assert s.order == ["pose"]
+    s.close()
+
+
+class Overlap(Lanes):
+    """Counts how many threads are inside its handler at once."""
+
+    def __init__(self, *a):
+        super().__init__(*a)
+        self.inside, self.most, self.seen = 0, 0, 0
+
+    @subscribe("pose")
+    def on_pose(self, msg: m.Pose) -> None:
+        self.inside += 1
+        self.most = max(self.most, self.inside)
+        self.seen += 1
+        time.sleep(0)  # let another thread try to enter
+        self.inside -= 1
+
+
+def test_inline_and_worker_never_run_the_service_at_once():
+    bus, clock = MemoryBus(), ManualClock()
+    s = Overlap(Settings.load(None), bus, clock)
+    s.inline = True
+    s.start()
+    worker = threading.Thread(target=s.run)
+    worker.start()
+    pose = codec.encode(m.Pose(t=0.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0))
+
+    def send():
+        for _ in range(2000):
+            bus.publish("zenav/r1/pose", pose)
+
+    senders = [threading.Thread(target=send) for _ in range(3)]
+    for t in senders:
+        t.start()
+    for t in senders:
+        t.join(timeout=30)
+    s.stop()
+    worker.join(timeout=30)
+    s.drain()
+    assert not worker.is_alive() and s.seen == 6000 and s.most == 1
     s.close()
 
 
