@@ -18,6 +18,7 @@ from pathlib import Path
 from zenav.bench import rawhop, trials
 from zenav.bench.latency import ChainRecorder
 from zenav.common import messages as m
+from zenav.common.app import PEER_LISTEN
 from zenav.common.bus import ZenohBus
 from zenav.common.client import Client, Latest, ZenavError
 from zenav.robot import Robot
@@ -75,7 +76,7 @@ def run(
 ) -> Live:
     """Start robots r1..rN at `rate` [Hz] and `rtf`, drive them, measure `window` wall seconds.
 
-    zenoh_mode: the services' (client: all through the router; peer: also linked directly).
+    zenoh_mode: the services' and the observer's (client: all through the router; peer: also linked directly).
     compose: services of each robot run in one process (stack/composed.py), the rest alone.
     """
     ids = tuple(f"r{i + 1}" for i in range(robots))
@@ -84,7 +85,8 @@ def run(
     bus = None
     stop = threading.Event()
     try:
-        bus = ZenohBus.open(stack.endpoint)
+        # The observer in the services' mode, as the bare chain's subscriber: a peer hears the motor directly.
+        bus = ZenohBus.open(stack.endpoint, mode=zenoh_mode, listen=PEER_LISTEN if zenoh_mode == "peer" else None)
         bots = {r: Robot(r, bus=bus, lease=False) for r in ids}  # sharing one session: the bus closes it
         chain = ChainRecorder(bots[ids[0]].client)
         diags = {r: _diags(b.client) for r, b in bots.items()}

@@ -161,7 +161,8 @@ def _peer_latency(res: Results, base: Live) -> list[str]:
         "### Services as Zenoh peers",
         "",
         f"The same measurement, the services started with `--zenoh-mode peer`: they still connect to the router (the "
-        f"observer and the CLI reach them through it) and also link to each other directly over loopback. "
+        f"CLI reaches them through it) and also link to each other directly over loopback; the observer is a peer "
+        f"too, as the bare chain's subscriber is. "
         f"{peer.wall:.0f} s window, machine {peer.machine_busy:.0%} busy. [ms]",
         "",
         *table(["stage", "n", "p50", "p90", "p99", "max"], rows),
