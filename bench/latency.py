@@ -7,19 +7,39 @@ each t, end to end = arrival of `motors/wheels` - the sim's stamp (now - t on
 motors/wheels at a realtime factor of 1), and it splits exactly into: delivery (sim
 to a subscriber: one hop, the observer's own), then per service the hop into it plus
 its work (its output's arrival - its input's arrival).
+
+The observer is a process of its own that does nothing else (`Observer`; `python -m
+zenav.bench.latency observe --connect EP --robot r1`), in the services' Zenoh mode, as
+the bare chain's subscriber (bench/rawhop.py): a stamp is not held up by the bench's
+own threads.
 """
 
 from __future__ import annotations
 
+import argparse
+import json
+import subprocess
+import sys
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common.client import Client
+from zenav.common.app import PEER_LISTEN
+from zenav.common.bus import Bus, ZenohBus
+
+READY = "ready"  # the observer's first line on stdout
+
+
+class _Stamped(m.Topic, frozen=True, kw_only=True):
+    """Any chain message, read for its t alone."""
+
+    t: float
+
 
 CHAIN = ("sensors/encoders", "odom", "pose", "cmd_vel", "motors/wheels")  # sim -> odometry -> ... -> motor
 STAGES = ("delivery", "odometry", "localizer", "navigator", "motor")  # what ends with each chain message
@@ -45,30 +65,35 @@ class Stats:
 
 
 class ChainRecorder:
-    """Stamps the wall arrival of each chain message of one robot, by t, while recording."""
+    """Stamps the wall arrival of each chain message of one robot, by t (in the observer process)."""
 
-    def __init__(self, client: Client) -> None:
+    def __init__(self, bus: Bus, robot: str) -> None:
         self._lock = threading.Lock()
-        self.recording = False
         self.stamp: dict[float, float] = {}  # t -> sim's wall clock at t [s]
         self.arrival: dict[str, dict[float, float]] = {topic: {} for topic in CHAIN}  # topic -> t -> wall [s]
-        client.subscribe("sim/truth", self._on_truth)
+        bus.subscribe(keys.key(robot, "sim/truth"), self._on_truth)
         for topic in CHAIN:
-            client.subscribe(topic, self._stamper(topic))
+            bus.subscribe(keys.key(robot, topic), self._stamper(topic))
 
-    def _on_truth(self, msg: m.Truth) -> None:
-        if self.recording:
-            with self._lock:
-                self.stamp[msg.t] = msg.wall
+    def _on_truth(self, key: str, data: bytes) -> None:
+        try:
+            msg = codec.decode(data, m.Truth)
+        except codec.BadInput:
+            return
+        with self._lock:
+            self.stamp[msg.t] = msg.wall
 
-    def _stamper(self, topic: str):
+    def _stamper(self, topic: str) -> Callable[[str, bytes], None]:
         table = self.arrival[topic]
 
-        def on_msg(msg) -> None:
+        def on_msg(key: str, data: bytes) -> None:
             now = time.time()  # before anything else: the arrival as this process sees it
-            if self.recording:
-                with self._lock:
-                    table.setdefault(msg.t, now)  # the first: a watchdog stop repeats a t
+            try:
+                t = codec.decode(data, _Stamped).t
+            except codec.BadInput:
+                return
+            with self._lock:
+                table.setdefault(t, now)  # the first: a watchdog stop repeats a t
 
         return on_msg
 
@@ -81,3 +106,60 @@ class ChainRecorder:
         out = {stage: steps[:, k].tolist() for k, stage in enumerate(STAGES)}
         out[END_TO_END] = ((times[:, -1] - times[:, 0]) * 1e3).tolist()
         return out
+
+
+def observe(connect: str, robot: str, mode: str) -> None:
+    """Stamp the chain until stdin closes, then print its stages as JSON (the observer process)."""
+    bus = ZenohBus.open(connect, mode=mode, listen=PEER_LISTEN if mode == "peer" else None)
+    rec = ChainRecorder(bus, robot)
+    print(READY, flush=True)
+    sys.stdin.read()  # the measuring process closes it to end the window
+    bus.close()
+    print(json.dumps(rec.stages()), flush=True)
+
+
+class Observer:
+    """The observer process for one robot: recording from start() until stages()."""
+
+    def __init__(self, connect: str, robot: str, mode: str = "client") -> None:
+        self.args = [sys.executable, "-m", "zenav.bench.latency", "observe", "--connect", connect, "--robot", robot, "--mode", mode]
+        self.proc: subprocess.Popen[str] | None = None
+
+    def start(self) -> Observer:
+        """Start it; returns once it is subscribed."""
+        self.proc = subprocess.Popen(self.args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        assert self.proc.stdout is not None
+        if self.proc.stdout.readline().strip() != READY:
+            self.close()
+            raise RuntimeError("the latency observer did not start")
+        return self
+
+    def stages(self) -> dict[str, list[float]]:
+        """End the recording; per stage and end to end, the latencies [ms]."""
+        assert self.proc is not None, "start() first"
+        out, _ = self.proc.communicate(timeout=60.0)
+        self.proc = None
+        return json.loads(out)
+
+    def close(self) -> None:
+        """Stop it if it still runs (idempotent)."""
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+        self.proc = None
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`observe --connect EP --robot r1 [--mode client|peer]`: the observer process."""
+    parser = argparse.ArgumentParser(prog="python -m zenav.bench.latency", description=__doc__.splitlines()[0])
+    parser.add_argument("role", choices=("observe",))
+    parser.add_argument("--connect", required=True, help="router endpoint")
+    parser.add_argument("--robot", required=True, help="robot id")
+    parser.add_argument("--mode", choices=("client", "peer"), default="client", help="Zenoh mode")
+    args = parser.parse_args(argv)
+    observe(args.connect, args.robot, args.mode)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

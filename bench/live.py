@@ -16,9 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from zenav.bench import rawhop, trials
-from zenav.bench.latency import ChainRecorder
+from zenav.bench.latency import Observer
 from zenav.common import messages as m
-from zenav.common.app import PEER_LISTEN
 from zenav.common.bus import ZenohBus
 from zenav.common.client import Client, Latest, ZenavError
 from zenav.robot import Robot
@@ -55,7 +54,7 @@ class Live:
     diag_span: dict[tuple[str, str], float]  # [s] stack time between the two diags the increases are from
     chain: dict[str, list[float]]  # r1's latency per stage and end to end [ms]
     raw: list[float]  # bare Zenoh hop during the window [ms]
-    observer_cpu: float  # [s] CPU time of this process in the window
+    observer_cpu: float  # [s] CPU time of this (the driving) process in the window
     machine_busy: float  # fraction of all cores busy in the window (every process on the machine)
     goal_failures: list[str]  # goals aborted or refused, all robots, whole run: why
 
@@ -84,11 +83,10 @@ def run(
     stack = ProcStack(ids, NAMES, log_dir, args, compose=compose).start()
     bus = None
     stop = threading.Event()
+    observer = Observer(stack.endpoint, ids[0], zenoh_mode)  # r1's chain, in the services' mode
     try:
-        # The observer in the services' mode, as the bare chain's subscriber: a peer hears the motor directly.
-        bus = ZenohBus.open(stack.endpoint, mode=zenoh_mode, listen=PEER_LISTEN if zenoh_mode == "peer" else None)
+        bus = ZenohBus.open(stack.endpoint)
         bots = {r: Robot(r, bus=bus, lease=False) for r in ids}  # sharing one session: the bus closes it
-        chain = ChainRecorder(bots[ids[0]].client)
         diags = {r: _diags(b.client) for r, b in bots.items()}
         clocks = {r: b.client.latest("clock") for r, b in bots.items()}
         deadline = time.monotonic() + START_TIMEOUT + START_PER_ROBOT * (robots - 1)
@@ -99,12 +97,12 @@ def run(
         drivers = [trials.drive(b, goals[r], stop, rtf) for r, b in bots.items()]
         stop.wait(SETTLE)
         stack.check()
+        observer.start()
         before = {r: {s: d.wait() for s, d in ds.items()} for r, ds in diags.items()}
         p0, busy0, self0 = stack.sample(), machine_cpu(), os.times()
         w0, sim0 = time.monotonic(), {r: c.msg.t for r, c in clocks.items()}
-        chain.recording = True
         raw = rawhop.measure(stack.endpoint, 100.0, window)  # also the window's timer
-        chain.recording = False
+        chain = observer.stages()
         p1, busy1, self1 = stack.sample(), machine_cpu(), os.times()
         w1, sim1 = time.monotonic(), {r: c.msg.t for r, c in clocks.items()}
         stack.check()
@@ -119,6 +117,7 @@ def run(
             d.join(timeout=10.0)
     finally:
         stop.set()
+        observer.close()
         if bus is not None:
             bus.close()
         stack.stop()
@@ -133,7 +132,7 @@ def run(
         rss={k: p1[k].rss for k in p1},
         counters={(r, s): _increase(before[r][s], after[r][s]) for r, s in keys},
         diag_span={(r, s): after[r][s].t - before[r][s].t for r, s in keys},
-        chain=chain.stages(),
+        chain=chain,
         raw=raw,
         observer_cpu=(self1.user + self1.system) - (self0.user + self0.system),
         machine_busy=(busy1[0] - busy0[0]) / max(busy1[1] - busy0[1], 1e-9),

@@ -7,17 +7,22 @@ import math
 import pytest
 
 from zenav.bench.latency import CHAIN, END_TO_END, STAGES, ChainRecorder, Stats
+from zenav.common import codec
 from zenav.common import messages as m
 
 
 class FakeClient:
-    """Collects subscriptions so the test can deliver messages by hand."""
+    """Collects r1's subscriptions so the test can deliver messages by hand (encoded, as the bus does)."""
 
     def __init__(self) -> None:
-        self.callbacks: dict[str, object] = {}
+        self.subs: dict[str, object] = {}
+        self.callbacks = self  # callbacks[suffix](msg)
 
-    def subscribe(self, suffix, callback, typ=None) -> None:
-        self.callbacks[suffix] = callback
+    def subscribe(self, key, callback) -> None:
+        self.subs[key.removeprefix("zenav/r1/")] = callback
+
+    def __getitem__(self, suffix):
+        return lambda msg: self.subs[suffix](f"zenav/r1/{suffix}", codec.encode(msg))
 
 
 def stamp(t: float, wall: float) -> m.Truth:
@@ -27,8 +32,7 @@ def stamp(t: float, wall: float) -> m.Truth:
 
 def test_stages_split_end_to_end_exactly(monkeypatch):
     client = FakeClient()
-    rec = ChainRecorder(client)
-    rec.recording = True
+    rec = ChainRecorder(client, "r1")
     wall = [1000.0]
     monkeypatch.setattr("zenav.bench.latency.time.time", lambda: wall[0])
     steps = {"sensors/encoders": 0.001, "odom": 0.002, "pose": 0.0005, "cmd_vel": 0.0007, "motors/wheels": 0.0004}  # [s]
@@ -51,13 +55,12 @@ def test_stages_split_end_to_end_exactly(monkeypatch):
     assert out[END_TO_END] == pytest.approx([sum(steps.values()) * 1e3] * 3)
 
 
-def test_nothing_is_recorded_outside_the_window():
+def test_bad_input_is_not_stamped():
     client = FakeClient()
-    rec = ChainRecorder(client)
-    client.callbacks["sim/truth"](m.Truth(t=0.01, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0, wall=1.0))
-    for topic in CHAIN:
-        client.callbacks[topic](m.Wheels(t=0.01, left=0.0, right=0.0))
-    assert rec.stages()[END_TO_END] == []
+    rec = ChainRecorder(client, "r1")
+    client.subs["sim/truth"]("zenav/r1/sim/truth", b"\xc1")
+    client.subs["motors/wheels"]("zenav/r1/motors/wheels", b"\xc1")
+    assert rec.stamp == {} and rec.arrival["motors/wheels"] == {} and rec.stages()[END_TO_END] == []
 
 
 def test_stats_percentiles_and_empty():
