@@ -23,11 +23,10 @@ process share one worker: `Executor`), and queries always are. Queries declared
 `priority` (and liveliness events) go in a lane the worker empties before anything
 else, so a stop is never queued behind other input; on Zenoh they are served on a
 session of their own (bus.ZenohBus), so a stop is not behind other input on the wire
-either. Before the worker gets to it, such a query (on
-its exact key) runs the service's `on_priority` hook at once on the bus's thread: the
-navigator commands zero there, without waiting for the input the worker has in hand.
-The queue is bounded in items and bytes ([limits]): a full one drops new input
-(`dropped_overflow`).
+either. Before the worker gets to it, such a query (on its exact key) runs the
+service's `on_priority` hook at once on the bus's thread: the navigator commands zero
+there, without waiting for the input the worker has in hand. The queue is bounded in
+items and bytes ([limits]): a full one drops new input (`dropped_overflow`).
 
 Sizes are checked in the bus callback, before anything is decoded: a payload over
 [limits] max_payload or selector parameters over max_params are counted (`oversize`),

@@ -8,9 +8,9 @@ is seen alive (the request is answered `unavailable` if it is not seen within
 robot library's LEASE_TIMEOUT). A goal without a lease runs until it ends or is stopped.
 nav/stop goes ahead of every other queued input, and commands zero the moment it
 arrives (`on_priority`, on the bus's thread): until the worker has handled it, the
-worker sends no cmd_vel, so nothing computed before the stop follows its zero. Targets outside the [field] are
-refused. Diag status is `error` while the motor is gone, or while a goal is wanted
-and no usable pose comes.
+worker sends no cmd_vel, so nothing computed before the stop follows its zero.
+Targets outside the [field] are refused. Diag status is `error` while the motor is
+gone, or while a goal is wanted and no usable pose comes.
 """
 
 from __future__ import annotations
