@@ -37,7 +37,7 @@ from zenav.services.navigator.params import POSE_CONTROLLERS, Params
 
 SWING_WINDOW = 0.05  # [m] the arrival heading swing is measured over this last stretch travelled
 LATE_VPS_SIGMA = 0.005  # [m] 1 sigma of the late VPS pose error (the navigator study's middle condition)
-# The fused pose's error with the overhead camera as the VPS (docs/bench/camera: RMSE 0.03 cm, 0.07 to 0.11 deg).
+# The fused pose's error with the overhead camera as the VPS (docs/bench/report.md: RMSE 0.03 cm, 0.06 to 0.10 deg).
 CAMERA_SIGMA = 0.0002  # [m] per axis
 CAMERA_HEADING_SIGMA = math.radians(0.1)  # [rad]
 
