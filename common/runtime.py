@@ -352,15 +352,20 @@ class Service:
         """Hook: runs once on shutdown, before the bus closes (e.g. command zero)."""
 
     def stop(self) -> None:
-        """Ask the worker loop to end (safe from any thread or a signal handler)."""
+        """Ask the worker loop to end (safe from any thread or a signal handler); input from now
+        on is only queued, not served."""
+        self.inline = False
         self._stop.set()
         self._inbox.put(None, priority=True)
 
     def close(self) -> None:
-        """Run on_stop (if started), withdraw the token and every declaration."""
+        """Run on_stop (if started), withdraw the token and every declaration. on_stop runs
+        after any handler still running on a bus thread, and none runs after it."""
+        self.inline = False
         try:
             if self._started:
-                self.on_stop()
+                with self._busy:
+                    self.on_stop()
         except Exception:
             self.log.exception("on_stop failed")
         if self._token is not None:

@@ -288,6 +288,19 @@ def test_inline_a_sample_waits_in_the_queue_while_the_service_is_busy():
     s.close()
 
 
+def test_inline_ends_at_stop_and_on_stop_runs_as_a_handler():
+    s, bus = lanes()
+    s.inline = True
+    pose = codec.encode(m.Pose(t=0.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0))
+    s.stop()
+    bus.publish("zenav/r1/pose", pose)
+    assert s.order == [] and s._inbox.qsize() == 2  # queued behind the stop's marker, not served
+    held = []
+    s.on_stop = lambda: held.append(s._busy.locked())  # a bus thread cannot run a handler beside it
+    s.close()
+    assert held == [True]
+
+
 class Overlap(Lanes):
     """Counts how many threads are inside its handler at once."""
 
