@@ -13,9 +13,16 @@ pytestmark = pytest.mark.system
 
 
 def restarted(stack: Stack, name: str, old_pid: int, timeout: float = 30.0) -> int:
-    """Wait for a new process of `name` to publish its diag; its pid."""
-    uptime = stack.diag(name).msg.uptime
-    stack.diag(name).wait(lambda d: d.uptime < uptime, timeout=timeout)
+    """Wait for a new process of `name` to publish its diag; its pid. (Its uptime cannot
+    tell: a restarted service's first diag may show more than the killed one's last.)"""
+
+    def new_process(_diag: object) -> bool:
+        try:
+            return service_pid(name, stack.endpoint) != old_pid
+        except LookupError:  # not restarted yet
+            return False
+
+    stack.diag(name).wait(new_process, timeout=timeout)
     pid = service_pid(name, stack.endpoint)
     assert pid != old_pid
     return pid
