@@ -54,7 +54,7 @@ class Live:
     diag_span: dict[tuple[str, str], float]  # [s] stack time between the two diags the increases are from
     chain: dict[str, list[float]]  # r1's latency per stage and end to end [ms]
     raw: list[float]  # bare Zenoh hop during the window [ms]
-    observer_cpu: float  # [s] CPU time of this (the driving) process in the window
+    bench_cpu: float  # [s] CPU time of this process (driving the robots; the latency observer is its own) in the window
     machine_busy: float  # fraction of all cores busy in the window (every process on the machine)
     goal_failures: list[str]  # goals aborted or refused, all robots, whole run: why
 
@@ -134,7 +134,7 @@ def run(
         diag_span={(r, s): after[r][s].t - before[r][s].t for r, s in keys},
         chain=chain,
         raw=raw,
-        observer_cpu=(self1.user + self1.system) - (self0.user + self0.system),
+        bench_cpu=(self1.user + self1.system) - (self0.user + self0.system),
         machine_busy=(busy1[0] - busy0[0]) / max(busy1[1] - busy0[1], 1e-9),
         goal_failures=[
             f"{r}: {g.result}: {g.message}" for r, gs in goals.items() for g in gs if g.result not in ("succeeded", "cancelled")

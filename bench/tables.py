@@ -242,7 +242,7 @@ def cost(res: Results) -> list[str]:
         "",
         f"The same run as the latency: CPU time (utime + stime from /proc) per simulated second, per process, "
         f"resident memory at the end, messages per simulated second from the services' diag counters. This bench "
-        f"process (driving the robot, following its diag) used {fmt(base.observer_cpu / base.wall, 3)} of a core beside "
+        f"process (driving the robot, following its diag) used {fmt(base.bench_cpu / base.wall, 3)} of a core beside "
         f"it, the latency observer (a process of its own) not counted.",
         "",
         *table(["process", "CPU s per sim s", "of one core", "RSS [MiB]", "msgs in/s", "msgs out/s"], rows),

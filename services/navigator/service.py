@@ -77,7 +77,7 @@ class Navigator(Service):
             self._health(self.clock.now())
         if cmd is not None:
             with self._cmd_lock:
-                if self._stops <= 0:
+                if self._stops <= 0:  # -1 for a moment when the worker handles a stop before its hook ran
                     self.publish("cmd_vel", m.CmdVel(t=msg.t, v=cmd[0], omega=cmd[1]))
 
     @timer("check_period")

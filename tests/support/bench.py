@@ -41,7 +41,7 @@ def live(robots=1, cpu=0.5, speed=1.0, overruns=0, busy=0.3, failures=(), hot=No
         diag_span={k: 10.0 for k in keys},
         chain={END_TO_END: [2.0, 3.0, 4.0]},
         raw=[0.5],
-        observer_cpu=0.2,
+        bench_cpu=0.2,
         machine_busy=busy,
         goal_failures=list(failures),
     )
