@@ -8,7 +8,13 @@ its own: decode, handler, encode and the runtime's dispatch. A second run under
 cProfile names the functions the time goes to (cProfile slows each call by a constant:
 its figures rank the costs; the first run's are the costs).
 
-`python -m zenav.bench.profile --seconds 20 --top 12` prints both.
+The same run again `paced`: the loop sleeps out each sensor period, as a service in a
+process of its own does between its inputs. What a sample costs then is what it costs
+deployed: code and data gone cold over the idle period are fetched again (on a small
+or shared machine, several times the warm cost). A bare chain's relay (decode a
+message, encode it again: bench/chain.py) is timed both ways beside them.
+
+`python -m zenav.bench.profile --seconds 20 --top 12` prints all three.
 """
 
 from __future__ import annotations
@@ -84,27 +90,54 @@ def _stack(rate: float) -> tuple[LocalBus, ManualClock, dict[str, Service]]:
     return bus, sim_clock, svcs
 
 
-def _steps(seconds: float, rate: float, bus: LocalBus, clock: ManualClock, svcs: dict[str, Service], warmup: float) -> Iterator[bool]:
+def _steps(
+    seconds: float, rate: float, bus: LocalBus, clock: ManualClock, svcs: dict[str, Service], warmup: float, paced: bool = False
+) -> Iterator[bool]:
     """Advance the clock one sensor period at a time; yields whether the step is measured.
 
-    The squares start once the localizer has had time to place the robot (GOAL_AT)."""
+    The squares start once the localizer has had time to place the robot (GOAL_AT).
+    `paced`: measured steps are one wall period apart (the loop sleeps out the rest)."""
     points: list[tuple[float, ...]] = [(x, y) for _ in range(LAPS) for x, y in SQUARE]
     goal = m.FollowPath(points=points[:10_000])
+    first, start = round(warmup * rate), 0.0
     for i in range(round((warmup + seconds) * rate)):
         clock.advance(1.0 / rate)
         if i == round(GOAL_AT * rate):
             assert isinstance(bus.rest, MemoryBus)
             bus.rest.query(keys.key(svcs["navigator"].robot, "nav/follow_path"), codec.encode(goal))
-        yield i >= round(warmup * rate)
+        if paced and i >= first:
+            start = start or time.monotonic()
+            _pace(start, i - first, rate)
+        yield i >= first
 
 
-def measure(seconds: float = 10.0, rate: float = RATE, warmup: float = 3.0) -> dict[str, Cost]:
-    """CPU per service over `seconds` of stack time at `rate` [Hz], after `warmup` seconds."""
+def _pace(start: float, i: int, rate: float) -> None:
+    """Sleep until period i from `start` [monotonic s] (pacing, as a sensor does: nothing waits on it)."""
+    time.sleep(max(start + i / rate - time.monotonic(), 0.0))
+
+
+def relay(seconds: float = 10.0, rate: float = RATE, paced: bool = False) -> float:
+    """[us] CPU a bare chain's relay spends per message (decode a Clock, encode it again: bench/chain.py),
+    over `seconds` of messages at `rate`, paced or back to back."""
+    data = codec.encode(m.Clock(t=1.0, rtf=1.0, wall=time.time()))
+    n, start, cpu = round(seconds * rate), time.monotonic(), 0.0
+    for i in range(n):
+        if paced:
+            _pace(start, i, rate)
+        t0 = time.thread_time()
+        codec.encode(codec.decode(data, m.Clock))
+        cpu += time.thread_time() - t0
+    return cpu / n * 1e6
+
+
+def measure(seconds: float = 10.0, rate: float = RATE, warmup: float = 3.0, paced: bool = False) -> dict[str, Cost]:
+    """CPU per service over `seconds` of stack time at `rate` [Hz], after `warmup` seconds (`paced`: one wall
+    period between measured steps, as deployed; else back to back)."""
     bus, clock, svcs = _stack(rate)
     cpu = dict.fromkeys(ORDER, 0.0)
     base: dict[str, tuple[int, int]] = {}
     tick = time.thread_time
-    for measured in _steps(seconds, rate, bus, clock, svcs, warmup):
+    for measured in _steps(seconds, rate, bus, clock, svcs, warmup, paced):
         if measured and not base:
             base = {n: (s.counters.values["msgs_in"], s.counters.values["msgs_out"]) for n, s in svcs.items()}
         for name in ORDER:
@@ -163,13 +196,15 @@ def _close(bus: LocalBus, svcs: dict[str, Service]) -> None:
     bus.close()
 
 
-def lines(costs: dict[str, Cost], hot: dict[str, list[Hot]], rate: float) -> list[str]:
-    """The costs, then each service's hottest functions, as text lines."""
-    out = [f"{'service':<10} {'inputs':>7} {'outputs':>7} {'us/input':>9} {'us/period':>9} {'core at rate':>12}"]
+def lines(costs: dict[str, Cost], paced: dict[str, Cost], relays: tuple[float, float], hot: dict[str, list[Hot]], rate: float) -> list[str]:
+    """The costs back to back and paced, a relay's, then each service's hottest functions, as text lines."""
+    out = [f"{'service':<10} {'inputs':>7} {'outputs':>7} {'us/input':>9} {'us/period':>9} {'paced':>9} {'core at rate':>12}"]
     for c in costs.values():
-        out.append(f"{c.name:<10} {c.inputs:>7} {c.outputs:>7} {c.per_input:>9.1f} {c.per_step:>9.1f} {c.cores(rate):>12.4f}")
+        idle = paced[c.name].per_step if c.name in paced else float("nan")
+        out.append(f"{c.name:<10} {c.inputs:>7} {c.outputs:>7} {c.per_input:>9.1f} {c.per_step:>9.1f} {idle:>9.1f} {c.cores(rate):>12.4f}")
     robot = sum(costs[n].cores(rate) for n in ROBOT_SERVICES if n in costs)
     out.append(f"robot services ({', '.join(ROBOT_SERVICES)}) at {rate:g} Hz: {robot:.4f} of a core")
+    out.append(f"a bare chain's relay (decode, encode): {relays[0]:.1f} us per message back to back, {relays[1]:.1f} paced")
     for name, rows in hot.items():
         out.append("")
         out.append(f"{name}: top functions by own time, then with callees, us per sensor period (under cProfile)")
@@ -183,9 +218,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rate", type=float, default=RATE, help="[Hz] sensor rate")
     parser.add_argument("--top", type=int, default=10, help="functions shown per service")
     args = parser.parse_args(argv)
-    costs = measure(args.seconds, args.rate)
+    costs, paced = measure(args.seconds, args.rate), measure(args.seconds, args.rate, paced=True)
+    relays = (relay(args.seconds, args.rate), relay(args.seconds, args.rate, paced=True))
     hot = profile(min(args.seconds, 5.0), args.rate, top=args.top)
-    print("\n".join(lines(costs, hot, args.rate)))
+    print("\n".join(lines(costs, paced, relays, hot, args.rate)))
     return 0
 
 

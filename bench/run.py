@@ -64,6 +64,8 @@ class Results:
     kinematic: dict[str, list[nav_eval.Outcome]] = field(default_factory=dict)  # controller -> path trials
     plots: dict[str, str] = field(default_factory=dict)  # file name in the report directory -> title
     costs: dict[str, Cost] = field(default_factory=dict)  # service -> CPU over the profile run (bench/profile.py)
+    costs_paced: dict[str, Cost] = field(default_factory=dict)  # the same, one wall period between steps (as deployed)
+    relays: tuple[float, float] = (0.0, 0.0)  # [us] a bare chain relay's CPU per message: back to back, paced
     hot: dict[str, list[Hot]] = field(default_factory=dict)  # service -> its costliest functions
     fleet: list[Point] = field(default_factory=list)  # the router under N robots' traffic
     hosts: HostsResult | str | None = None  # the fleet over several hosts, or why it was not run
@@ -117,6 +119,8 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
                 break  # more robots would not either: the table says where it stopped
     if "profile" in plan.sections:
         res.costs = profile.measure(plan.profile_seconds)
+        res.costs_paced = profile.measure(plan.profile_seconds, paced=True)
+        res.relays = (profile.relay(plan.profile_seconds), profile.relay(plan.profile_seconds, paced=True))
         res.hot = profile.profile(min(plan.profile_seconds, 5.0))
         robot = sum(res.costs[n].cores(profile.RATE) for n in profile.ROBOT_SERVICES)
         note(f"profile: the robot's services take {robot:.3f} of a core at {profile.RATE:g} Hz")

@@ -514,23 +514,48 @@ def camera(res: Results) -> list[str]:
 
 # ------------------------------------------------------------------ profile
 def profile(res: Results) -> list[str]:
-    """CPU per service and sensor period on the in-process bus, and where it goes."""
+    """CPU per service and sensor period on the in-process bus, back to back and paced, and where it goes."""
+    paced = res.costs_paced
     rows = [
-        [c.name, str(c.inputs), str(c.outputs), fmt(c.per_input, 1), fmt(c.per_step, 1), fmt(c.cores(RATE), 4)] for c in res.costs.values()
+        [
+            c.name,
+            str(c.inputs),
+            str(c.outputs),
+            fmt(c.per_input, 1),
+            fmt(c.per_step, 1),
+            fmt(paced[c.name].per_step, 1) if c.name in paced else "-",
+            fmt(c.cores(RATE), 4),
+        ]
+        for c in res.costs.values()
     ]
     robot = sum(res.costs[n].cores(RATE) for n in ROBOT_SERVICES)
+    header = ["service", "inputs", "outputs", "us per input", "us per period", "us per period, paced", f"cores at {RATE:g} Hz"]
     out = [
         "## Profile",
         "",
         f"Every service of one robot on one in-process bus (no network), stepped at {RATE:g} Hz by a manual clock "
         f"while the navigator drives squares, {res.plan.profile_seconds:g} s of stack time; CPU is each service's "
         "thread time (decode, handler, encode, dispatch). The network's own cost is not in these figures: it is in "
-        "the cost section's per-process CPU.",
+        "the cost section's per-process CPU. `paced`: the same run with the loop sleeping out each sensor period, as "
+        "a service in a process of its own idles between its inputs: what a period costs deployed, code and data "
+        "fetched again after the idle time.",
         "",
-        *table(["service", "inputs", "outputs", "us per input", "us per period", f"cores at {RATE:g} Hz"], rows),
+        *table(header, rows),
         "",
         f"The robot's services ({', '.join(ROBOT_SERVICES)}): {robot:.3f} of a core together.",
     ]
+    if paced:
+        chain = [n for n in ROBOT_SERVICES if n in paced]
+        warm, idle = sum(res.costs[n].per_step for n in chain), sum(paced[n].per_step for n in chain)
+        relay_warm, relay_idle = res.relays
+        out += [
+            "",
+            f"A bare chain's relay (decode a message, encode it again): {relay_warm:.1f} us per message back to back, "
+            f"{relay_idle:.1f} us paced. Per period, the robot's services take {warm:.0f} us back to back and {idle:.0f} us "
+            f"paced, {len(chain)} relays {len(chain) * relay_idle:.0f} us paced: the services' own work is "
+            f"{(idle - len(chain) * relay_idle) / 1e3:.2f} ms a period more than the bare chain's, most of it the refetch "
+            "after each idle period (what one process for them saves: the composed deployment).",
+        ]
     for name, hot in res.hot.items():
         out += ["", f"{name}: costliest functions by own time under cProfile (us per period, own / with callees):", ""]
         out += table(["own", "total", "calls", "function"], [[fmt(h.own, 1), fmt(h.total, 1), str(h.calls), f"`{h.where}`"] for h in hot])

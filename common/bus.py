@@ -328,7 +328,11 @@ class ZenohBus:
         def on_sample(s: zenoh.Sample) -> None:
             callback(str(s.key_expr), s.payload.to_bytes())
 
-        h = self.session.declare_subscriber(key, _direct(on_sample))
+        def on_own_key(s: zenoh.Sample) -> None:  # a key with no wildcard: every sample's is that one
+            callback(key, s.payload.to_bytes())
+
+        wildcard = "*" in key or "$" in key
+        h = self.session.declare_subscriber(key, _direct(on_sample if wildcard else on_own_key))
         self._handles.append(h)
         return h
 

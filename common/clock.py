@@ -37,6 +37,9 @@ class Clock(Protocol):
     def horizon(self) -> float:
         """The latest time a message may carry now: a later stamp is dropped as from the future."""
 
+    def admits(self, t: float) -> bool:
+        """Whether a message stamped t is not from the future (t <= horizon()), as cheaply as the clock can tell."""
+
 
 class WallClock:
     """Real hardware: the host's wall clock (epoch seconds)."""
@@ -54,6 +57,9 @@ class WallClock:
 
     def horizon(self) -> float:
         return self.now() + self._future
+
+    def admits(self, t: float) -> bool:
+        return t <= time.time() + self._future
 
 
 class ScaledWallClock:
@@ -75,6 +81,9 @@ class ScaledWallClock:
 
     def horizon(self) -> float:
         return self.now() + self._future * max(1.0, self.rtf)
+
+    def admits(self, t: float) -> bool:
+        return t <= self.horizon()
 
 
 class SimClock:
@@ -172,6 +181,14 @@ class SimClock:
             return math.inf
         return self.now() + self._step + self._future
 
+    def admits(self, t: float) -> bool:
+        """Without the lock or a clock read when t is under the lowest the horizon can be now (the
+        newest tick or reading, plus a tick, plus `future`): the common case, once per input."""
+        last = self._t
+        if last is None or t <= max(last, self._last) + self._step + self._future:
+            return True
+        return t <= self.horizon()
+
 
 class ManualClock:
     """A clock that tests set and advance."""
@@ -194,3 +211,6 @@ class ManualClock:
     def horizon(self) -> float:
         """Tests set time by hand and may send messages ahead of it."""
         return math.inf
+
+    def admits(self, t: float) -> bool:
+        return True

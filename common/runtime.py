@@ -536,7 +536,7 @@ class Service:
             self.warn(f"bad:{suffix}", f"dropped bad input on {suffix}: {e}")
             return
         t = getattr(msg, "t", None)
-        if t is not None and kind != "clock" and t > self.clock.horizon():
+        if t is not None and kind != "clock" and not self.clock.admits(t):
             self.counters.inc("dropped_future")
             self.warn(f"future:{suffix}", f"dropped {suffix} stamped t={t:.3f}, {t - self.clock.now():.3f} s ahead of the clock")
             return

@@ -18,6 +18,8 @@ def test_the_performance_sections_are_written(tmp_path):
     res.composed.chain[END_TO_END][:] = [1.0, 1.2, 3.0]
     res.costs = {"odometry": Cost("odometry", 100, 300, 100, 0.01), "localizer": Cost("localizer", 100, 300, 100, 0.03)}
     res.costs |= {n: Cost(n, 100, 100, 100, 0.005) for n in ("navigator", "motor")}
+    res.costs_paced = {n: Cost(n, 100, c.inputs, c.outputs, c.cpu * 3.0) for n, c in res.costs.items()}
+    res.relays = (1.0, 25.0)
     res.hot = {"localizer": [Hot("localizer/model.py:99(predict)", 370, 120.0, 300.0)]}
     res.fleet = [Point(1, 0.05, 1.0, 1.0, Stats.of([1.0, 1.0])), Point(5, 0.3, 0.99, 1.0, Stats.of([2.5, 3.0]))]
     res.hosts = HostsResult(True, 2, 0.02, False)
@@ -29,3 +31,6 @@ def test_the_performance_sections_are_written(tmp_path):
     assert "Delivery p50 reached 2x the one-robot figure at 5 robots." in text
     assert "The robot's services (odometry, localizer, navigator, motor): 0.050 of a core together." in text
     assert "every robot heard on every host: yes" in text
+    # paced: 3x 500 us a period; 4 relays 100 us: 1.40 ms more than the bare chain's
+    assert "Per period, the robot's services take 500 us back to back and 1500 us paced, 4 relays 100 us paced" in text
+    assert "the services' own work is 1.40 ms a period more than the bare chain's" in text

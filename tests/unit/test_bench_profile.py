@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 from zenav.bench import profile
 
 
@@ -20,5 +22,14 @@ def test_the_profile_names_each_services_costliest_functions():
     assert set(hot) == set(profile.ORDER)
     assert all(len(rows) == 5 and rows[0].own >= rows[-1].own for rows in hot.values())
     assert any("predict" in h.where for h in hot["localizer"])
-    text = profile.lines(profile.measure(seconds=0.2, warmup=3.0), hot, 100.0)
+    costs = profile.measure(seconds=0.2, warmup=3.0)
+    text = profile.lines(costs, costs, (1.0, 2.0), hot, 100.0)
     assert any(line.startswith("robot services") for line in text)
+
+
+def test_paced_steps_are_a_period_apart_and_cost_at_least_some_cpu():
+    t0 = time.monotonic()
+    paced = profile.measure(seconds=0.3, warmup=3.0, paced=True)
+    assert time.monotonic() - t0 >= 0.29  # 30 periods of 10 ms, slept out
+    assert all(c.steps == 30 and c.cpu > 0.0 for c in paced.values())
+    assert 0.0 < profile.relay(seconds=0.05) and 0.0 < profile.relay(seconds=0.05, paced=True)

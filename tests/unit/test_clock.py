@@ -70,3 +70,19 @@ def test_at_a_high_rtf_the_interpolation_stays_within_a_tick():
         c.update(Clock(t=t, rtf=100.0, wall=time.time() - 1.0))  # a tick taken late: a second of wall time is 100 s of sim
     assert c.now() == pytest.approx(10.02)
     assert c.horizon() == pytest.approx(10.13) and c.horizon() < 10.01 + 0.9
+
+
+@pytest.mark.parametrize("extrapolation", [0.0, 0.25])
+def test_admits_agrees_with_the_horizon(extrapolation):
+    c = SimClock(max_extrapolation=extrapolation, future=0.1)
+    assert c.admits(1e9)  # before the first tick nothing is from the future
+    for t in (10.0, 10.01):
+        c.update(Clock(t=t, wall=time.time() - 1.0))  # taken late: now() runs a whole tick past the newest (if it may)
+    c.now()
+    edge = c.horizon()
+    for t in (10.0, 10.11, edge - 1e-6):
+        assert c.admits(t)
+    for t in (edge + 1e-3, 10.5, 1e9):
+        assert not c.admits(t)
+    wall = WallClock(future=0.1)
+    assert wall.admits(time.time() + 0.05) and not wall.admits(time.time() + 0.5)
