@@ -34,11 +34,9 @@ class Clock(Protocol):
     def wall_delay(self, dt: float) -> float | None:
         """Wall seconds until `dt` clock seconds pass (None: time only moves when told)."""
 
-    def horizon(self) -> float:
-        """The latest time a message may carry now: a later stamp is dropped as from the future."""
-
     def admits(self, t: float) -> bool:
-        """Whether a message stamped t is not from the future (t <= horizon()), as cheaply as the clock can tell."""
+        """Whether a message stamped t may be taken now: not past the clock's horizon (the latest
+        time a message may carry now; a later stamp is dropped as from the future)."""
 
 
 class WallClock:
@@ -54,9 +52,6 @@ class WallClock:
 
     def wall_delay(self, dt: float) -> float | None:
         return max(dt, 0.0)
-
-    def horizon(self) -> float:
-        return self.now() + self._future
 
     def admits(self, t: float) -> bool:
         return t <= time.time() + self._future
@@ -79,11 +74,8 @@ class ScaledWallClock:
     def wall_delay(self, dt: float) -> float | None:
         return max(dt, 0.0) / self.rtf
 
-    def horizon(self) -> float:
-        return self.now() + self._future * max(1.0, self.rtf)
-
     def admits(self, t: float) -> bool:
-        return t <= self.horizon()
+        return t <= self.now() + self._future * max(1.0, self.rtf)
 
 
 class SimClock:
@@ -208,9 +200,6 @@ class ManualClock:
     def wall_delay(self, dt: float) -> float | None:
         return None
 
-    def horizon(self) -> float:
-        """Tests set time by hand and may send messages ahead of it."""
-        return math.inf
-
     def admits(self, t: float) -> bool:
+        """Tests set time by hand and may send messages ahead of it."""
         return True

@@ -59,9 +59,9 @@ def test_the_horizon_allows_one_tick_and_the_slack_only(rtf):
     assert 10.02 < c.horizon() < 10.01 + 0.9
 
 
-def test_the_wall_clock_horizon_is_the_slack():
+def test_the_wall_clock_admits_up_to_the_slack_ahead():
     c = WallClock(future=0.1)
-    assert c.horizon() - c.now() < 0.2
+    assert c.admits(c.now() + 0.05) and not c.admits(c.now() + 0.5)
 
 
 def test_at_a_high_rtf_the_interpolation_stays_within_a_tick():
@@ -84,5 +84,3 @@ def test_admits_agrees_with_the_horizon(extrapolation):
         assert c.admits(t)
     for t in (edge + 1e-3, 10.5, 1e9):
         assert not c.admits(t)
-    wall = WallClock(future=0.1)
-    assert wall.admits(time.time() + 0.05) and not wall.admits(time.time() + 0.5)
