@@ -10,9 +10,9 @@ its figures rank the costs; the first run's are the costs).
 
 The same run again `paced`: the loop sleeps out each sensor period, as a service in a
 process of its own does between its inputs. What a sample costs then is what it costs
-deployed: code and data gone cold over the idle period are fetched again (on a small
-or shared machine, several times the warm cost). A bare chain's relay (decode a
-message, encode it again: bench/chain.py) is timed both ways beside them.
+deployed: the code and data it touches, gone cold over the idle period, are fetched
+again. A bare chain's relay (decode a message, encode it again: bench/chain.py) is
+timed both ways beside them.
 
 `python -m zenav.bench.profile --seconds 20 --top 12` prints all three.
 """

@@ -547,14 +547,14 @@ def profile(res: Results) -> list[str]:
     if paced:
         chain = [n for n in ROBOT_SERVICES if n in paced]
         warm, idle = sum(res.costs[n].per_step for n in chain), sum(paced[n].per_step for n in chain)
-        relay_warm, relay_idle = res.relays
+        relay_warm, relay_idle = (len(chain) * r for r in res.relays)
         out += [
             "",
-            f"A bare chain's relay (decode a message, encode it again): {relay_warm:.1f} us per message back to back, "
-            f"{relay_idle:.1f} us paced. Per period, the robot's services take {warm:.0f} us back to back and {idle:.0f} us "
-            f"paced, {len(chain)} relays {len(chain) * relay_idle:.0f} us paced: the services' own work is "
-            f"{(idle - len(chain) * relay_idle) / 1e3:.2f} ms a period more than the bare chain's, most of it the refetch "
-            "after each idle period (what one process for them saves: the composed deployment).",
+            f"A bare chain's relay (decode a message, encode it again): {res.relays[0]:.1f} us per message back to back, "
+            f"{res.relays[1]:.1f} us paced. Per period the robot's services take {warm:.0f} us back to back and {idle:.0f} us "
+            f"paced, {len(chain)} relays {relay_warm:.0f} and {relay_idle:.0f} us: the services' own work, every input of "
+            f"theirs counted (not only the chain's), is {(warm - relay_warm) / 1e3:.2f} ms a period more than the relays' back "
+            f"to back and {(idle - relay_idle) / 1e3:.2f} ms paced.",
         ]
     for name, hot in res.hot.items():
         out += ["", f"{name}: costliest functions by own time under cProfile (us per period, own / with callees):", ""]
