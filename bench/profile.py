@@ -14,7 +14,7 @@ deployed: the code and data it touches, gone cold over the idle period, are fetc
 again. A bare chain's relay (decode a message, encode it again: bench/chain.py) is
 timed both ways beside them.
 
-`python -m zenav.bench.profile --seconds 20 --top 12` prints all three.
+`python -m zenav.bench.profile --seconds 20 --top 12` prints them all.
 """
 
 from __future__ import annotations
@@ -106,7 +106,8 @@ def _steps(
             assert isinstance(bus.rest, MemoryBus)
             bus.rest.query(keys.key(svcs["navigator"].robot, "nav/follow_path"), codec.encode(goal))
         if paced and i >= first:
-            start = start or time.monotonic()
+            if i == first:
+                start = time.monotonic()
             _pace(start, i - first, rate)
         yield i >= first
 
