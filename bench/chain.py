@@ -33,13 +33,18 @@ def hop_key(i: int) -> str:
     return keys.key(rawhop.ROBOT, "clock") if i == 0 else keys.key(rawhop.ROBOT, f"chain/{i}")
 
 
+def forward(data: bytes) -> bytes:
+    """A relay's whole work on one message: decode it, encode it again."""
+    return codec.encode(codec.decode(data, m.Clock))
+
+
 def relay(connect: str, index: int, mode: str) -> None:
     """Decode every message of hop `index` and publish it on the next, until stdin closes."""
     bus = ZenohBus.open(connect, mode=mode, listen=PEER_LISTEN if mode == "peer" else None)
     out = hop_key(index + 1)
 
     def on_msg(key: str, data: bytes) -> None:
-        bus.publish(out, codec.encode(codec.decode(data, m.Clock)))
+        bus.publish(out, forward(data))
 
     bus.subscribe(hop_key(index), on_msg)
     print(READY, flush=True)
