@@ -59,6 +59,11 @@ class Chain:
     latency: list[float]  # [ms] publisher to subscriber, through every relay
     relay_cores: float  # [cores] one relay process's CPU over the run (mean of the relays): a hop's floor
 
+    @classmethod
+    def pooled(cls, parts: list[Chain]) -> Chain:
+        """Several runs as one: their samples together, their relays' mean cost."""
+        return cls([x for p in parts for x in p.latency], sum(p.relay_cores for p in parts) / len(parts))
+
 
 def measure(connect: str, rate: float = 100.0, duration: float = 10.0, mode: str = "client") -> Chain:
     """Start the relays, run the publisher and subscriber through them."""

@@ -140,7 +140,9 @@ def _chain_ratios(res: Results) -> list[str]:
         "",
         "A publisher, four relay processes that only decode and publish again, and a subscriber (bench/chain.py): "
         "the five hops of the chain with the same codec, publisher settings and Zenoh mode, no service work, on an "
-        "idle router right after the stack's run. Goals: p50 <= 1.3x, p99 <= 1.5x. [ms]",
+        "idle router of its own, as long as the stack's window (as many samples behind each percentile): half just "
+        "before the stack's run in the same mode and half just after, so that a change in the host's load over the "
+        "run weighs on both alike. Goals: p50 <= 1.3x, p99 <= 1.5x. [ms]",
         "",
         *table(["chain", "n", "p50", "p90", "p99", "max"], rows),
         "",
