@@ -24,6 +24,7 @@ TINY = dataclasses.replace(
     controllers=(Spec().controller,),
     kinematic_seeds=1,
     settle_trials=1,
+    chain_modes=("client",),
     limit=None,
 )
 
@@ -33,12 +34,14 @@ def test_a_tiny_bench_writes_the_report_with_its_sections(tmp_path):
     res = run(TINY, tmp_path, "zenav bench (test slice)", say=lines.append)
     path = report.write(res, tmp_path)
     text = path.read_text()
-    assert headings(text) == sections("default", settle=True)
+    assert headings(text) == sections("default", settle=True, floor=True)
     for png in ("latency.png", "run_ekf.png"):
         assert (tmp_path / png).stat().st_size > 10_000
     # the measurements are real: chains went through all five services, the robot drove and was localized
     assert len(res.base.chain["end to end"]) > 50 and res.base.sim["r1"] > 1.0
     assert len(res.peer.chain["end to end"]) > 50  # and again with the services as peers
+    bare = res.chains["client"]  # the bare chain's two halves, before and after the clients' run, as one
+    assert len(bare.latency) > 150 and min(bare.latency) > 0.0 and bare.relay_cores > 0.0
     assert res.robots[0].cpu_per_robot > 0.0
     ekf = res.modes["ekf"]
     assert ekf.goals == 1 and ekf.pose.n > 100 and ekf.pose.rmse < 0.10

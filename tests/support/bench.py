@@ -95,12 +95,14 @@ def headings(text: str) -> list[str]:
     return [line.split(" (")[0] for line in text.splitlines() if line.startswith("#")]
 
 
-def sections(*scenarios: str, settle: bool = False) -> list[str]:
-    """The headings of a report with every section, its accuracy measured in `scenarios` (`settle`: and the settle table)."""
+def sections(*scenarios: str, settle: bool = False, floor: bool = False) -> list[str]:
+    """The headings of a report with every section, its accuracy measured in `scenarios` (`settle`: and the settle
+    table; `floor`: and the bare chain)."""
     return [
         "# zenav benchmark",
         "## Targets",
         "## Latency",
+        *(["### The floor: a bare chain of the same five hops"] if floor else []),
         "### Services as Zenoh peers",
         "## Cost",
         "### Sensor rate",
