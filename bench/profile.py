@@ -156,6 +156,12 @@ def measure(seconds: float = 10.0, rate: float = RATE, warmup: float = 3.0, pace
     return out
 
 
+def measure_both(seconds: float = 10.0, rate: float = RATE) -> tuple[dict[str, Cost], dict[str, Cost], tuple[float, float]]:
+    """The services' costs back to back and paced, and a relay's [us per message] back to back and paced."""
+    costs, paced = measure(seconds, rate), measure(seconds, rate, paced=True)
+    return costs, paced, (relay(seconds, rate), relay(seconds, rate, paced=True))
+
+
 def profile(seconds: float = 5.0, rate: float = RATE, warmup: float = 3.0, top: int = 10) -> dict[str, list[Hot]]:
     """Per service, its `top` functions by own time under cProfile [us per sensor period]."""
     bus, clock, svcs = _stack(rate)
@@ -220,8 +226,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rate", type=float, default=RATE, help="[Hz] sensor rate")
     parser.add_argument("--top", type=int, default=10, help="functions shown per service")
     args = parser.parse_args(argv)
-    costs, paced = measure(args.seconds, args.rate), measure(args.seconds, args.rate, paced=True)
-    relays = (relay(args.seconds, args.rate), relay(args.seconds, args.rate, paced=True))
+    costs, paced, relays = measure_both(args.seconds, args.rate)
     hot = profile(min(args.seconds, 5.0), args.rate, top=args.top)
     print("\n".join(lines(costs, paced, relays, hot, args.rate)))
     return 0

@@ -127,9 +127,7 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
             if res.robots[-1].why.startswith("did not come up"):
                 break  # more robots would not either: the table says where it stopped
     if "profile" in plan.sections:
-        res.costs = profile.measure(plan.profile_seconds)
-        res.costs_paced = profile.measure(plan.profile_seconds, paced=True)
-        res.relays = (profile.relay(plan.profile_seconds), profile.relay(plan.profile_seconds, paced=True))
+        res.costs, res.costs_paced, res.relays = profile.measure_both(plan.profile_seconds)
         res.hot = profile.profile(min(plan.profile_seconds, 5.0))
         robot = sum(res.costs[n].cores(profile.RATE) for n in profile.ROBOT_SERVICES)
         note(f"profile: the robot's services take {robot:.3f} of a core at {profile.RATE:g} Hz")
