@@ -1,12 +1,16 @@
 """The floor the sensor-to-wheel chain is compared with: the same five hops with no service work.
 
-A publisher (bench/rawhop.py's: Clock messages stamped with the wall clock, paced
-like the sim), RELAYS relay processes that only decode each message and publish it
-again on the next key, and a subscriber that takes arrival minus send [ms]: five
-hops, as sim -> odometry -> localizer -> navigator -> motor -> observer, with the
-same codec, publisher settings, router and Zenoh mode as the stack.
+A publisher paced like the sim (per sample: its wall clock, `sensors/encoders`, then
+`sim/truth` carrying that wall stamp), RELAYS relay processes that only decode a
+message and publish it again on the chain's next topic (`odom`, `pose`, `cmd_vel`,
+`motors/wheels`), and the stack's own observer process (bench/latency.py), which stamps
+every topic of the chain as it does for the stack: five hops, as sim -> odometry ->
+localizer -> navigator -> motor -> observer, with the same codec, publisher settings,
+Zenoh mode and measuring apparatus, under a robot id of its own. Its stages compare
+hop for hop with the stack's.
 
-`python -m zenav.bench.chain relay --connect EP --index 0` runs one relay.
+`python -m zenav.bench.chain relay --connect EP --index 0` runs one relay, `... pub
+--connect EP --rate 100 --duration 10` the publisher.
 """
 
 from __future__ import annotations
@@ -17,25 +21,32 @@ import sys
 import time
 from dataclasses import dataclass
 
-from zenav.bench import rawhop
+from zenav.bench.latency import CHAIN, END_TO_END, Observer
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.app import PEER_LISTEN
 from zenav.common.bus import ZenohBus
 from zenav.stack.launcher import read_proc
 
-RELAYS = 4  # relay processes: with the publisher and the subscriber, five hops
+ROBOT = "chain"  # the bare chain's robot id, apart from every robot of the stack
+RELAYS = len(CHAIN) - 1  # relay processes: with the publisher and the observer, five hops
 READY = "ready"  # a relay's first line on stdout
+WARMUP = 0.5  # [s] samples published without a stamp (not measured) while routes settle
 
 
 def hop_key(i: int) -> str:
     """The key relay i reads (0: the publisher's); relay i publishes on hop_key(i + 1)."""
-    return keys.key(rawhop.ROBOT, "clock") if i == 0 else keys.key(rawhop.ROBOT, f"chain/{i}")
+    return keys.key(ROBOT, CHAIN[i])
 
 
 def forward(data: bytes) -> bytes:
     """A relay's whole work on one message: decode it, encode it again."""
-    return codec.encode(codec.decode(data, m.Clock))
+    return codec.encode(codec.decode(data, m.Encoders))
+
+
+def sample(t: float) -> m.Encoders:
+    """The message the chain carries for sample t."""
+    return m.Encoders(t=t, left=round(t * 1000), right=round(t * 1000))
 
 
 def relay(connect: str, index: int, mode: str) -> None:
@@ -52,33 +63,63 @@ def relay(connect: str, index: int, mode: str) -> None:
     bus.close()
 
 
+def publish(connect: str, rate: float, duration: float, mode: str = "client") -> None:
+    """Publish samples at `rate` [Hz]: WARMUP seconds unstamped, then `duration` seconds stamped, as the sim does."""
+    bus = ZenohBus.open(connect, mode=mode, listen=PEER_LISTEN if mode == "peer" else None)
+    first, truth = hop_key(0), keys.key(ROBOT, "sim/truth")
+    start = time.monotonic()
+    warm = int(WARMUP * rate)
+    for i in range(warm + int(duration * rate)):
+        delay = start + i / rate - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)  # pacing, as the sim's timer does
+        t = (i + 1) / rate
+        wall = time.time()  # the sample's instant, taken just before it is published (as the sim's)
+        bus.publish(first, codec.encode(sample(t)))
+        if i >= warm:
+            bus.publish(truth, codec.encode(m.Truth(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0, wall=wall)))
+    bus.close()
+
+
 @dataclass(frozen=True)
 class Chain:
     """One run of the bare chain."""
 
-    latency: list[float]  # [ms] publisher to subscriber, through every relay
+    stages: dict[str, list[float]]  # [ms] per stage and end to end, as the observer splits the stack's chain
     relay_cores: float  # [cores] one relay process's CPU over the run (mean of the relays): a hop's floor
+
+    @property
+    def latency(self) -> list[float]:
+        """[ms] publisher to observer, through every relay."""
+        return self.stages[END_TO_END]
 
     @classmethod
     def pooled(cls, parts: list[Chain]) -> Chain:
         """Several runs as one: their samples together, their relays' mean cost."""
-        return cls([x for p in parts for x in p.latency], sum(p.relay_cores for p in parts) / len(parts))
+        stages = {name: [x for p in parts for x in p.stages[name]] for name in parts[0].stages}
+        return cls(stages, sum(p.relay_cores for p in parts) / len(parts))
 
 
 def measure(connect: str, rate: float = 100.0, duration: float = 10.0, mode: str = "client") -> Chain:
-    """Start the relays, run the publisher and subscriber through them."""
-    base = [sys.executable, "-m", "zenav.bench.chain", "relay", "--connect", connect, "--mode", mode]
-    procs = [subprocess.Popen(base + ["--index", str(i)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True) for i in range(RELAYS)]
+    """Start the observer and the relays, run the publisher through them."""
+    base = [sys.executable, "-m", "zenav.bench.chain"]
+    observer = Observer(connect, ROBOT, mode).start()
+    relay_args = base + ["relay", "--connect", connect, "--mode", mode]
+    procs = [
+        subprocess.Popen(relay_args + ["--index", str(i)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True) for i in range(RELAYS)
+    ]
     try:
         for p in procs:
             assert p.stdout is not None
             if p.stdout.readline().strip() != READY:
                 raise RuntimeError("a chain relay did not start")
         cpu0, t0 = [read_proc(p.pid).cpu for p in procs], time.monotonic()
-        latency = rawhop.measure(connect, rate, duration, listen=hop_key(RELAYS), mode=mode)
+        pub = base + ["pub", "--connect", connect, "--rate", str(rate), "--duration", str(duration), "--mode", mode]
+        subprocess.run(pub, check=True, timeout=duration + 30.0)
         cpu1, t1 = [read_proc(p.pid).cpu for p in procs], time.monotonic()
-        return Chain(latency, sum(b - a for a, b in zip(cpu0, cpu1)) / len(procs) / (t1 - t0))
+        return Chain(observer.stages(), sum(b - a for a, b in zip(cpu0, cpu1)) / len(procs) / (t1 - t0))
     finally:
+        observer.close()
         for p in procs:
             assert p.stdin is not None
             p.stdin.close()
@@ -94,12 +135,17 @@ def measure(connect: str, rate: float = 100.0, duration: float = 10.0, mode: str
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m zenav.bench.chain", description=__doc__.splitlines()[0])
-    parser.add_argument("role", choices=("relay",))
+    parser.add_argument("role", choices=("relay", "pub"))
     parser.add_argument("--connect", required=True, help="router endpoint")
-    parser.add_argument("--index", type=int, required=True, help="which hop this relay reads (0: the publisher's)")
+    parser.add_argument("--index", type=int, default=0, help="relay: which hop it reads (0: the publisher's)")
+    parser.add_argument("--rate", type=float, default=100.0, help="pub: [Hz]")
+    parser.add_argument("--duration", type=float, default=10.0, help="pub: [s] of measured samples")
     parser.add_argument("--mode", default="client", choices=("client", "peer"), help="Zenoh mode, as the stack's services")
     args = parser.parse_args(argv)
-    relay(args.connect, args.index, args.mode)
+    if args.role == "relay":
+        relay(args.connect, args.index, args.mode)
+    else:
+        publish(args.connect, args.rate, args.duration, args.mode)
     return 0
 
 

@@ -3,8 +3,9 @@
 Every robot's stack runs as separate processes on one router (as `zenav up` runs
 them), each robot's navigator drives the 1 m square for the whole run. Over the
 window: CPU time and memory of every process (/proc), the stack time each sim
-advanced, the diag counters, robot r1's sensor-to-wheel chain, the bare Zenoh hop
-measured beside it, and the whole machine's CPU use (other users included).
+advanced, the diag counters, robot r1's sensor-to-wheel chain, and the whole
+machine's CPU use (other users included). Nothing else of the bench's runs in the
+window: the bare chain it is compared with runs before and after (bench/run.py).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from zenav.bench import rawhop, trials
+from zenav.bench import trials
 from zenav.bench.latency import Observer
 from zenav.common import messages as m
 from zenav.common.bus import ZenohBus
@@ -53,7 +54,6 @@ class Live:
     counters: dict[tuple[str, str], dict[str, int]]  # counter increases over the window, from diag
     diag_span: dict[tuple[str, str], float]  # [s] stack time between the two diags the increases are from
     chain: dict[str, list[float]]  # r1's latency per stage and end to end [ms]
-    raw: list[float]  # bare Zenoh hop during the window [ms]
     bench_cpu: float  # [s] CPU time of this process (driving the robots; the latency observer is its own) in the window
     machine_busy: float  # fraction of all cores busy in the window (every process on the machine)
     goal_failures: list[str]  # goals aborted or refused, all robots, whole run: why
@@ -101,7 +101,7 @@ def run(
         before = {r: {s: d.wait() for s, d in ds.items()} for r, ds in diags.items()}
         p0, busy0, self0 = stack.sample(), machine_cpu(), os.times()
         w0, sim0 = time.monotonic(), {r: c.msg.t for r, c in clocks.items()}
-        raw = rawhop.measure(stack.endpoint, 100.0, window)  # also the window's timer
+        time.sleep(window)  # the window: the robots drive, the observer stamps
         chain = observer.stages()
         p1, busy1, self1 = stack.sample(), machine_cpu(), os.times()
         w1, sim1 = time.monotonic(), {r: c.msg.t for r, c in clocks.items()}
@@ -133,7 +133,6 @@ def run(
         counters={(r, s): _increase(before[r][s], after[r][s]) for r, s in keys},
         diag_span={(r, s): after[r][s].t - before[r][s].t for r, s in keys},
         chain=chain,
-        raw=raw,
         bench_cpu=(self1.user + self1.system) - (self0.user + self0.system),
         machine_busy=(busy1[0] - busy0[0]) / max(busy1[1] - busy0[1], 1e-9),
         goal_failures=[

@@ -15,7 +15,6 @@ SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "settle", "cam
 class Plan:
     """How much one bench run measures."""
 
-    raw_window: float  # [s] the bare Zenoh hop on an idle router
     latency_window: float  # [s] one robot at 100 Hz: latency and per-process cost
     sweep_window: float  # [s] each other point of the rate and robot sweeps
     rates: tuple[float, ...]  # [Hz] sensor rates swept, one robot
@@ -51,7 +50,6 @@ class Plan:
 
 
 FULL = Plan(
-    raw_window=10.0,
     latency_window=30.0,
     sweep_window=20.0,
     rates=(50.0, 100.0, 200.0, 400.0),
@@ -71,7 +69,6 @@ FULL = Plan(
     kinematic_seeds=10,
 )
 QUICK = Plan(
-    raw_window=3.0,
     latency_window=8.0,
     sweep_window=5.0,
     rates=(100.0,),
@@ -90,7 +87,7 @@ QUICK = Plan(
     square_laps=0.0,
     kinematic_seeds=3,
     compose=(),
-    chain_modes=(),  # the quick run keeps its length: the bare chain in the full run
+    chain_modes=("client",),
     profile_seconds=3.0,
     fleet_robots=(1, 5),
     fleet_window=3.0,

@@ -119,9 +119,9 @@ def _pace(start: float, i: int, rate: float) -> None:
 
 
 def relay(seconds: float = 10.0, rate: float = RATE, paced: bool = False) -> float:
-    """[us] CPU a bare chain's relay spends per message (chain.forward: decode a Clock, encode it again),
+    """[us] CPU a bare chain's relay spends per message (chain.forward: decode a sample, encode it again),
     over `seconds` of messages at `rate`, paced or back to back."""
-    data = codec.encode(m.Clock(t=1.0, rtf=1.0, wall=time.time()))
+    data = codec.encode(chain.sample(1.0))
     n, start, cpu = round(seconds * rate), time.monotonic(), 0.0
     for i in range(n):
         if paced:

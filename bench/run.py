@@ -20,7 +20,7 @@ from pathlib import Path
 
 import msgspec
 
-from zenav.bench import accuracy, chain, cost, fleet, live, profile, rawhop, settle, speed
+from zenav.bench import accuracy, chain, cost, fleet, live, profile, settle, speed
 from zenav.bench import camera as camera_bench
 from zenav.bench.accuracy import Spec, Summary
 from zenav.bench.chain import Chain
@@ -48,7 +48,6 @@ class Results:
     command: str
     started: float  # [s] epoch
     duration: float = 0.0  # [s] wall, whole run
-    raw_idle: list[float] = field(default_factory=list)  # [ms] bare hop, idle router
     chains: dict[str, Chain] = field(default_factory=dict)  # Zenoh mode -> the bare five-hop chain, idle router
     base: Live | None = None  # one robot at 100 Hz, realtime
     peer: Live | None = None  # the same with the services as Zenoh peers
@@ -93,9 +92,6 @@ def run(plan: Plan, out: Path, command: str, say: Callable[[str], None] = lambda
 def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[str], None]) -> None:
     """Each section of the plan in turn, into `res`."""
     if "latency" in plan.sections or "cost" in plan.sections:
-        with ProcStack((), (), logs) as router:
-            res.raw_idle = rawhop.measure(router.endpoint, RATE, plan.raw_window)
-        note(f"raw hop, idle router: {len(res.raw_idle)} samples")
         halves: dict[str, list[Chain]] = {mode: [] for mode in plan.chain_modes}
 
         def bare_chain(mode: str) -> None:  # half the window on a router of its own: before the stack's run, and after
@@ -106,7 +102,7 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
 
         bare_chain("client")
         res.base = base = live.run(1, RATE, 1.0, plan.latency_window, logs / "base")
-        note(f"one robot at {RATE:g} Hz, realtime: {len(base.raw)} raw, {len(base.chain['end to end'])} chains")
+        note(f"one robot at {RATE:g} Hz, realtime: {len(base.chain['end to end'])} chains")
         bare_chain("client")
         bare_chain("peer")
         res.peer = live.run(1, RATE, 1.0, plan.latency_window, logs / "peer", zenoh_mode="peer")

@@ -62,9 +62,6 @@ def latency(res: Results) -> list[str]:
     base = res.base
     if base is None:
         return []
-    e2e, raw, idle = Stats.of(base.chain[END_TO_END]), Stats.of(base.raw), Stats.of(res.raw_idle)
-    rows = _chain_rows(base.chain)
-    rows += [_stats_row("bare Zenoh hop, same run", base.raw), _stats_row("bare Zenoh hop, idle router", res.raw_idle)]
     biggest = max(STAGES[1:], key=lambda s: Stats.of(base.chain[s]).p50)
     return [
         "## Latency",
@@ -73,18 +70,13 @@ def latency(res: Results) -> list[str]:
         "while the navigator drives the square. Per encoder sample t: the sim's wall-clock stamp of t, then the wall "
         "arrival of `sensors/encoders`, `odom`, `pose`, `cmd_vel` and `motors/wheels` of that t at an observer "
         "process. `delivery` is sim to a subscriber (one hop); each service's row is the hop into it plus its work; "
-        "they add up to end to end (now - t on `motors/wheels`). The bare hop: two plain Python processes, same "
-        "codec and publisher settings, 100 Hz through the same router, measured during the window and on the idle "
-        "router before it. [ms]",
+        "they add up to end to end (now - t on `motors/wheels`). Nothing else of the bench runs in the window. [ms]",
         "",
-        *table(["stage", "n", "p50", "p90", "p99", "max"], rows),
+        *table(["stage", "n", "p50", "p90", "p99", "max"], _chain_rows(base.chain)),
         "",
-        f"End to end is {fmt(e2e.p50 / raw.p50, 1)}x the bare hop at p50 and {fmt(e2e.p99 / raw.p99, 1)}x at p99 "
-        f"(same run); a chain of 4 services needs 5 hops, {fmt(5 * raw.p50)} ms of bare hops at p50. The bare hop "
-        f"took {fmt(raw.p50)} ms at p50 during the window and {fmt(idle.p50)} ms on the idle router before it. "
         f"Largest service stage at p50: {biggest}. Machine busy during the window: {base.machine_busy:.0%} of "
         f"{os.cpu_count()} cores (everything running on it, not only the stack).",
-        *_chain_ratios(res),
+        *_floor(res),
         *_peer_latency(res, base),
         *_composed_latency(res, base),
     ]
@@ -122,15 +114,18 @@ def ratio_line(name: str, stack: Sequence[float], bare: Sequence[float]) -> str:
     return f"{name} / bare chain: p50 {fmt(a.p50 / b.p50)}x, p99 {fmt(a.p99 / b.p99)}x"
 
 
-def _chain_ratios(res: Results) -> list[str]:
-    """End to end over the bare five-hop chain (bench/chain.py), per Zenoh mode measured."""
-    runs = {mode: live for mode, live in (("client", res.base), ("peer", res.peer)) if live is not None}
-    rows = [_stats_row(f"bare chain, {mode}s", c.latency) for mode, c in res.chains.items()]
-    if not rows:
+def _floor(res: Results) -> list[str]:
+    """The stack's chain beside the bare five-hop chain (bench/chain.py), stage by stage, per Zenoh mode measured."""
+    runs = {mode: live for mode, live in (("client", res.base), ("peer", res.peer)) if live is not None and mode in res.chains}
+    if not res.chains:
         return []
-    ratios = [
-        ratio_line(f"end to end ({m}s)", live.chain[END_TO_END], res.chains[m].latency) for m, live in runs.items() if m in res.chains
-    ]
+    header, rows = ["stage"], [[s] for s in (*STAGES, f"**{END_TO_END}**")]
+    for mode, live in runs.items():
+        header += [f"{mode}s p50: stack / bare", f"{mode}s p99: stack / bare"]
+        for row, stage in zip(rows, (*STAGES, END_TO_END)):
+            a, b = Stats.of(live.chain[stage]), Stats.of(res.chains[mode].stages[stage])
+            row += [f"{fmt(a.p50)} / {fmt(b.p50)}", f"{fmt(a.p99)} / {fmt(b.p99)}"]
+    ratios = [ratio_line(f"end to end ({m}s)", live.chain[END_TO_END], res.chains[m].latency) for m, live in runs.items()]
     ratios += [
         f"one relay process (decode, publish) at {RATE:g} Hz, {m}s: {fmt(c.relay_cores, 3)} of a core" for m, c in res.chains.items()
     ]
@@ -138,13 +133,17 @@ def _chain_ratios(res: Results) -> list[str]:
         "",
         "### The floor: a bare chain of the same five hops",
         "",
-        "A publisher, four relay processes that only decode and publish again, and a subscriber (bench/chain.py): "
-        "the five hops of the chain with the same codec, publisher settings and Zenoh mode, no service work, on an "
-        "idle router of its own, as long as the stack's window (as many samples behind each percentile): half just "
-        "before the stack's run in the same mode and half just after, so that a change in the host's load over the "
-        "run weighs on both alike. Goals: p50 <= 1.3x, p99 <= 1.5x. [ms]",
+        "A publisher paced like the sim, four relay processes that only decode and publish again, and the same "
+        "observer process (bench/chain.py): the five hops of the chain with the same codec, publisher settings, "
+        "Zenoh mode and measuring, no service work, on an idle router of its own, as long as the stack's window (as "
+        "many samples behind each percentile): half just before the stack's run in the same mode and half just "
+        "after, so that a change in the host's load over the run weighs on both alike. Each stage is one hop and a "
+        "relay's work in the bare chain, one hop and a service's in the stack. Goals: end to end p50 <= 1.3x, "
+        "p99 <= 1.5x. [ms]",
         "",
-        *table(["chain", "n", "p50", "p90", "p99", "max"], rows),
+        *table(["chain", "n", "p50", "p90", "p99", "max"], [_stats_row(f"bare chain, {m}s", c.latency) for m, c in res.chains.items()]),
+        "",
+        *table(header, rows),
         "",
         *[f"- {line}" for line in ratios],
     ]
@@ -156,7 +155,6 @@ def _peer_latency(res: Results, base: Live) -> list[str]:
     if peer is None:
         return []
     rows = _chain_rows(peer.chain)
-    rows.append(_stats_row("bare Zenoh hop (clients), same run", peer.raw))
     e2e, client = Stats.of(peer.chain[END_TO_END]), Stats.of(base.chain[END_TO_END])
     return [
         "",
@@ -164,7 +162,7 @@ def _peer_latency(res: Results, base: Live) -> list[str]:
         "",
         f"The same measurement, the services started with `--zenoh-mode peer`: they still connect to the router (the "
         f"CLI reaches them through it) and also link to each other directly over loopback; the observer is a peer "
-        f"too, as the bare chain's subscriber is. "
+        f"too, as the bare chain's is. "
         f"{peer.wall:.0f} s window, machine {peer.machine_busy:.0%} busy. [ms]",
         "",
         *table(["stage", "n", "p50", "p90", "p99", "max"], rows),

@@ -133,12 +133,14 @@ class Sim(Service):
             self.count("command_timeouts")
         s = self.bot.step(*self.cmd, self.step_period)
         self.steps += 1
-        wall = time.time()  # the sample's instant on the host: `clock` carries it (latency is measured from it)
         fx = faults.at(self.scen, t)
         left, right = self.bot.encoders()
         encoders = m.Encoders(t=fx.stamp, left=self.hold.apply(fx, left), right=right)
         gyro_z, accel_x, accel_y = self.bot.imu()
         imu = m.Imu(t=fx.stamp, gyro_z=gyro_z, accel_x=accel_x, accel_y=accel_y)
+        # The sample's instant on the host, once its sensors are read (as a driver stamps a reading):
+        # `clock` and `sim/truth` carry it, and latency is measured from it.
+        wall = time.time()
         for _ in range(fx.copies):
             self.publish("sensors/encoders", encoders)
             if fx.imu:

@@ -7,11 +7,11 @@ import dataclasses
 from tests.support.bench import headings, sections
 from zenav.bench import plan, report
 from zenav.bench.accuracy import Spec
+from zenav.bench.latency import STAGES
 from zenav.bench.run import run
 
 TINY = dataclasses.replace(
     plan.QUICK,
-    raw_window=1.0,
     latency_window=2.0,
     sweep_window=2.0,
     rates=(100.0,),
@@ -24,7 +24,6 @@ TINY = dataclasses.replace(
     controllers=(Spec().controller,),
     kinematic_seeds=1,
     settle_trials=1,
-    chain_modes=("client",),
     limit=None,
 )
 
@@ -42,6 +41,7 @@ def test_a_tiny_bench_writes_the_report_with_its_sections(tmp_path):
     assert len(res.peer.chain["end to end"]) > 50  # and again with the services as peers
     bare = res.chains["client"]  # the bare chain's two halves, before and after the clients' run, as one
     assert len(bare.latency) > 150 and min(bare.latency) > 0.0 and bare.relay_cores > 0.0
+    assert all(len(bare.stages[s]) == len(bare.latency) for s in STAGES)  # stamped hop by hop, as the stack is
     assert res.robots[0].cpu_per_robot > 0.0
     ekf = res.modes["ekf"]
     assert ekf.goals == 1 and ekf.pose.n > 100 and ekf.pose.rmse < 0.10

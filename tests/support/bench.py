@@ -40,7 +40,6 @@ def live(robots=1, cpu=0.5, speed=1.0, overruns=0, busy=0.3, failures=(), hot=No
         counters=counters,
         diag_span={k: 10.0 for k in keys},
         chain={END_TO_END: [2.0, 3.0, 4.0]},
-        raw=[0.5],
         bench_cpu=0.2,
         machine_busy=busy,
         goal_failures=list(failures),
@@ -71,7 +70,7 @@ def results() -> Results:
     base = live()
     base.chain.update({s: [0.5, 0.6, 0.7] for s in STAGES})
     base.chain[END_TO_END][:] = [2.5, 3.0, 9.0]
-    res.base, res.raw_idle = base, [0.3, 0.4]
+    res.base = base
     res.peer = live()
     res.peer.chain.update({s: [0.3, 0.4, 0.5] for s in STAGES})
     res.peer.chain[END_TO_END][:] = [1.5, 2.0, 6.0]

@@ -10,9 +10,14 @@ from zenav.bench.latency import END_TO_END, STAGES, Stats
 from zenav.bench.profile import Cost, Hot
 
 
+def bare(end_to_end: list[float], relay_cores: float) -> Chain:
+    """A bare chain run: 0.1 / 0.2 / 0.3 ms a stage, and `end_to_end`."""
+    return Chain({**{s: [0.1, 0.2, 0.3] for s in STAGES}, END_TO_END: end_to_end}, relay_cores)
+
+
 def test_the_performance_sections_are_written(tmp_path):
     res = results()
-    res.chains = {"client": Chain([2.0, 2.5, 6.0], 0.03), "peer": Chain([1.0, 1.5, 5.0], 0.02)}
+    res.chains = {"client": bare([2.0, 2.5, 6.0], 0.03), "peer": bare([1.0, 1.5, 5.0], 0.02)}
     res.composed = live()
     res.composed.chain.update({s: [0.2, 0.3, 0.4] for s in STAGES})
     res.composed.chain[END_TO_END][:] = [1.0, 1.2, 3.0]
@@ -28,6 +33,8 @@ def test_the_performance_sections_are_written(tmp_path):
     wanted = ("### The floor: a bare chain of the same five hops", "### The robot's services composed in one process", "## Profile")
     assert all(h in headings for h in (*wanted, "## Fleet"))
     assert "- end to end (clients) / bare chain: p50 1.20x, p99 1.50x" in text  # p50 3.0 / 2.5, p99 8.88 / 5.93
+    # stage by stage beside the bare chain's, per mode: the stack's odometry p50 0.6, the bare chain's 0.2
+    assert "| odometry | 0.60 / 0.20 | 0.70 / 0.30 | 0.40 / 0.20 | 0.50 / 0.30 |" in text
     assert "Delivery p50 reached 2x the one-robot figure at 5 robots." in text
     assert "The robot's services (odometry, localizer, navigator, motor): 0.050 of a core together." in text
     assert "every robot heard on every host: yes" in text
