@@ -82,7 +82,7 @@ def latency_plot(path: Path, res: Results) -> None:
         ax.text(x, ax.get_ylim()[1] * 0.95, f" {name}", color="tab:red", va="top", fontsize="small")
     ax.set(xscale="log", xlabel="latency [ms]", ylabel="samples", title="sensor sample to wheel command, realtime, 100 Hz")
     ax.grid(alpha=0.3)
-    ax.legend(loc="upper right", fontsize="small")
+    ax.legend(loc="center right", fontsize="small")  # below the targets' labels
     fig.savefig(path, dpi=100)
 
 
