@@ -2,11 +2,11 @@
 
 Every message of the chain carries the t of the encoder sample it descends from, and
 the sim stamps the `sim/truth` message of that t with its wall clock, taken once the
-sample's sensors are read, just before it publishes them. An observer subscribed to the chain stamps each arrival. For
-each t, end to end = arrival of `motors/wheels` - the sim's stamp (now - t on
-motors/wheels at a realtime factor of 1), and it splits exactly into: delivery (sim
-to a subscriber: one hop, the observer's own), then per service the hop into it plus
-its work (its output's arrival - its input's arrival).
+sample's sensors are read, just before it publishes them. An observer subscribed to
+the chain stamps each arrival. For each t, end to end = arrival of `motors/wheels` -
+the sim's stamp (now - t on motors/wheels at a realtime factor of 1), and it splits
+exactly into: delivery (sim to a subscriber: one hop, the observer's own), then per
+service the hop into it plus its work (its output's arrival - its input's arrival).
 
 The observer is a process of its own that does nothing else (`Observer`; `python -m
 zenav.bench.latency observe --connect EP --robot r1`), in the services' Zenoh mode: a
