@@ -12,7 +12,8 @@ The same run again `paced`: the loop sleeps out each sensor period, as a service
 process of its own does between its inputs. What a sample costs then is what it costs
 deployed: the code and data it touches, gone cold over the idle period, are fetched
 again. A bare chain's relay (decode a message, encode it again: bench/chain.py) is
-timed both ways beside them.
+timed both ways beside them. Each input message is timed by its topic too (decode,
+handler, publishing what it returns): what one sample of the chain costs each service.
 
 `python -m zenav.bench.profile --seconds 20 --top 12` prints them all.
 """
@@ -24,7 +25,7 @@ import cProfile
 import pstats
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from zenav import services as registry
 from zenav.bench import chain
@@ -52,6 +53,12 @@ class Cost:
     inputs: int  # messages it took (clock ticks not counted)
     outputs: int  # messages it published
     cpu: float  # [s] thread CPU time: inputs, clock ticks, timers and publishing
+    topics: dict[str, tuple[int, float]] = field(default_factory=dict)  # input topic -> (messages, CPU s dispatching them)
+
+    def per_message(self, topic: str) -> float:
+        """[us] CPU per message of an input topic (nan: none came)."""
+        n, cpu = self.topics.get(topic, (0, 0.0))
+        return cpu / n * 1e6 if n else float("nan")
 
     @property
     def per_step(self) -> float:
@@ -139,8 +146,11 @@ def measure(seconds: float = 10.0, rate: float = RATE, warmup: float = 3.0, pace
     cpu = dict.fromkeys(ORDER, 0.0)
     base: dict[str, tuple[int, int]] = {}
     tick = time.thread_time
+    topics: dict[str, dict[str, tuple[int, float]]] = {name: {} for name in ORDER}
     for measured in _steps(seconds, rate, bus, clock, svcs, warmup, paced):
         if measured and not base:
+            for name, svc in svcs.items():
+                _time_inputs(svc, topics[name])
             base = {n: (s.counters.values["msgs_in"], s.counters.values["msgs_out"]) for n, s in svcs.items()}
         for name in ORDER:
             t0 = tick()
@@ -152,8 +162,22 @@ def measure(seconds: float = 10.0, rate: float = RATE, warmup: float = 3.0, pace
     out = {}
     for name, s in svcs.items():
         v = s.counters.values
-        out[name] = Cost(name, steps, v["msgs_in"] - base[name][0], v["msgs_out"] - base[name][1], cpu[name])
+        out[name] = Cost(name, steps, v["msgs_in"] - base[name][0], v["msgs_out"] - base[name][1], cpu[name], topics[name])
     return out
+
+
+def _time_inputs(svc: Service, into: dict[str, tuple[int, float]]) -> None:
+    """From now on, add each input message's dispatch (thread CPU time) to `into` by its topic."""
+    dispatch = svc._dispatch
+
+    def timed(item: tuple) -> None:
+        t0 = time.thread_time()
+        dispatch(item)
+        if item[0] == "msg":
+            n, cpu = into.get(item[2], (0, 0.0))
+            into[item[2]] = (n + 1, cpu + time.thread_time() - t0)
+
+    svc._dispatch = timed  # type: ignore[method-assign]
 
 
 def measure_both(seconds: float = 10.0, rate: float = RATE) -> tuple[dict[str, Cost], dict[str, Cost], tuple[float, float]]:
@@ -213,6 +237,11 @@ def lines(costs: dict[str, Cost], paced: dict[str, Cost], relays: tuple[float, f
     robot = sum(costs[n].cores(rate) for n in ROBOT_SERVICES if n in costs)
     out.append(f"robot services ({', '.join(ROBOT_SERVICES)}) at {rate:g} Hz: {robot:.4f} of a core")
     out.append(f"a bare chain's relay (decode, encode): {relays[0]:.1f} us per message back to back, {relays[1]:.1f} paced")
+    out += ["", f"{'service':<10} {'input':<18} {'messages':>8} {'us/msg':>8} {'paced':>8}"]
+    for c in costs.values():
+        for topic, (n, _) in c.topics.items():
+            idle = paced[c.name].per_message(topic) if c.name in paced else float("nan")
+            out.append(f"{c.name:<10} {topic:<18} {n:>8} {c.per_message(topic):>8.1f} {idle:>8.1f}")
     for name, rows in hot.items():
         out.append("")
         out.append(f"{name}: top functions by own time, then with callees, us per sensor period (under cProfile)")

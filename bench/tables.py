@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 from zenav.bench import camera as camera_bench
 from zenav.bench.accuracy import Summary
 from zenav.bench.cost import Load, ServiceCost, services
-from zenav.bench.latency import END_TO_END, STAGES, Stats
+from zenav.bench.latency import CHAIN, END_TO_END, STAGES, Stats
 from zenav.bench.live import Live
 from zenav.bench.profile import RATE
 from zenav.bench.scoring import summary
@@ -556,10 +556,39 @@ def profile(res: Results) -> list[str]:
             f"theirs counted (not only the chain's), is {(warm - relay_warm) / 1e3:.2f} ms a period more than the relays' back "
             f"to back and {(idle - relay_idle) / 1e3:.2f} ms paced.",
         ]
+    out += _inputs(res)
     for name, hot in res.hot.items():
         out += ["", f"{name}: costliest functions by own time under cProfile (us per period, own / with callees):", ""]
         out += table(["own", "total", "calls", "function"], [[fmt(h.own, 1), fmt(h.total, 1), str(h.calls), f"`{h.where}`"] for h in hot])
     return out
+
+
+def _inputs(res: Results) -> list[str]:
+    """Each input topic of the robot's services: CPU per message, back to back and paced; one chain sample's sum."""
+    paced = res.costs_paced
+    rows, warm, idle = [], 0.0, 0.0
+    for name, topic in zip(ROBOT_SERVICES, CHAIN):  # each robot service's chain input is the chain's message before it
+        cost = res.costs.get(name)
+        if cost is None:
+            continue
+        for t in sorted(cost.topics, key=lambda t: (t != topic, t)):
+            b2b, slow = cost.per_message(t), paced[name].per_message(t) if name in paced else math.nan
+            if t == topic:
+                warm, idle = warm + b2b, idle + slow
+            rows.append([name, f"**{t}**" if t == topic else t, str(cost.topics[t][0]), fmt(b2b, 1), fmt(slow, 1)])
+    if not rows:
+        return []
+    relays = len(ROBOT_SERVICES) * res.relays[0], len(ROBOT_SERVICES) * res.relays[1]
+    return [
+        "",
+        "Each input of the robot's services, CPU per message: decode, handler and publishing what it returns (bold: "
+        "the chain's sample, as the latency section follows it). [us]",
+        "",
+        *table(["service", "input", "messages", "back to back", "paced"], rows),
+        "",
+        f"One sample of the chain costs the robot's services {warm:.0f} us back to back and {idle:.0f} us paced, "
+        f"{len(ROBOT_SERVICES)} relays {relays[0]:.0f} and {relays[1]:.0f} us.",
+    ]
 
 
 # ------------------------------------------------------------------ fleet

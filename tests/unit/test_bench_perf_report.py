@@ -22,8 +22,11 @@ def test_the_performance_sections_are_written(tmp_path):
     res.composed.chain.update({s: [0.2, 0.3, 0.4] for s in STAGES})
     res.composed.chain[END_TO_END][:] = [1.0, 1.2, 3.0]
     res.costs = {"odometry": Cost("odometry", 100, 300, 100, 0.01), "localizer": Cost("localizer", 100, 300, 100, 0.03)}
+    res.costs["odometry"].topics.update({"sensors/encoders": (100, 0.004), "sensors/compass": (10, 0.0001)})
     res.costs |= {n: Cost(n, 100, 100, 100, 0.005) for n in ("navigator", "motor")}
-    res.costs_paced = {n: Cost(n, 100, c.inputs, c.outputs, c.cpu * 3.0) for n, c in res.costs.items()}
+    res.costs_paced = {
+        n: Cost(n, 100, c.inputs, c.outputs, c.cpu * 3.0, {t: (k, x * 2.0) for t, (k, x) in c.topics.items()}) for n, c in res.costs.items()
+    }
     res.relays = (1.0, 25.0)
     res.hot = {"localizer": [Hot("localizer/model.py:99(predict)", 370, 120.0, 300.0)]}
     res.fleet = [Point(1, 0.05, 1.0, 1.0, Stats.of([1.0, 1.0])), Point(5, 0.3, 0.99, 1.0, Stats.of([2.5, 3.0]))]
@@ -41,3 +44,6 @@ def test_the_performance_sections_are_written(tmp_path):
     # 500 us a period back to back, 3x paced; 4 relays 4 and 100 us
     assert "Per period the robot's services take 500 us back to back and 1500 us paced, 4 relays 4 and 100 us" in text
     assert "is 0.50 ms a period more than the relays' back to back and 1.40 ms paced" in text
+    # each input by topic, the chain's first (bold); one chain sample: odometry's 40 us, 80 paced (no other service timed)
+    assert "| odometry | **sensors/encoders** | 100 | 40.0 | 80.0 |\n| odometry | sensors/compass | 10 | 10.0 | 20.0 |" in text
+    assert "One sample of the chain costs the robot's services 40 us back to back and 80 us paced, 4 relays 4 and 100 us." in text
