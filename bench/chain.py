@@ -63,6 +63,11 @@ def relay(connect: str, index: int, mode: str) -> None:
     bus.close()
 
 
+def pace(start: float, i: int, rate: float) -> None:
+    """Sleep until period i from `start` [monotonic s] (pacing, as a sensor does: nothing waits on it)."""
+    time.sleep(max(start + i / rate - time.monotonic(), 0.0))
+
+
 def publish(connect: str, rate: float, duration: float, mode: str = "client") -> None:
     """Publish samples at `rate` [Hz]: WARMUP seconds unstamped, then `duration` seconds stamped, as the sim does."""
     bus = ZenohBus.open(connect, mode=mode, listen=PEER_LISTEN if mode == "peer" else None)
@@ -70,9 +75,7 @@ def publish(connect: str, rate: float, duration: float, mode: str = "client") ->
     start = time.monotonic()
     warm = int(WARMUP * rate)
     for i in range(warm + int(duration * rate)):
-        delay = start + i / rate - time.monotonic()
-        if delay > 0:
-            time.sleep(delay)  # pacing, as the sim's timer does
+        pace(start, i, rate)  # as the sim's timer does
         t = (i + 1) / rate
         wall = time.time()  # the sample's instant, taken just before it is published (as the sim's)
         bus.publish(first, codec.encode(sample(t)))

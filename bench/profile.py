@@ -116,13 +116,8 @@ def _steps(
         if paced and i >= first:
             if i == first:
                 start = time.monotonic()
-            _pace(start, i - first, rate)
+            chain.pace(start, i - first, rate)
         yield i >= first
-
-
-def _pace(start: float, i: int, rate: float) -> None:
-    """Sleep until period i from `start` [monotonic s] (pacing, as a sensor does: nothing waits on it)."""
-    time.sleep(max(start + i / rate - time.monotonic(), 0.0))
 
 
 def relay(seconds: float = 10.0, rate: float = RATE, paced: bool = False) -> float:
@@ -132,7 +127,7 @@ def relay(seconds: float = 10.0, rate: float = RATE, paced: bool = False) -> flo
     n, start, cpu = round(seconds * rate), time.monotonic(), 0.0
     for i in range(n):
         if paced:
-            _pace(start, i, rate)
+            chain.pace(start, i, rate)
         t0 = time.thread_time()
         chain.forward(data)
         cpu += time.thread_time() - t0

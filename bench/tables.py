@@ -119,10 +119,11 @@ def _floor(res: Results) -> list[str]:
     runs = {mode: live for mode, live in (("client", res.base), ("peer", res.peer)) if live is not None and mode in res.chains}
     if not res.chains:
         return []
-    header, rows = ["stage"], [[s] for s in (*STAGES, f"**{END_TO_END}**")]
+    stages = (*STAGES, END_TO_END)
+    header, rows = ["stage"], [[f"**{s}**" if s == END_TO_END else s] for s in stages]
     for mode, live in runs.items():
         header += [f"{mode}s p50: stack / bare", f"{mode}s p99: stack / bare"]
-        for row, stage in zip(rows, (*STAGES, END_TO_END)):
+        for row, stage in zip(rows, stages):
             a, b = Stats.of(live.chain[stage]), Stats.of(res.chains[mode].stages[stage])
             row += [f"{fmt(a.p50)} / {fmt(b.p50)}", f"{fmt(a.p99)} / {fmt(b.p99)}"]
     ratios = [ratio_line(f"end to end ({m}s)", live.chain[END_TO_END], res.chains[m].latency) for m, live in runs.items()]
