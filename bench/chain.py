@@ -1,7 +1,7 @@
 """The floor the sensor-to-wheel chain is compared with: the same five hops with no service work.
 
-A publisher paced like the sim (per sample: its wall clock, `sensors/encoders`, then
-`sim/truth` carrying that wall stamp), RELAYS relay processes that only decode a
+A publisher paced like the sim (per sample: its wall clock, `sensors/encoders`, and half
+a period later `sim/truth` carrying that wall stamp), RELAYS relay processes that only decode a
 message and publish it again on the chain's next topic (`odom`, `pose`, `cmd_vel`,
 `motors/wheels`), and the stack's own observer process (bench/latency.py), which stamps
 every topic of the chain as it does for the stack: five hops, as sim -> odometry ->
@@ -63,7 +63,7 @@ def relay(connect: str, index: int, mode: str) -> None:
     bus.close()
 
 
-def pace(start: float, i: int, rate: float) -> None:
+def pace(start: float, i: float, rate: float) -> None:
     """Sleep until period i from `start` [monotonic s] (pacing, as a sensor does: nothing waits on it)."""
     time.sleep(max(start + i / rate - time.monotonic(), 0.0))
 
@@ -80,6 +80,7 @@ def publish(connect: str, rate: float, duration: float, mode: str = "client") ->
         wall = time.time()  # the sample's instant, taken just before it is published (as the sim's)
         bus.publish(first, codec.encode(sample(t)))
         if i >= warm:
+            pace(start, i + 0.5, rate)  # as the sim sends a step's truth: half a step after its sensors
             bus.publish(truth, codec.encode(m.Truth(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0, wall=wall)))
     bus.close()
 

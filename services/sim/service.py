@@ -49,7 +49,8 @@ class Sim(Service):
         super().__init__(settings, bus, clock)
         self.scen = settings.scenario
         self.rate = self.scen.sensor_rate_hz  # [Hz] physics steps and sensor samples
-        self.step_period = 1.0 / self.rate  # [s] of the scheduling clock, the tick timer's period
+        self.step_period = 1.0 / self.rate  # [s] of the scheduling clock: one physics step
+        self.tick_period = self.step_period / 2  # [s] the tick timer's: a step, and half a step later what follows it
         c = self.cfg
         self.bot = SimRobot(settings.robot, self.scen, settings.deployment.seed, c.x0, c.y0, c.theta0, c.encoder_start)
         self.steps = 0  # steps taken: sim time is steps / rate, never read from the wall
@@ -65,6 +66,7 @@ class Sim(Service):
         self.count("overruns", 0)
         self.count("command_timeouts", 0)
         self._behind: tuple[float, str] | None = None  # (scheduling-clock time, why) of the last fall behind
+        self._after: list[tuple[str, m.Clock | m.Truth]] = []  # the last steps' clock ticks and truth, sent on the next tick
 
     @classmethod
     def make_clock(cls, settings: Settings) -> Clock:
@@ -108,9 +110,13 @@ class Sim(Service):
         self.log.info("reset to (%.3f, %.3f, %.3f)%s", s.x, s.y, s.theta, f" seed {req.seed}" if req.seed is not None else "")
         return m.PoseStamped(t=self.t, x=s.x, y=s.y, theta=s.theta)
 
-    @timer("step_period")
+    @timer("tick_period")
     def tick(self, now: float) -> None:
-        """Take every step owed up to `now` of the scheduling clock, at most max_burst."""
+        """Send what the last steps left for later, then take every step owed up to `now` of the scheduling clock,
+        at most max_burst."""
+        after, self._after = self._after, []
+        for suffix, msg in after:
+            self.publish(suffix, msg)
         owed = math.floor((now - self.base) * self.rate + 1e-6) - self.steps
         if owed > self.cfg.max_burst:
             # Too far behind (host too slow for the rtf, or stalled): drop the lost time.
@@ -125,7 +131,8 @@ class Sim(Service):
             self.advance()
 
     def advance(self) -> None:
-        """One physics step of 1/rate seconds, then publish what the sensors saw."""
+        """One physics step of 1/rate seconds, then publish what the sensors saw (the step's clock tick and truth
+        go out on the next tick, half a step later)."""
         t = (self.steps + 1) / self.rate
         if self.cmd_t is not None and t - self.cmd_t > self.cfg.command_timeout:
             # Like a real motor board: no command for a while, stop the wheels.
@@ -145,12 +152,15 @@ class Sim(Service):
             self.publish("sensors/encoders", encoders)
             if fx.imu:
                 self.publish("sensors/imu", imu)
-        # The control path's sample first; the clock and the truth of the same t after it.
-        # The clock ticks at clock_rate_hz (services extrapolate between ticks), from the first step on.
+        # The clock and the truth of the same t, half a step later: sent now, they would wake
+        # the processes that follow them (every service, the vps, views) while the sample goes
+        # through the control chain, which then waits for a core. They carry `wall`, so their
+        # lateness changes no reading of them. The clock ticks at clock_rate_hz (services
+        # extrapolate between ticks), from the first step on.
         if sensors.due(self.steps - 1, self.cfg.clock_rate_hz, self.rate):
-            self.publish("clock", m.Clock(t=t, rtf=self.cfg.rtf, wall=wall))
+            self._after.append(("clock", m.Clock(t=t, rtf=self.cfg.rtf, wall=wall)))
         truth = m.Truth(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega, wall=wall)
-        self.publish("sim/truth", truth)
+        self._after.append(("sim/truth", truth))
         if sensors.due(self.steps, self.scen.compass_rate_hz, self.rate):
             self.publish("sensors/compass", m.Compass(t=fx.stamp, heading=self.bot.compass()))
         if self.shutter is not None:

@@ -22,6 +22,11 @@ def command(rig, left, right, t=0.0):
     rig.bus.publish(rig.key("motors/wheels"), codec.encode(m.Wheels(t=t, left=left, right=right)))
 
 
+def settle(rig):
+    """Half a step on: the last step's clock tick and truth, which follow its sensors by that much, are out."""
+    rig.advance(0.005)
+
+
 def reset(rig, **req):
     pose = rig.reply(rig.query("sim/reset", req))
     assert isinstance(pose, m.PoseStamped)
@@ -31,6 +36,7 @@ def reset(rig, **req):
 def test_rates_over_one_second_of_sim_time():
     rig = Rig(Sim)
     rig.run(1.0)
+    settle(rig)
     for suffix in ("sim/truth", "sensors/encoders", "sensors/imu"):
         msgs = rig.got(suffix)
         assert len(msgs) == 100, suffix
@@ -46,8 +52,22 @@ def test_rates_over_one_second_of_sim_time():
 def test_the_clock_ticks_at_its_rate_up_to_every_step():
     rig = Rig(Sim, sim={"clock_rate_hz": 1000.0})
     rig.run(0.1)
+    settle(rig)
     assert [c.t for c in rig.got("clock")] == pytest.approx([i / 100 for i in range(1, 11)])
     assert rig.svc.counters.values["overruns"] == 0
+
+
+def test_a_steps_clock_tick_and_truth_follow_its_sensors_by_half_a_step():
+    """So that they wake no process while the step's sample goes through the control chain."""
+    rig = Rig(Sim, sim={"clock_rate_hz": 100.0})
+    rig.advance(0.01)
+    assert [x.t for x in rig.got("sensors/encoders")] == [0.01] and [x.t for x in rig.got("sensors/imu")] == [0.01]
+    assert rig.got("sim/truth") == [] and rig.got("clock") == []
+    settle(rig)
+    assert [x.t for x in rig.got("sim/truth")] == [0.01] and [c.t for c in rig.got("clock")] == [0.01]
+    assert len(rig.got("sensors/encoders")) == 1  # no step taken on the half
+    truth, clock = rig.got("sim/truth")[0], rig.got("clock")[0]
+    assert truth.wall == clock.wall > 0  # the sample's instant, when its sensors were read
 
 
 def test_rates_follow_the_scenario():
@@ -60,6 +80,7 @@ def test_rates_follow_the_scenario():
 def test_fixed_steps_catch_up_a_late_tick():
     rig = Rig(Sim)
     rig.advance(0.3)  # one late tick: thirty steps of 10 ms, same times as on schedule
+    settle(rig)
     assert [x.t for x in rig.got("sim/truth")] == pytest.approx([i / 100 for i in range(1, 31)])
     assert rig.svc.counters.values["overruns"] == 0
 
@@ -67,8 +88,10 @@ def test_fixed_steps_catch_up_a_late_tick():
 def test_burst_is_bounded_then_resyncs():
     rig = Rig(Sim)
     rig.advance(2.0)  # a stall: at most 50 steps, the rest of the time is dropped
+    settle(rig)
     assert len(rig.got("sim/truth")) == 50 and rig.svc.counters.values["overruns"] == 1
     rig.run(0.1)  # back on schedule from the resync, no more bursts
+    settle(rig)
     assert len(rig.got("sim/truth")) == 60 and rig.svc.counters.values["overruns"] == 1
     assert rig.got("sim/truth")[-1].t == pytest.approx(0.6)
 
@@ -140,6 +163,7 @@ def test_reset_teleports_and_stops():
     pose = reset(rig, x=1.0, y=2.0, theta=3.0)
     assert (pose.t, pose.x, pose.y, pose.theta) == (pytest.approx(0.3), 1.0, 2.0, 3.0)
     rig.run(0.01)
+    settle(rig)
     after = rig.got("sim/truth")[-1]
     assert (after.x, after.y, after.theta) == (1.0, 2.0, 3.0) and after.v == 0.0  # wheels stopped
     pose = reset(rig, y=-1.0)  # unset fields keep the current pose
