@@ -1,13 +1,13 @@
 """The floor the sensor-to-wheel chain is compared with: the same five hops with no service work.
 
 A publisher paced like the sim (per sample: its wall clock, `sensors/encoders`, and half
-a period later `sim/truth` carrying that wall stamp), RELAYS relay processes that only decode a
-message and publish it again on the chain's next topic (`odom`, `pose`, `cmd_vel`,
-`motors/wheels`), and the stack's own observer process (bench/latency.py), which stamps
-every topic of the chain as it does for the stack: five hops, as sim -> odometry ->
-localizer -> navigator -> motor -> observer, with the same codec, publisher settings,
-Zenoh mode and measuring apparatus, under a robot id of its own. Its stages compare
-hop for hop with the stack's.
+a period later `sim/truth` carrying that wall stamp), RELAYS relay processes that only
+decode a message and publish it again on the chain's next topic (`odom`, `pose`,
+`cmd_vel`, `motors/wheels`), and the stack's own observer process (bench/latency.py),
+which stamps every topic of the chain as it does for the stack: five hops, as sim ->
+odometry -> localizer -> navigator -> motor -> observer, with the same codec,
+publisher settings, Zenoh mode and measuring apparatus, under a robot id of its own.
+Its stages compare hop for hop with the stack's.
 
 `python -m zenav.bench.chain relay --connect EP --index 0` runs one relay, `... pub
 --connect EP --rate 100 --duration 10` the publisher.

@@ -24,7 +24,7 @@ def command(rig, left, right, t=0.0):
 
 def settle(rig):
     """Half a step on: the last step's clock tick and truth, which follow its sensors by that much, are out."""
-    rig.advance(0.005)
+    rig.advance(rig.svc.tick_period)
 
 
 def reset(rig, **req):
