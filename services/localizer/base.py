@@ -112,6 +112,8 @@ def fix_cov(fix: m.VpsPose, cfg: LocalizerConfig) -> np.ndarray:
 class Mode:
     """Seed 004's Localizer interface: get_pose / set_pose / set_position / set_heading, fed by on_odom / on_fix."""
 
+    sensors: tuple[str, ...] = ()  # the sensor topics the mode reads besides odom and fixes (on_imu, on_compass)
+
     def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
         self.cfg, self.robot = cfg, robot
         self.odom: m.Odom | None = None  # newest odometry sample used
@@ -198,11 +200,11 @@ class Mode:
         )
 
     def on_imu(self, imu: m.Imu) -> str | None:
-        """Take a gyro sample (modes that use none ignore it); returns why it was dropped."""
+        """Take a gyro sample (a mode whose `sensors` name sensors/imu); returns why it was dropped."""
         return None
 
     def on_compass(self, compass: m.Compass) -> None:
-        """Take a compass heading (modes that use none ignore it)."""
+        """Take a compass heading (a mode whose `sensors` name sensors/compass)."""
 
     def get_pose(self) -> m.Pose | None:
         """The estimate at the newest odom sample (None before any odometry)."""

@@ -54,6 +54,8 @@ class _Entry:
 class Ekf(Mode):
     """Delayed-fix EKF with replay, gating, recovery and online calibration (`delayed=False`: fixes as if current)."""
 
+    sensors = ("sensors/imu",)
+
     def __init__(self, cfg: LocalizerConfig, robot: Robot, delayed: bool = True) -> None:
         super().__init__(cfg, robot)
         self.delayed = delayed

@@ -28,6 +28,8 @@ IMU_GAP = 0.1  # [s] the IMU silent for longer than this is missing for a step
 class Seed001(DeadReckoning):
     """Seed 001: encoder and accelerometer distances with encoder, gyro and accelerometer angles, averaged."""
 
+    sensors = ("sensors/imu",)
+
     def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
         super().__init__(cfg, robot)
         self.inertial = s1.Inertial()

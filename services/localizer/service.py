@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
+from zenav.common import keys
 from zenav.common import messages as m
 from zenav.common.runtime import QueryError, Service, publish, query, subscribe, timer
 
@@ -47,16 +51,20 @@ class Localizer(Service):
             self.warn("odom_jump", f"odom jumped at t={msg.t:.3f} (odometry restarted?): continuing from it")
         return self.mode.get_pose()
 
-    @subscribe("sensors/imu")
+    def on_start(self) -> None:
+        # Sensor topics are subscribed only when the configured mode reads them.
+        handlers: dict[str, Callable[[Any], Any]] = {"sensors/imu": self.on_imu, "sensors/compass": self.on_compass}
+        for suffix in self.mode.sensors:
+            self.subscribe(suffix, keys.TOPICS[suffix], handlers[suffix])
+
     def on_imu(self, msg: m.Imu) -> None:
-        """One gyro sample, for the modes that use it."""
+        """One gyro sample (modes that read the gyro)."""
         if self.mode.on_imu(msg) == "stale":
             self.count("dropped_stale")
         self.last_imu = self.clock.now()
 
-    @subscribe("sensors/compass")
     def on_compass(self, msg: m.Compass) -> None:
-        """One compass heading, for the modes that use it."""
+        """One compass heading (modes that read the compass)."""
         self.mode.on_compass(msg)
 
     @subscribe("vps/pose")

@@ -131,6 +131,8 @@ class WeightedLatency(Weighted):
 class MultiSensor(DeadReckoning):
     """Seed 001: fixed-weight averages of the sensors' heading changes and of the camera's position."""
 
+    sensors = ("sensors/imu", "sensors/compass")
+
     def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
         super().__init__(cfg, robot)
         self.gyro = GyroIntegral(cfg.history, cfg.gyro_max_gap)

@@ -35,6 +35,19 @@ def replay(rig, run, t_end, t_start=0.0, fixes=True):
         rig.put("odom", o)
 
 
+@pytest.mark.parametrize(
+    "mode, read",
+    [("ekf", {"sensors/imu"}), ("dead_reckoning", set()), ("multisensor", {"sensors/imu", "sensors/compass"})],
+)
+def test_only_the_sensor_topics_its_mode_reads_are_taken(mode, read):
+    rig = make(mode=mode)
+    rig.put("sensors/imu", m.Imu(t=0.0, gyro_z=0.1, accel_x=0.0, accel_y=0.0))
+    rig.put("sensors/compass", m.Compass(t=0.0, heading=0.1))
+    rig.drain()
+    assert set(rig.svc.counters.window) == read
+    rig.close()
+
+
 def test_publishes_a_map_pose_per_odom_sample_and_tracks_the_truth(run):
     rig = make()
     replay(rig, run, 12.0)
