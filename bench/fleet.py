@@ -60,7 +60,6 @@ TICK = 0.01  # [s] the player's pace
 READY = "ready"
 ALL = "all"  # a watcher has heard every robot
 START = 60.0  # [s] for the processes in the namespaces to start and hear each other
-END = "fleet/end"  # under robot "fleet": the player is done
 DOUBLED = 2.0  # delivery p50 this many times the one-robot p50: the router is past its capacity
 
 SUBNET = "10.213.7"  # /24 used only inside the namespaces

@@ -40,7 +40,3 @@ class Pose2(NamedTuple):
     def between(self, other: Pose2) -> Pose2:
         """The motion from this pose to `other`, in this pose's frame (self^-1 * other)."""
         return self.inverse().compose(other)
-
-    def distance_to(self, x: float, y: float) -> float:
-        """Euclidean distance from this position to (x, y) [m]."""
-        return math.hypot(x - self.x, y - self.y)

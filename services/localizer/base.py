@@ -2,7 +2,7 @@
 
 A mode is fed odometry samples (`on_odom`) and VPS fixes (`on_fix`, with their
 arrival time), answers `get_pose` for the newest odom sample, and can be reset with
-`set_pose` / `set_position` / `set_heading`. The checks every mode shares (stale
+`set_pose` (any subset of x, y, theta: seed 004's setPosition and setHeading too). The checks every mode shares (stale
 odometry, jumps, fixes from before a reset or from the future) live here.
 """
 
@@ -110,7 +110,7 @@ def fix_cov(fix: m.VpsPose, cfg: LocalizerConfig) -> np.ndarray:
 
 
 class Mode:
-    """Seed 004's Localizer interface: get_pose / set_pose / set_position / set_heading, fed by on_odom / on_fix."""
+    """Seed 004's Localizer interface: get_pose / set_pose (setPosition, setHeading: a subset), fed by on_odom / on_fix."""
 
     sensors: tuple[str, ...] = ()  # the sensor topics the mode reads besides odom and fixes (on_imu, on_compass)
 
@@ -234,14 +234,6 @@ class Mode:
             return Pose2(*(v or 0.0 for v in self._preset))
         self._set(*given)
         return self._estimate()[0]
-
-    def set_position(self, t: float, x: float, y: float) -> Pose2:
-        """Seed 004's setPosition."""
-        return self.set_pose(t, x=x, y=y)
-
-    def set_heading(self, t: float, theta: float) -> Pose2:
-        """Seed 004's setHeading."""
-        return self.set_pose(t, theta=theta)
 
     @property
     def latency(self) -> float | None:

@@ -20,6 +20,8 @@ import pytest
 
 from zenav.common import keys
 from zenav.common import messages as m
+from zenav.common.client import _ERRORS
+from zenav.services.navigator import exits, goals
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "contract.md"
 PER_SERVICE = "<service>"
@@ -44,6 +46,18 @@ def tables(text: str) -> dict[str, list[list[str]]]:
             elif not set(line) <= set("|-: "):  # not the separator
                 out.setdefault(heading, []).append(cells(line))
     return out
+
+
+def column(text: str, header: str) -> list[str]:
+    """The first column's codes of the table whose header row starts with `header` (`| exit |`)."""
+    lines = text.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("|") and cells(line)[0] == header)
+    rows = []
+    for line in lines[start + 2 :]:  # past the header and the separator
+        if not line.startswith("|"):
+            break
+        rows.append(code(cells(line)[0]))
+    return rows
 
 
 def code(cell: str) -> str:
@@ -194,3 +208,12 @@ def test_every_field_is_documented_with_its_type_and_default(doc, typ):
             f" (the doc says `{row[1]}` and `{row[2]}`)"
         )
         assert row[4], f"{DOC}: '### {typ.__name__}' field `{f.encode_name}` has no meaning"
+
+
+@pytest.mark.parametrize(
+    ("header", "values"),
+    [("code", tuple(_ERRORS)), ("state", goals.STATES), ("result", goals.RESULTS), ("exit", exits.EXITS)],
+)
+def test_every_error_code_state_result_and_exit_is_documented(header, values):
+    """The tables of error codes, navigator states, goal results and move exits list exactly the code's, in its order."""
+    assert column(DOC.read_text(), header) == list(values), f"{DOC}: the `| {header} |` table differs from the code"

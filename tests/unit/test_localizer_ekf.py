@@ -192,7 +192,7 @@ def test_set_pose_mid_drive_resets_and_tracking_continues():
 def test_set_heading_only_keeps_the_position():
     ekf = tracking(3.0)
     before = ekf.get_pose()
-    p = ekf.set_heading(3.0, 0.5)
+    p = ekf.set_pose(3.0, theta=0.5)
     assert (p.x, p.y, p.theta) == pytest.approx((before.x, before.y, 0.5))
     assert ekf.get_pose().cov[8] == pytest.approx(0.01**2)
 
