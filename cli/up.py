@@ -44,7 +44,10 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
         help=f"sim: the simulated robot; robot: a real one through the driver, on the wall clock (default {services.DEFAULT_PROFILE})",
     )
     p.add_argument("--services", help="comma-separated services to run (default: the profile's)")
-    p.add_argument("--compose", default="", help="comma-separated services to run together in one process (small computers)")
+    p.add_argument(
+        "--compose",
+        help="comma-separated services to run together in one process, for small computers (default: [deployment] compose)",
+    )
     p.add_argument("--demo", action="store_true", help="drive a 1 m square in a loop through the navigator")
     p.add_argument("--duration", type=float, help="stop by itself after this many wall seconds")
     p.add_argument("--log-dir", type=Path, help="service logs (default: $XDG_STATE_HOME/zenav/logs)")
@@ -206,8 +209,9 @@ def run(args: argparse.Namespace) -> int:
         )
         return 2
     args.set = [*profile.sets(), *args.set]  # the profile's config, under the user's --set (children get both)
+    flag = {} if args.compose is None else {"deployment": {"compose": [n.strip() for n in args.compose.split(",") if n.strip()]}}
     try:
-        settings = settings_from_args(args)  # fail fast here rather than in six children
+        settings = settings_from_args(args, **flag)  # fail fast here rather than in six children
         for name in names:
             cls = services.load(name)
             if cls.config_type is not None:
@@ -218,6 +222,10 @@ def run(args: argparse.Namespace) -> int:
         return 2
     except ImportError as e:  # pyserial, for the driver
         print(f"zenav up: {name} needs the optional package {e.name!r}: pip install 'zenav[robot]'", file=sys.stderr)
+        return 2
+    not_run = [n for n in settings.deployment.compose if n not in names] if args.compose is not None else []
+    if not_run:  # a config's compose applies to whichever of its services run; the flag names this run's
+        print(f"zenav up: --compose {', '.join(not_run)}: not started by this run (it starts {', '.join(names)})", file=sys.stderr)
         return 2
     robot = settings.robot_id
     # --connect: join a router that runs elsewhere; otherwise embed one.
@@ -244,7 +252,7 @@ def run(args: argparse.Namespace) -> int:
         log_files=args.log_files,
     )
     say = sup.say  # on the screen and in launcher.log
-    composed = [n for n in names if n in {c.strip() for c in args.compose.split(",")}]
+    composed = [n for n in names if n in settings.deployment.compose]
     child_of = {n: "composed" if n in composed else n for n in names}  # service -> the child process running it
     for name in names:
         if name not in composed:
@@ -257,7 +265,8 @@ def run(args: argparse.Namespace) -> int:
     for name in names:
         client.subscribe(f"diag/{name}", _beater(sup, child_of[name]))
     done = stop_on_signals()
-    say(f"{'router at' if args.connect else 'router on'} {endpoint}; starting {', '.join(names)} (logs in {log_dir})")
+    together = f"; {', '.join(composed)} in one process" if composed else ""
+    say(f"{'router at' if args.connect else 'router on'} {endpoint}; starting {', '.join(names)}{together} (logs in {log_dir})")
     t0 = time.monotonic()
     sup.start_all()
     status = 0

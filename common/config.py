@@ -20,7 +20,7 @@ import msgspec
 from msgspec import Meta, Struct
 
 from zenav.common import messages as m
-from zenav.common.keys import DEFAULT_CONNECT
+from zenav.common.keys import DEFAULT_CONNECT, SERVICES
 from zenav.common.scenarios import Scenario, scenario
 
 T = TypeVar("T")
@@ -42,6 +42,12 @@ class Deployment(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     clock: Literal["sim", "wall"] = "sim"  # follow the sim's `clock` topic, or the host clock
     scenario: str = "default"  # scenario preset (default, coarse, harsh)
     seed: Annotated[int, Meta(ge=0)] = 1  # seed of the run's random generators
+    compose: tuple[str, ...] = ()  # services `zenav up` runs together in one process (small computers); () each its own
+
+    def __post_init__(self) -> None:
+        unknown = [name for name in self.compose if name not in SERVICES]
+        if unknown:
+            raise ValueError(f"compose: not a service: {', '.join(map(repr, unknown))} (the services: {', '.join(SERVICES)})")
 
 
 class Robot(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):

@@ -15,17 +15,26 @@ from zenav.common.client import Client
 from zenav.stack.inprocess import free_port
 
 
-def service_pid(name: str, endpoint: str) -> int:
-    """The pid of the service process started with this router endpoint."""
+def pids(module: str, endpoint: str) -> list[int]:
+    """The pids of the processes running `python -m module` with this router endpoint."""
+    out = []
     for d in Path("/proc").iterdir():
         if d.name.isdigit():
             try:
                 cmd = (d / "cmdline").read_bytes().split(b"\0")
             except OSError:
                 continue
-            if f"zenav.services.{name}".encode() in cmd and endpoint.encode() in cmd:
-                return int(d.name)
-    raise LookupError(name)
+            if module.encode() in cmd and endpoint.encode() in cmd:
+                out.append(int(d.name))
+    return out
+
+
+def service_pid(name: str, endpoint: str) -> int:
+    """The pid of the service process started with this router endpoint."""
+    found = pids(f"zenav.services.{name}", endpoint)
+    if not found:
+        raise LookupError(name)
+    return found[0]
 
 
 @contextmanager

@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from tests.support.procs import service_pid
+from tests.support.procs import pids, service_pid
 from tests.support.rawclient import RawClient
 from zenav.services import NAMES
 from zenav.stack.inprocess import free_port
@@ -107,3 +107,34 @@ def test_up_serves_the_contract_to_a_plain_client(up, tmp_path):
         service_pid("sim", endpoint)
     failed = [f.name for f in tmp_path.glob("*.log") if "Traceback" in f.read_text()]
     assert not failed, f"a handler failed (its traceback is in {failed})"
+
+
+def test_up_composes_the_services_its_config_file_names(tmp_path):
+    """[deployment] compose: the robot's four services in one process, each alive with its own diag, and a goal runs through them."""
+    robot_services = ("odometry", "localizer", "navigator", "motor")
+    config = tmp_path / "small-computer.toml"
+    config.write_text(f"[deployment]\ncompose = {list(robot_services)!r}\n".replace("'", '"'))
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    argv = [sys.executable, "-m", "zenav.cli", "up", "--listen", endpoint, "--log-dir", str(tmp_path), "--config", str(config)]
+    argv += ["--set", "sim.rtf=2.0", "--duration", "240"]
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    c = RawClient(endpoint)
+    try:
+        c.follow("diag/*")
+        c.follow("pose")
+        c.wait(lambda latest: all(f"diag/{s}" in latest for s in NAMES), timeout=90)
+        assert c.alive() == set(NAMES)
+        assert len(pids("zenav.stack.composed", endpoint)) == 1
+        assert [s for s in NAMES if pids(f"zenav.services.{s}", endpoint)] == [s for s in NAMES if s not in robot_services]
+        c.wait_nav_ready(timeout=60)
+        ok, reply = c.query("nav/move_to_point", {"x": 0.3, "y": 0.0, "tolerance": 0.03, "wait": True}, timeout=60)
+        assert ok and reply["result"] == "succeeded", reply
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=60)
+        assert proc.returncode == 0, out
+        assert "motor, odometry, localizer, navigator in one process" in out, out
+    finally:
+        c.close()
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()

@@ -56,6 +56,18 @@ def test_zenav_up_refuses_an_unknown_section(capsys):
     assert "unknown section [nosuch]" in err and "navigator" in err
 
 
+@pytest.mark.parametrize(
+    "compose, words",
+    [
+        ("odometry,localizr", "compose: not a service: 'localizr'"),
+        ("driver,motor", "--compose driver: not started by this run"),  # the sim profile runs no driver
+    ],
+)
+def test_zenav_up_refuses_a_compose_it_cannot_do(compose, words, capsys):
+    assert main(["up", "--compose", compose, "--listen", "tcp/127.0.0.1:1"]) == 2
+    assert words in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("value, level", [("debug", logging.DEBUG), (" WARNING ", logging.WARNING), (None, logging.INFO)])
 def test_zenav_log_sets_the_level(value, level, monkeypatch):
     if value is not None:

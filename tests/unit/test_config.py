@@ -66,11 +66,19 @@ def test_scenario_presets_and_overrides():
         ({"robot": {"wheel_diameter": -1.0}}, "robot.wheel_diameter"),
         ({"robot": {"whee_diameter": 0.1}}, "whee_diameter"),
         ({"scenario": {"vps_drop": 2.0}}, "vps_drop"),
+        ({"deployment": {"compose": ["odometry", "localizr"]}}, "not a service: 'localizr'"),
+        ({"deployment": {"compose": "odometry"}}, "deployment.compose"),
     ],
 )
 def test_bad_values_name_the_key(overrides, words):
     with pytest.raises(ConfigError, match=re.escape(words)):
         Settings.load(None, **overrides)
+
+
+def test_compose_names_services():
+    assert Settings.load(None).deployment.compose == ()
+    s = Settings.load(None, deployment={"compose": ["odometry", "localizer", "navigator", "motor"]})
+    assert s.deployment.compose == ("odometry", "localizer", "navigator", "motor")
 
 
 @pytest.mark.parametrize("name", [n for n in SERVICES if services.load(n).config_type is not None])
