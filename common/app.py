@@ -162,7 +162,7 @@ def main(service_cls: type[Service], argv: Sequence[str] | None = None) -> int:
     if connecting.is_set():  # stopped while the service was being built
         svc.stop()
     watch_parent(svc.stop)
-    svc.inline = True
+    svc.inline = not svc.blocking
     try:
         svc.start()
         svc.run()

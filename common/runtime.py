@@ -222,6 +222,11 @@ class Service:
     name = "service"
     config_type: type | None = None  # the Struct of this service's config section
     diag_period = 1.0  # [s] of the service clock
+    # A handler may wait on I/O or compute for milliseconds (a serial link, a camera frame):
+    # such a service (the class's, or an instance's by its config) is never served on a
+    # bus's thread (`inline`), and composed with others it gets a worker of its own, so
+    # that it holds up neither the bus nor their chain.
+    blocking = False
 
     def __init__(self, settings: Settings, bus: Bus, clock: Clock) -> None:
         self.settings = settings
@@ -245,7 +250,7 @@ class Service:
         self._others: set[str] = set()  # instance ids of other instances of this service seen alive
         self._started = False
         self._busy = threading.Lock()  # held while this service's code runs (worker, or a bus thread serving inline)
-        self.inline = False  # serve a sample on the bus's thread when nothing is queued (set by the deployments)
+        self.inline = False  # serve a sample on the bus's thread when nothing is queued (the deployments: not if blocking)
 
     # ------------------------------------------------------------ helpers
     def key(self, suffix: str) -> str:

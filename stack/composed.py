@@ -10,7 +10,9 @@ samples). Queries, liveliness tokens and their watchers go through the session.
 (runtime.Executor), each service with its own config section, diag, counters and
 liveliness token: a sample from outside runs the chain through the process on the
 thread that brought it while the services are idle (runtime.Service.inline), on the
-worker otherwise, without a thread switch either way.
+worker otherwise, without a thread switch either way. A `blocking` service (the
+driver waits on its serial link, the vps detects camera frames) gets a worker of its
+own instead, so that its waits hold up no other service.
 """
 
 from __future__ import annotations
@@ -158,41 +160,44 @@ class LocalBus:
 
 
 class ComposedStack:
-    """Services of one robot in this process on one LocalBus over one session (settings' connect and Zenoh mode)."""
+    """Services of one robot in this process on one LocalBus over one session (settings' connect and Zenoh mode):
+    one worker for them all, and one of its own for each `blocking` service (a serial link, camera frames)."""
 
     def __init__(self, settings: Settings, services: Iterable[str]) -> None:
         self.settings = settings
         self.names = [n for n in registry.ALL if n in set(services)]  # the registry's start order
         self.bus: LocalBus | None = None
         self.services: dict[str, Service] = {}
-        self.executor = Executor()
-        self._thread: threading.Thread | None = None
+        self.executors: dict[str, Executor] = {"composed": Executor()}  # worker thread name -> its executor
+        self._threads: list[threading.Thread] = []
 
     def start(self) -> ComposedStack:
-        """Open the session, start every named service, then the worker (Duplicate: the ones started are stopped again)."""
+        """Open the session, start every named service, then the workers (Duplicate: the ones started are stopped again)."""
         dep = self.settings.deployment
         self.bus = LocalBus(ZenohBus.open(dep.connect, mode=dep.zenoh_mode, listen=PEER_LISTEN if dep.zenoh_mode == "peer" else None))
         try:
             for name in self.names:
                 cls = registry.load(name)
                 svc = cls(self.settings, self.bus, cls.make_clock(self.settings))
-                svc.inline = True
-                self.executor.add(svc)
+                svc.inline = not svc.blocking
+                self.executors.setdefault(name if svc.blocking else "composed", Executor()).add(svc)
                 svc.start()
                 self.services[name] = svc
         except BaseException:
             self.stop()
             raise
-        self._thread = threading.Thread(target=self.executor.run, name="zenav-composed", daemon=True)
-        self._thread.start()
+        for name, ex in self.executors.items():
+            self._threads.append(threading.Thread(target=ex.run, name=f"zenav-{name}", daemon=True))
+            self._threads[-1].start()
         return self
 
     def stop(self) -> None:
-        """End the worker, close the services in the registry's stop order (each its on_stop), then the session."""
-        self.executor.stop()
-        if self._thread is not None:
-            self._thread.join(timeout=JOIN_TIMEOUT)
-            self._thread = None
+        """End the workers, close the services in the registry's stop order (each its on_stop), then the session."""
+        for ex in self.executors.values():
+            ex.stop()
+        for th in self._threads:
+            th.join(timeout=JOIN_TIMEOUT)
+        self._threads = []
         for name in registry.stop_order(self.services):
             self.services.pop(name).close()
         if self.bus is not None:

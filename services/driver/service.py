@@ -57,6 +57,7 @@ class Driver(Service):
 
     name = "driver"
     config_type = DriverConfig
+    blocking = True  # every poll and command waits on the serial link
     cfg: DriverConfig
 
     def __init__(self, settings: Settings, bus: Bus, clock: Clock) -> None:

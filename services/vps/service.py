@@ -51,6 +51,7 @@ class Vps(Service):
         self._seen = 0.0  # [s] clock time this robot's tag was last located (camera)
         self.reader: Reader | None = None
         if self.cfg.source == "camera":
+            self.blocking = True  # a frame takes milliseconds to detect
             cam = self.settings.section("camera", CameraConfig)
             check_fits(cam, self.limits)
             self.reader = Reader(cam, calibration.configured(cam))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import threading
 
 import pytest
@@ -101,6 +102,27 @@ def test_composed_services_each_keep_their_token_and_diag(router, client):
         # the wheel command reached the odometry beside it directly (its subscriptions take no local sample from Zenoh)
         odometry = client.latest("diag/odometry").wait(lambda d: d is not None and d.counters["msgs_in"] >= 1, timeout=WAIT)
         assert odometry.service == "odometry" and set(stack.services) == {"motor", "odometry"}
+
+
+def test_a_driver_waiting_on_a_silent_board_holds_up_no_service_beside_it(router, client):
+    """The driver blocks on its serial link, so composed it has a worker of its own: while it waits 3 s for a
+    board that never answers, the motor in the same process keeps its timers."""
+    board, line = os.openpty()  # a serial line with nothing on the other end
+    try:
+        driver = {"port": os.ttyname(line), "open_delay": 0.0, "reply_timeout": 3.0}
+        settings = Settings.load(None, deployment={"connect": router, "clock": "wall"}, driver=driver)
+        with ComposedStack(settings, ["driver", "motor"]) as stack:
+            assert stack.services["driver"].blocking and not stack.services["motor"].blocking
+            # diag comes once a second from each service's timers: the motor's second, while the driver still waits
+            assert client.latest("diag/motor").wait(lambda d: d.uptime >= 1.0, timeout=2.5).service == "motor"
+            waiting = client.latest("diag/driver").msg
+            assert waiting is None or waiting.uptime < 1.0, waiting
+            os.close(board)  # the line goes dead: the driver's wait ends now, not at its time-out
+            board = -1
+    finally:
+        if board >= 0:
+            os.close(board)
+        os.close(line)
 
 
 def test_a_token_is_seen_by_a_watcher_on_the_same_bus(pair):
