@@ -18,8 +18,9 @@ A service is a class whose methods are declared as handlers:
 One handler runs at a time, in arrival order, with timers on the service clock in
 between. A sample that finds the service idle and nothing queued is served at once on
 the bus's thread that brought it (`inline`, what the deployments set: no thread
-switch); anything else is queued for the service's worker (services composed in one
-process share one worker: `Executor`), and queries always are. Queries declared
+switch; never for a `blocking` service); anything else is queued for the service's
+worker (services composed in one process share one worker, `Executor`, and a blocking
+one has its own), and queries always are. Queries declared
 `priority` (and liveliness events) go in a lane the worker empties before anything
 else, so a stop is never queued behind other input; on Zenoh they are served on a
 session of their own (bus.ZenohBus), so a stop is not behind other input on the wire
