@@ -2,8 +2,9 @@
 
 A mode is fed odometry samples (`on_odom`) and VPS fixes (`on_fix`, with their
 arrival time), answers `get_pose` for the newest odom sample, and can be reset with
-`set_pose` (any subset of x, y, theta: seed 004's setPosition and setHeading too). The checks every mode shares (stale
-odometry, jumps, fixes from before a reset or from the future) live here.
+`set_pose` (any subset of x, y, theta: seed 004's setPosition and setHeading too).
+The checks every mode shares (stale odometry, jumps, fixes from before a reset or
+from the future) live here.
 """
 
 from __future__ import annotations

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import signal
@@ -113,7 +114,7 @@ def test_up_composes_the_services_its_config_file_names(tmp_path):
     """[deployment] compose: the robot's four services in one process, each alive with its own diag, and a goal runs through them."""
     robot_services = ("odometry", "localizer", "navigator", "motor")
     config = tmp_path / "small-computer.toml"
-    config.write_text(f"[deployment]\ncompose = {list(robot_services)!r}\n".replace("'", '"'))
+    config.write_text(f"[deployment]\ncompose = {json.dumps(robot_services)}\n")  # a JSON array is a TOML array
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     argv = [sys.executable, "-m", "zenav.cli", "up", "--listen", endpoint, "--log-dir", str(tmp_path), "--config", str(config)]
     argv += ["--set", "sim.rtf=2.0", "--duration", "240"]
