@@ -27,6 +27,11 @@ TOPICS: dict[str, type[m.Topic]] = {
     **{f"diag/{s}": m.Diag for s in SERVICES},
 }
 
+# The control loop's topics: small, periodic, the sample chain from the sensors to the
+# wheels and the clock it runs on. Published at Zenoh's interactive-high priority, so on
+# a link they overtake bulk data queued there (camera frames, nav/state with a long path).
+CONTROL = frozenset({"clock", "sensors/encoders", "sensors/imu", "sensors/compass", "odom", "pose", "cmd_vel", "motors/wheels"})
+
 # Field-level topics: one sender serves every robot on the field, under zenav/field/ (not a robot's prefix).
 FIELD = "field"
 FIELD_TOPICS: dict[str, type[m.Topic]] = {
@@ -69,6 +74,12 @@ def key(robot: str, suffix: str) -> str:
 def alive(robot: str, service: str) -> str:
     """The liveliness token key of a service."""
     return key(robot, f"alive/{service}")
+
+
+def control(key: str) -> bool:
+    """Whether a full key is a robot's control-loop topic (`zenav/<robot>/<one of CONTROL>`)."""
+    parts = key.split("/", 2)
+    return len(parts) == 3 and parts[0] == "zenav" and parts[2] in CONTROL
 
 
 def field_key(suffix: str) -> str:

@@ -1,8 +1,13 @@
-"""An urgent queryable (nav/stop) answers from a session of its own: a link to the router that other input cannot fill."""
+"""What goes first on a link: an urgent queryable (nav/stop) answers from a session of its own, a link to the router
+that other input cannot fill; the control loop's topics are published at a higher priority than bulk data."""
 
 from __future__ import annotations
 
-from tests.support.matching import wait_matching
+import queue
+
+import zenoh
+
+from tests.support.matching import wait_matching, wait_subscriber
 from zenav.common.bus import Query, ZenohBus
 
 
@@ -32,3 +37,26 @@ def test_an_urgent_queryable_answers_from_its_own_session(router):
     finally:
         bus.close()
         asker.close()
+
+
+def test_the_control_loop_travels_ahead_of_bulk_data(router):
+    """cmd_vel and the rest of the control loop go at interactive-high priority, so a router forwards them ahead of
+    bulk data queued on a link; everything else at the default."""
+    bus, listener = ZenohBus.open(router, connect_timeout=5.0), ZenohBus.open(router, connect_timeout=5.0)
+    got: queue.Queue = queue.Queue()
+    try:
+        listener.session.declare_subscriber("zenav/**", lambda s: got.put((str(s.key_expr), s.priority)))
+        sent = ["zenav/r1/cmd_vel", "zenav/r1/sensors/encoders", "zenav/r1/nav/state", "zenav/field/camera/frame"]
+        for key in sent:
+            wait_subscriber(bus, key)
+            bus.publish(key, b"\x80")
+        seen = dict(got.get(timeout=5.0) for _ in sent)
+        assert seen == {
+            "zenav/r1/cmd_vel": zenoh.Priority.INTERACTIVE_HIGH,
+            "zenav/r1/sensors/encoders": zenoh.Priority.INTERACTIVE_HIGH,
+            "zenav/r1/nav/state": zenoh.Priority.DATA,
+            "zenav/field/camera/frame": zenoh.Priority.DATA,
+        }
+    finally:
+        bus.close()
+        listener.close()
