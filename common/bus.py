@@ -15,7 +15,7 @@ from typing import Any, Protocol, cast
 
 import zenoh
 
-from zenav.common.keys import DEFAULT_CONNECT, control
+from zenav.common.keys import DEFAULT_CONNECT, in_loop
 
 KEEP_ALIVES = 3  # keep-alive messages a session with a short `lease` sends per lease period
 RECONNECT = {"period_init_ms": 250, "period_max_ms": 500, "period_increase_factor": 1.5}
@@ -318,8 +318,8 @@ class ZenohBus:
                 if pub is None:
                     # Small messages at 100 Hz: send at once (express) and never drop
                     # silently under load (BLOCK); a dropped wheel command is a hazard.
-                    # The control loop's go ahead of bulk data queued on a link.
-                    priority = zenoh.Priority.INTERACTIVE_HIGH if control(key) else zenoh.Priority.DEFAULT
+                    # The robot's loop goes ahead of bulk data queued on a link.
+                    priority = zenoh.Priority.INTERACTIVE_HIGH if in_loop(key) else zenoh.Priority.DEFAULT
                     pub = self.session.declare_publisher(
                         key, encoding=_MSGPACK, congestion_control=zenoh.CongestionControl.BLOCK, express=True, priority=priority
                     )

@@ -27,10 +27,13 @@ TOPICS: dict[str, type[m.Topic]] = {
     **{f"diag/{s}": m.Diag for s in SERVICES},
 }
 
-# The control loop's topics: small, periodic, the sample chain from the sensors to the
-# wheels and the clock it runs on. Published at Zenoh's interactive-high priority, so on
-# a link they overtake bulk data queued there (camera frames, nav/state with a long path).
-CONTROL = frozenset({"clock", "sensors/encoders", "sensors/imu", "sensors/compass", "odom", "pose", "cmd_vel", "motors/wheels"})
+# The robot's loop: the clock, the sensors (and the truth the simulated camera reads),
+# the estimates and the commands; small periodic samples. Published at Zenoh's
+# interactive-high priority, so on a link they overtake bulk data queued there (camera
+# frames, a nav/state carrying a long path) and keep their order among themselves.
+LOOP = frozenset(
+    {"clock", "sim/truth", "sensors/encoders", "sensors/imu", "sensors/compass", "vps/pose", "odom", "pose", "cmd_vel", "motors/wheels"}
+)
 
 # Field-level topics: one sender serves every robot on the field, under zenav/field/ (not a robot's prefix).
 FIELD = "field"
@@ -76,10 +79,10 @@ def alive(robot: str, service: str) -> str:
     return key(robot, f"alive/{service}")
 
 
-def control(key: str) -> bool:
-    """Whether a full key is a robot's control-loop topic (`zenav/<robot>/<one of CONTROL>`)."""
+def in_loop(key: str) -> bool:
+    """Whether a full key is one of a robot's loop topics (`zenav/<robot>/<one of LOOP>`)."""
     parts = key.split("/", 2)
-    return len(parts) == 3 and parts[0] == "zenav" and parts[2] in CONTROL
+    return len(parts) == 3 and parts[0] == "zenav" and parts[2] in LOOP
 
 
 def field_key(suffix: str) -> str:

@@ -1,5 +1,5 @@
 """What goes first on a link: an urgent queryable (nav/stop) answers from a session of its own, a link to the router
-that other input cannot fill; the control loop's topics are published at a higher priority than bulk data."""
+that other input cannot fill; the robot's loop topics are published at a higher priority than bulk data."""
 
 from __future__ import annotations
 
@@ -39,8 +39,8 @@ def test_an_urgent_queryable_answers_from_its_own_session(router):
         asker.close()
 
 
-def test_the_control_loop_travels_ahead_of_bulk_data(router):
-    """cmd_vel and the rest of the control loop go at interactive-high priority, so a router forwards them ahead of
+def test_the_loop_travels_ahead_of_bulk_data(router):
+    """cmd_vel and the rest of the robot's loop go at interactive-high priority, so a router forwards them ahead of
     bulk data queued on a link; everything else at the default."""
     bus, listener = ZenohBus.open(router, connect_timeout=5.0), ZenohBus.open(router, connect_timeout=5.0)
     got: queue.Queue = queue.Queue()

@@ -155,11 +155,11 @@ def test_every_topic_is_documented_with_its_message(doc):
     check_topics(doc, "## Topics", keys.TOPICS)
 
 
-def test_the_control_loop_topics_are_named_with_their_priority():
+def test_the_loop_topics_are_named_with_their_priority():
     text = DOC.read_text()
-    para = text[text.index("The control loop's topics go at") :].split("\n\n", 1)[0]
+    para = text[text.index("The robot's loop goes at") :].split("\n\n", 1)[0]
     named = re.findall(r"`([a-z_/]+)`", para.split("`Priority.DATA`", 1)[1].split("On each link", 1)[0])
-    assert named == sorted(keys.CONTROL, key=list(keys.TOPICS).index), f"{DOC}: the control loop's topics differ from keys.CONTROL"
+    assert named == sorted(keys.LOOP, key=list(keys.TOPICS).index), f"{DOC}: the loop's topics differ from keys.LOOP"
 
 
 def test_every_field_topic_is_documented_with_its_message(doc):
