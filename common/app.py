@@ -162,7 +162,7 @@ def main(service_cls: type[Service], argv: Sequence[str] | None = None) -> int:
     if connecting.is_set():  # stopped while the service was being built
         svc.stop()
     watch_parent(svc.stop)
-    svc.inline = not svc.blocking
+    svc.inline = True
     try:
         svc.start()
         svc.run()

@@ -251,7 +251,7 @@ class Service:
         self._others: set[str] = set()  # instance ids of other instances of this service seen alive
         self._started = False
         self._busy = threading.Lock()  # held while this service's code runs (worker, or a bus thread serving inline)
-        self.inline = False  # serve a sample on the bus's thread when nothing is queued (the deployments: not if blocking)
+        self.inline = False  # serve a sample on the bus's thread when nothing is queued (set by the deployments; never if blocking)
 
     # ------------------------------------------------------------ helpers
     def key(self, suffix: str) -> str:
@@ -421,7 +421,7 @@ class Service:
     def _take(self, item: tuple, size: int) -> None:
         """A sample from a bus thread: served on that thread if the service is idle and nothing
         older is queued (no thread switch: `inline`), else queued for the worker."""
-        if self.inline and self._busy.acquire(blocking=False):
+        if self.inline and not self.blocking and self._busy.acquire(blocking=False):
             try:
                 if self._inbox.empty():
                     self._dispatch(item)

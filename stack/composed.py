@@ -179,8 +179,8 @@ class ComposedStack:
             for name in self.names:
                 cls = registry.load(name)
                 svc = cls(self.settings, self.bus, cls.make_clock(self.settings))
-                svc.inline = not svc.blocking
-                self.executors.setdefault(name if svc.blocking else "composed", Executor()).add(svc)
+                svc.inline = True
+                (self.executors.setdefault(name, Executor()) if svc.blocking else self.executors["composed"]).add(svc)
                 svc.start()
                 self.services[name] = svc
         except BaseException:

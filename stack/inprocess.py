@@ -46,7 +46,7 @@ class InProcessStack:
         cls = registry.load(name)
         bus = ZenohBus.open(self.connect)
         svc = cls(self.settings, bus, cls.make_clock(self.settings))
-        svc.inline = not svc.blocking
+        svc.inline = True
         svc.start()
         th = threading.Thread(target=svc.run, name=f"zenav-{name}", daemon=True)
         th.start()

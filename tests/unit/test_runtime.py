@@ -276,6 +276,16 @@ def test_inline_a_sample_is_served_on_the_bus_thread_when_nothing_is_queued():
     s.close()
 
 
+def test_inline_a_blocking_service_is_never_served_on_the_bus_thread():
+    s, bus = lanes()
+    s.inline, s.blocking = True, True
+    bus.publish("zenav/r1/pose", codec.encode(m.Pose(t=0.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
+    assert s.order == [] and s._inbox.qsize() == 1  # queued for its worker: a serial wait holds up no bus thread
+    s.drain()
+    assert s.order == ["pose"]
+    s.close()
+
+
 def test_inline_a_sample_waits_in_the_queue_while_the_service_is_busy():
     s, bus = lanes()
     s.inline = True
