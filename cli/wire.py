@@ -30,17 +30,9 @@ def resolve(robot: str, key: str) -> str:
     return full
 
 
-def _suffix(full: str) -> tuple[str, str] | None:
-    """(robot or `field`, suffix) of a concrete zenav key; None for other keys."""
-    parts = full.split("/", 2)
-    if len(parts) == 3 and parts[0] == "zenav":
-        return parts[1], parts[2]
-    return None
-
-
 def topic_type(full: str) -> type | None:
     """The contract's message type of a topic key; None if the contract has none for it."""
-    where = _suffix(full)
+    where = keys.split(full)
     if where is None:
         return None
     return keys.FIELD_TOPICS.get(where[1]) if where[0] == keys.FIELD else keys.TOPICS.get(where[1])
@@ -48,7 +40,7 @@ def topic_type(full: str) -> type | None:
 
 def query_types(full: str) -> tuple[type, type] | None:
     """(request type, reply type) of a contract query key; None for other keys."""
-    where = _suffix(full)
+    where = keys.split(full)
     return None if where is None or where[0] == keys.FIELD else keys.QUERIES.get(where[1])
 
 

@@ -79,10 +79,18 @@ def alive(robot: str, service: str) -> str:
     return key(robot, f"alive/{service}")
 
 
+def split(key: str) -> tuple[str, str] | None:
+    """`zenav/<robot>/<suffix>` -> (robot, suffix) (`field` for a field-level key); None for any other key."""
+    parts = key.split("/", 2)
+    if len(parts) != 3 or parts[0] != "zenav":
+        return None
+    return parts[1], parts[2]
+
+
 def in_loop(key: str) -> bool:
     """Whether a full key is one of a robot's loop topics (`zenav/<robot>/<one of LOOP>`)."""
-    parts = key.split("/", 2)
-    return len(parts) == 3 and parts[0] == "zenav" and parts[2] in LOOP
+    where = split(key)
+    return where is not None and where[1] in LOOP
 
 
 def field_key(suffix: str) -> str:

@@ -62,17 +62,9 @@ def key_of(topic: str) -> str:
     return topic.lstrip("/")
 
 
-def split_key(key: str) -> tuple[str, str] | None:
-    """`zenav/<robot>/<suffix>` -> (robot, suffix); None for any other key."""
-    parts = key.split("/", 2)
-    if len(parts) != 3 or parts[0] != "zenav":
-        return None
-    return parts[1], parts[2]
-
-
 def message_type(key: str) -> type[m.Topic] | None:
     """The contract type of the messages on a Zenoh key, or None if it is no contract topic."""
-    split = split_key(key)
+    split = keys.split(key)
     return keys.TOPICS.get(split[1]) if split else None
 
 
@@ -128,7 +120,9 @@ def stamp(t: float) -> int:
 class Record:
     """One message read back from a recording."""
 
-    key: str  # Zenoh key it was published on
+    key: str  # Zenoh key it was published on: zenav/<robot>/<suffix>
+    robot: str
+    suffix: str  # the contract topic
     msg: Any  # the contract message
     log_time: int  # [ns] recorder wall clock at arrival
 
@@ -171,12 +165,12 @@ def read(path: str, robot: str | None = None, suffixes: Iterable[str] | None = N
     wanted = set(suffixes) if suffixes is not None else None
     for channel, message in _messages(path):
         key = key_of(channel.topic)
-        split, typ = split_key(key), message_type(key)
+        split, typ = keys.split(key), message_type(key)
         if split is None or typ is None or channel.message_encoding != MESSAGE_ENCODING:
             continue
         if (robot is not None and split[0] != robot) or (wanted is not None and split[1] not in wanted):
             continue
-        yield Record(key, msgspec.json.decode(message.data, type=typ), message.log_time)
+        yield Record(key, *split, msgspec.json.decode(message.data, type=typ), message.log_time)
 
 
 def robots(path: str) -> list[str]:
@@ -190,7 +184,7 @@ def robots(path: str) -> list[str]:
     found: list[str] = []
     for channel in channels:
         key = key_of(channel.topic)
-        split = split_key(key)
+        split = keys.split(key)
         if split and message_type(key) and split[0] not in found:
             found.append(split[0])
     return found

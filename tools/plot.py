@@ -55,10 +55,7 @@ def load(path: str, robot: str | None = None) -> Run:
         robot = found[0]
     run = Run()
     for rec in fmt.read(path, robot, TOPIC_SERIES):
-        split = fmt.split_key(rec.key)
-        if split is None:
-            continue
-        series = getattr(run, TOPIC_SERIES[split[1]])
+        series = getattr(run, TOPIC_SERIES[rec.suffix])
         series.append((rec.msg.t, rec.msg.x, rec.msg.y, rec.msg.theta))
     return run
 

@@ -91,7 +91,7 @@ class Recorder:
 
     def _write(self, key: str, data: bytes, wall_ns: int) -> None:
         typ = fmt.message_type(key)
-        split = fmt.split_key(key)
+        split = keys.split(key)
         if typ is None or split is None:
             self.skipped[key] += 1
             return

@@ -52,10 +52,9 @@ def replay(
                 break
         elif stop.is_set():
             break
-        _, recorded_robot, suffix = rec.key.split("/", 2)  # zenav/<robot>/<suffix>
         msg = rec.msg
         if isinstance(msg, m.Clock):
             msg = msgspec.structs.replace(msg, wall=time.time(), rtf=msg.rtf * rate if rate > 0 else msg.rtf)
-        bus.publish(keys.key(as_robot or recorded_robot, suffix), codec.encode(msg))
+        bus.publish(keys.key(as_robot or rec.robot, rec.suffix), codec.encode(msg))
         sent += 1
     return sent
