@@ -52,8 +52,7 @@ def run(args: argparse.Namespace) -> int:
         bus = open_bus(args)
     except Failed as e:
         return fail("record", e)
-    done = stop_on_signals()
-    signal.signal(signal.SIGHUP, lambda signum, frame: done.set())  # a closed terminal finishes the file too
+    done = stop_on_signals((signal.SIGINT, signal.SIGTERM, signal.SIGHUP))  # a closed terminal finishes the file too
     try:
         rec = Recorder(args.out, bus, None if args.all else dep.robot).start()
         print(f"recording {rec.keyexpr} to {rec.part}; Ctrl-C to stop", file=sys.stderr, flush=True)

@@ -88,18 +88,49 @@ def setup_logging(level: str = "INFO") -> None:
     logging.basicConfig(level=name, format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
 
 
-def stop_on_signals(on_stop: Callable[[], None] | None = None) -> threading.Event:
-    """An event set by SIGINT or SIGTERM (Ctrl-C, `docker stop`, `zenav up`); `on_stop` runs too."""
-    done = threading.Event()
+class _Signals:
+    """The process's one way from a signal handler to the event of the newest `stop_on_signals`.
 
-    def handler(signum: int, frame: object) -> None:
-        done.set()
-        if on_stop is not None:
-            on_stop()
+    The handler takes no lock: it writes a byte to a pipe, and a thread of its own sets the
+    event. A handler runs on the main thread between two of its steps, maybe while that
+    thread holds the lock that setting the event (or queueing a stop) takes, as it does
+    inside `Event.wait`: taken there, the lock would never be released, and the process
+    would never stop."""
 
-    signal.signal(signal.SIGINT, handler)
-    signal.signal(signal.SIGTERM, handler)
-    return done
+    def __init__(self) -> None:
+        self.event = threading.Event()
+        self._wake: int | None = None  # the pipe's write end, once the relay thread runs
+
+    def handler(self, signum: int, frame: object) -> None:
+        if self._wake is None:
+            return
+        try:
+            os.write(self._wake, b"\0")
+        except BlockingIOError:  # the pipe is full: the stop is already on its way
+            pass
+
+    def watch(self, signals: Sequence[signal.Signals]) -> threading.Event:
+        self.event = threading.Event()
+        if self._wake is None:
+            read_end, self._wake = os.pipe()
+            os.set_blocking(self._wake, False)
+            threading.Thread(target=self._relay, args=(read_end,), name="zenav-signals", daemon=True).start()
+        for sig in signals:
+            signal.signal(sig, self.handler)
+        return self.event
+
+    def _relay(self, read_end: int) -> None:
+        while os.read(read_end, 1):
+            self.event.set()
+
+
+_SIGNALS = _Signals()
+
+
+def stop_on_signals(signals: Sequence[signal.Signals] = (signal.SIGINT, signal.SIGTERM)) -> threading.Event:
+    """An event set by SIGINT or SIGTERM (Ctrl-C, `docker stop`, `zenav up`), or the signals given
+    (main thread only; the newest call's event is the one set)."""
+    return _SIGNALS.watch(signals)
 
 
 def watch_parent(stop: Callable[[], None]) -> None:
@@ -147,8 +178,8 @@ def main(service_cls: type[Service], argv: Sequence[str] | None = None) -> int:
     except ConfigError as e:
         print(f"zenav-{service_cls.name}: {e}", file=sys.stderr)
         return 2
-    connecting = stop_on_signals()
-    bus = open_bus(settings.deployment, connecting)
+    done = stop_on_signals()
+    bus = open_bus(settings.deployment, done)
     if bus is None:
         return 0
     try:
@@ -158,11 +189,15 @@ def main(service_cls: type[Service], argv: Sequence[str] | None = None) -> int:
         bus.close()
         return 2
 
-    stop_on_signals(svc.stop)
-    if connecting.is_set():  # stopped while the service was being built
-        svc.stop()
-    watch_parent(svc.stop)
     svc.inline = True
+
+    # Stopped by a signal (at once if one came while the service was being built), or by the launcher's going.
+    def stop_when_done() -> None:
+        done.wait()
+        svc.stop()
+
+    threading.Thread(target=stop_when_done, name="zenav-stop", daemon=True).start()
+    watch_parent(svc.stop)
     try:
         svc.start()
         svc.run()

@@ -85,3 +85,22 @@ def test_a_service_started_before_its_router_joins_it_when_it_comes():
             assert client.wait_alive(["motor"], timeout=CONNECT_STEP + 20) == {"motor"}
             proc.send_signal(signal.SIGINT)
             assert proc.wait(timeout=EXIT_WAIT) == 0
+
+
+# The handler runs on the main thread between two Python steps: here, while that thread holds the
+# lock Event.wait holds on its way in and out (as a service's worker holds its inbox's). A handler
+# that took that lock itself would wait for it forever.
+SIGNAL_IN_A_LOCK = """
+import os, signal
+from zenav.common.app import stop_on_signals
+done = stop_on_signals()
+with done._cond:
+    os.kill(os.getpid(), signal.SIGTERM)
+    [abs(i) for i in range(1000)]  # Python steps: the handler runs in one of them, the lock still held
+print("stopped" if done.wait(5.0) else "not stopped", flush=True)
+"""
+
+
+def test_a_signal_that_comes_while_the_main_thread_holds_a_lock_still_stops_it():
+    out = subprocess.run([sys.executable, "-c", SIGNAL_IN_A_LOCK], capture_output=True, text=True, timeout=EXIT_WAIT)
+    assert out.stdout.strip() == "stopped", out.stderr
