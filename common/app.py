@@ -192,12 +192,13 @@ def main(service_cls: type[Service], argv: Sequence[str] | None = None) -> int:
     svc.inline = True
 
     # Stopped by a signal (at once if one came while the service was being built), or by the launcher's going.
+    watch_parent(done.set)
+
     def stop_when_done() -> None:
         done.wait()
         svc.stop()
 
     threading.Thread(target=stop_when_done, name="zenav-stop", daemon=True).start()
-    watch_parent(svc.stop)
     try:
         svc.start()
         svc.run()

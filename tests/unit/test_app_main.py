@@ -1,6 +1,6 @@
 """A service process (`python -m zenav.services.<svc>`): a bad config exits 2 before any
 connection attempt; with no router it waits, saying so, stops on Ctrl-C, and joins the
-router once it comes."""
+router once it comes; a signal stops it whenever it lands, and so does its launcher's going."""
 
 from __future__ import annotations
 
@@ -104,3 +104,40 @@ print("stopped" if done.wait(5.0) else "not stopped", flush=True)
 def test_a_signal_that_comes_while_the_main_thread_holds_a_lock_still_stops_it():
     out = subprocess.run([sys.executable, "-c", SIGNAL_IN_A_LOCK], capture_output=True, text=True, timeout=EXIT_WAIT)
     assert out.stdout.strip() == "stopped", out.stderr
+
+
+# A launcher that goes without stopping its child (killed by SIGKILL, say): the child is left behind.
+LAUNCHER = """
+import os, subprocess, sys
+env = {**os.environ, "ZENAV_PARENT_PID": str(os.getpid()), "ZENAV_LOG": "INFO"}
+with open(sys.argv[2], "w") as log:
+    child = subprocess.Popen([sys.executable, "-m", "zenav.services.motor", "--connect", sys.argv[1]], env=env, stdout=log, stderr=log)
+print(child.pid, flush=True)
+sys.stdin.readline()
+os._exit(0)
+"""
+
+
+def test_a_service_whose_launcher_is_gone_stops_by_itself(tmp_path):
+    log = tmp_path / "motor.log"
+    with Router(free_port()) as router, Client("r1", router.endpoint) as client:
+        gone = threading.Event()
+        client.bus.watch_tokens(client.key("alive/motor"), lambda key, up: None if up else gone.set())
+        launcher = subprocess.Popen(
+            [sys.executable, "-c", LAUNCHER, router.endpoint, str(log)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+        )
+        assert launcher.stdin is not None and launcher.stdout is not None
+        pid = int(launcher.stdout.readline())
+        try:
+            assert client.wait_alive(["motor"], timeout=CONNECT_STEP + 20) == {"motor"}
+            launcher.stdin.write("go\n")
+            launcher.stdin.close()
+            assert launcher.wait(timeout=EXIT_WAIT) == 0
+            assert gone.wait(EXIT_WAIT)  # its token withdrawn: it stopped
+        finally:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            launcher.stdout.close()
+    assert "gone: stopping" in log.read_text()
