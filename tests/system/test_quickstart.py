@@ -1,5 +1,6 @@
-"""README's quick start, as written: `./run up` drives its demo square, and from a second
-terminal `./run zenav goto 0.5 0.5 --wait` wins over the demo and succeeds."""
+"""README's quick start, as written: `./run up` drives its demo square, from a second
+terminal `./run zenav goto 0.5 0.5 --wait` wins over the demo and succeeds, and Ctrl-C
+stops every service, each by itself (none killed)."""
 
 from __future__ import annotations
 
@@ -70,3 +71,8 @@ def test_the_operator_goal_wins_over_the_running_demo(tmp_path):
         up.send_signal(signal.SIGINT)
         assert up.wait(timeout=30) == 0
         reader.join(timeout=10)  # to the end of its output: the pipe is closed
+        while not out.empty():
+            seen.append(out.get())
+        said = "".join(seen)
+        assert "all services stopped" in said, said[-3000:]
+        assert "did not stop" not in said, said[-3000:]  # the launcher's line when it kills one
