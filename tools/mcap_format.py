@@ -62,10 +62,11 @@ def key_of(topic: str) -> str:
     return topic.lstrip("/")
 
 
-def message_type(key: str) -> type[m.Topic] | None:
-    """The contract type of the messages on a Zenoh key, or None if it is no contract topic."""
+def contract_topic(key: str) -> tuple[str, str, type[m.Topic]] | None:
+    """(robot, suffix, message type) of a robot's contract topic key; None for any other key."""
     split = keys.split(key)
-    return keys.TOPICS.get(split[1]) if split else None
+    typ = keys.TOPICS.get(split[1]) if split else None
+    return None if split is None or typ is None else (*split, typ)
 
 
 def schema_name(typ: type) -> str:
@@ -165,12 +166,13 @@ def read(path: str, robot: str | None = None, suffixes: Iterable[str] | None = N
     wanted = set(suffixes) if suffixes is not None else None
     for channel, message in _messages(path):
         key = key_of(channel.topic)
-        split, typ = keys.split(key), message_type(key)
-        if split is None or typ is None or channel.message_encoding != MESSAGE_ENCODING:
+        topic = contract_topic(key)
+        if topic is None or channel.message_encoding != MESSAGE_ENCODING:
             continue
-        if (robot is not None and split[0] != robot) or (wanted is not None and split[1] not in wanted):
+        on, suffix, typ = topic
+        if (robot is not None and on != robot) or (wanted is not None and suffix not in wanted):
             continue
-        yield Record(key, *split, msgspec.json.decode(message.data, type=typ), message.log_time)
+        yield Record(key, on, suffix, msgspec.json.decode(message.data, type=typ), message.log_time)
 
 
 def robots(path: str) -> list[str]:
@@ -183,8 +185,7 @@ def robots(path: str) -> list[str]:
         channels = (channel for channel, _ in _messages(path))
     found: list[str] = []
     for channel in channels:
-        key = key_of(channel.topic)
-        split = keys.split(key)
-        if split and message_type(key) and split[0] not in found:
-            found.append(split[0])
+        topic = contract_topic(key_of(channel.topic))
+        if topic is not None and topic[0] not in found:
+            found.append(topic[0])
     return found

@@ -90,11 +90,11 @@ class Recorder:
         return channel
 
     def _write(self, key: str, data: bytes, wall_ns: int) -> None:
-        typ = fmt.message_type(key)
-        split = keys.split(key)
-        if typ is None or split is None:
+        topic = fmt.contract_topic(key)
+        if topic is None:
             self.skipped[key] += 1
             return
+        robot, suffix, typ = topic
         try:
             msg: Any = codec.decode(data, typ)  # a contract message: every one has `t`
         except codec.BadInput:
@@ -105,7 +105,6 @@ class Recorder:
         self.counts[key] += 1
         self._first_ns = wall_ns if self._first_ns is None else self._first_ns
         self._last_ns = wall_ns
-        robot, suffix = split
         scene = self._scenes.get(robot) or self._scenes.setdefault(robot, Scene(robot, SCENE_PERIOD))
         for viz_suffix, viz in scene.feed(suffix, msg, wall_ns):
             self._write_viz(keys.key(robot, viz_suffix), viz, wall_ns)

@@ -88,14 +88,14 @@ class View:
         return foxglove.Channel(self._topic(suffix), schema=schema, message_encoding=fmt.MESSAGE_ENCODING, context=self.context)
 
     def _on_sample(self, key: str, data: bytes, ns: int) -> None:
-        where, typ = keys.split(key), fmt.message_type(key)
-        if where is None or typ is None:
+        topic = fmt.contract_topic(key)
+        if topic is None:
             return
+        _, suffix, typ = topic
         try:
             msg: Any = codec.decode(data, typ)  # a contract message: every one has `t`
         except codec.BadInput:
             return
-        suffix = where[1]
         self._mirrors[suffix].log(fmt.to_json(msg), log_time=ns)
         for viz_suffix, viz in self.scene.feed(suffix, msg, ns):
             self._viz[viz_suffix].log(viz, log_time=ns)

@@ -15,8 +15,8 @@ from zenav.tools import mcap_format as fmt
 def test_topics_are_the_zenoh_keys_with_a_leading_slash():
     assert fmt.topic_of("zenav/r1/odom") == "/zenav/r1/odom"
     assert fmt.key_of("/zenav/r1/diag/sim") == "zenav/r1/diag/sim"
-    assert fmt.message_type("zenav/r1/localizer/fixes") is m.Fix
-    assert fmt.message_type("zenav/r1/alive/sim") is None
+    assert fmt.contract_topic("zenav/r1/localizer/fixes") == ("r1", "localizer/fixes", m.Fix)
+    assert fmt.contract_topic("zenav/r1/alive/sim") is None
 
 
 def walk(node):
