@@ -33,7 +33,7 @@ class Plan:
     square_laps: float  # seed 003's square per controller (0: not run)
     kinematic_seeds: int  # the navigator's kinematic path trial per controller (bench/studies/navigator.py)
     compose: tuple[str, ...] = ("odometry", "localizer", "navigator", "motor")  # run again composed in one process (none: not)
-    chain_modes: tuple[str, ...] = ("client", "peer")  # Zenoh modes of the bare chain measured beside the stack
+    peers: bool = True  # the latency run again with the services as Zenoh peers, beside a bare chain of peers
     profile_seconds: float = 10.0  # [s] of stack time each service is timed over (bench/profile.py)
     fleet_robots: tuple[int, ...] = (1, 2, 5, 10, 20)  # robots' traffic played through one router (bench/fleet.py)
     fleet_window: float = 10.0  # [s] each robot count plays
@@ -87,7 +87,7 @@ QUICK = Plan(
     square_laps=0.0,
     kinematic_seeds=3,
     compose=(),
-    chain_modes=("client",),
+    peers=False,
     profile_seconds=3.0,
     fleet_robots=(1, 5),
     fleet_window=3.0,

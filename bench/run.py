@@ -92,23 +92,23 @@ def run(plan: Plan, out: Path, command: str, say: Callable[[str], None] = lambda
 def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[str], None]) -> None:
     """Each section of the plan in turn, into `res`."""
     if "latency" in plan.sections or "cost" in plan.sections:
-        halves: dict[str, list[Chain]] = {mode: [] for mode in plan.chain_modes}
+        halves: dict[str, list[Chain]] = {}  # Zenoh mode -> the bare chain's halves
 
         def bare_chain(mode: str) -> None:  # half the window on a router of its own: before the stack's run, and after
-            if mode in halves:
-                with ProcStack((), (), logs) as router:
-                    halves[mode].append(chain.measure(router.endpoint, RATE, plan.latency_window / 2, mode))
-                note(f"bare five-hop chain, {mode}s, half {len(halves[mode])} of 2: {len(halves[mode][-1].latency)} samples")
+            with ProcStack((), (), logs) as router:
+                halves.setdefault(mode, []).append(chain.measure(router.endpoint, RATE, plan.latency_window / 2, mode))
+            note(f"bare five-hop chain, {mode}s, half {len(halves[mode])} of 2: {len(halves[mode][-1].latency)} samples")
 
         bare_chain("client")
         res.base = base = live.run(1, RATE, 1.0, plan.latency_window, logs / "base")
         note(f"one robot at {RATE:g} Hz, realtime: {len(base.chain['end to end'])} chains")
         bare_chain("client")
-        bare_chain("peer")
-        res.peer = live.run(1, RATE, 1.0, plan.latency_window, logs / "peer", zenoh_mode="peer")
-        note(f"the same, services as peers: {len(res.peer.chain['end to end'])} chains")
-        bare_chain("peer")
-        res.chains = {mode: Chain.pooled(parts) for mode, parts in halves.items() if parts}
+        if plan.peers:
+            bare_chain("peer")
+            res.peer = live.run(1, RATE, 1.0, plan.latency_window, logs / "peer", zenoh_mode="peer")
+            note(f"the same, services as peers: {len(res.peer.chain['end to end'])} chains")
+            bare_chain("peer")
+        res.chains = {mode: Chain.pooled(parts) for mode, parts in halves.items()}
         if plan.compose:
             res.composed = live.run(1, RATE, 1.0, plan.latency_window, logs / "composed", compose=plan.compose)
             note(f"the same, {', '.join(plan.compose)} in one process: {len(res.composed.chain['end to end'])} chains")

@@ -94,15 +94,15 @@ def headings(text: str) -> list[str]:
     return [line.split(" (")[0] for line in text.splitlines() if line.startswith("#")]
 
 
-def sections(*scenarios: str, settle: bool = False, floor: bool = False) -> list[str]:
+def sections(*scenarios: str, settle: bool = False, floor: bool = False, peers: bool = True) -> list[str]:
     """The headings of a report with every section, its accuracy measured in `scenarios` (`settle`: and the settle
-    table; `floor`: and the bare chain)."""
+    table; `floor`: and the bare chain; `peers`: and the services as Zenoh peers)."""
     return [
         "# zenav benchmark",
         "## Targets",
         "## Latency",
         *(["### The floor: a bare chain of the same five hops"] if floor else []),
-        "### Services as Zenoh peers",
+        *(["### Services as Zenoh peers"] if peers else []),
         "## Cost",
         "### Sensor rate",
         "### Robots on one router",
