@@ -36,6 +36,11 @@ def test_the_performance_sections_are_written(tmp_path):
     wanted = ("### The floor: a bare chain of the same five hops", "### The robot's services composed in one process", "## Profile")
     assert all(h in headings for h in (*wanted, "## Fleet"))
     assert "- end to end (clients) / bare chain: p50 1.20x, p99 1.50x" in text  # p50 3.0 / 2.5, p99 8.88 / 5.93
+    # the goals in the targets table, per deployment: peers' p50 2.0 / 1.5 misses 1.3x; composed over the clients' chain
+    assert "| end to end / bare chain p50, clients | <= 1.3x | 1.20x | yes |" in text
+    assert "| end to end / bare chain p99, clients | <= 1.5x | 1.50x | yes |" in text
+    assert "| end to end / bare chain p50, services as peers | <= 1.3x | 1.33x | **no** |" in text
+    assert "| end to end / bare chain p50, robot's services composed | <= 1.3x | 0.48x | yes |" in text
     # stage by stage beside the bare chain's, per mode: the stack's odometry p50 0.6, the bare chain's 0.2
     assert "| odometry | 0.60 / 0.20 | 0.70 / 0.30 | 0.40 / 0.20 | 0.50 / 0.30 |" in text
     assert "Delivery p50 reached 2x the one-robot figure at 5 robots." in text
