@@ -18,11 +18,10 @@ from zenav.bench import cost, tables
 from zenav.bench.latency import END_TO_END, Stats
 from zenav.bench.run import Results
 from zenav.bench.speed import highest_by_harness
-from zenav.bench.tables import fmt, table
+from zenav.bench.tables import TARGET_P50_RATIO, TARGET_P99_RATIO, fmt, ratios, table
 from zenav.stack.composed import ROBOT_SERVICES
 
 TARGET_P50, TARGET_P99 = 3.0, 8.0  # [ms] end to end at 100 Hz
-TARGET_P50_RATIO, TARGET_P99_RATIO = 1.3, 1.5  # end to end over the bare chain of the same five hops, same run
 TARGET_CPU = 0.35  # [CPU s per simulated s] the whole stack at 100 Hz
 TARGET_ROBOT_CPU = 0.15  # [CPU s per simulated s] the four services a real robot runs, at 100 Hz
 STACK_COLOURS = ("tab:blue", "tab:green", "tab:purple")  # the latency histogram: clients, peers, composed
@@ -150,9 +149,9 @@ def _ratio_rows(res: Results) -> list[list[str]]:
     for name, live, mode in runs:
         if live is None or mode not in res.chains:
             continue
-        a, b = Stats.of(live.chain[END_TO_END]), Stats.of(res.chains[mode].latency)
-        for pct, goal, x, y in (("p50", TARGET_P50_RATIO, a.p50, b.p50), ("p99", TARGET_P99_RATIO, a.p99, b.p99)):
-            rows.append([f"end to end / bare chain {pct}, {name}", f"<= {goal:g}x", f"{fmt(x / y)}x", _met(x / y <= goal)])
+        p50, p99 = ratios(live.chain[END_TO_END], res.chains[mode].latency)
+        for pct, goal, ratio in (("p50", TARGET_P50_RATIO, p50), ("p99", TARGET_P99_RATIO, p99)):
+            rows.append([f"end to end / bare chain {pct}, {name}", f"<= {goal:g}x", f"{fmt(ratio)}x", _met(ratio <= goal)])
     return rows
 
 
