@@ -65,8 +65,10 @@ def key_of(topic: str) -> str:
 def contract_topic(key: str) -> tuple[str, str, type[m.Topic]] | None:
     """(robot, suffix, message type) of a robot's contract topic key; None for any other key."""
     split = keys.split(key)
-    typ = keys.TOPICS.get(split[1]) if split else None
-    return None if split is None or typ is None else (*split, typ)
+    if split is None:
+        return None
+    typ = keys.TOPICS.get(split[1])
+    return None if typ is None else (*split, typ)
 
 
 def schema_name(typ: type) -> str:
