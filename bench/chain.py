@@ -91,6 +91,8 @@ class Chain:
 
     stages: dict[str, list[float]]  # [ms] per stage and end to end, as the observer splits the stack's chain
     relay_cores: float  # [cores] one relay process's CPU over the run (mean of the relays): a hop's floor
+    relay_wait: float = 0.0  # [s] a relay's thread waited for a core each time it got one (mean over the relays' threads)
+    relay_runs: float = 0.0  # [1/s] times one relay's threads got a core (mean of the relays)
 
     @property
     def latency(self) -> list[float]:
@@ -99,9 +101,10 @@ class Chain:
 
     @classmethod
     def pooled(cls, parts: list[Chain]) -> Chain:
-        """Several runs as one: their samples together, their relays' mean cost."""
+        """Several runs as one: their samples together, their relays' mean cost and waits."""
         stages = {name: [x for p in parts for x in p.stages[name]] for name in parts[0].stages}
-        return cls(stages, sum(p.relay_cores for p in parts) / len(parts))
+        figures = zip(*((p.relay_cores, p.relay_wait, p.relay_runs) for p in parts))
+        return cls(stages, *(sum(f) / len(parts) for f in figures))
 
 
 def measure(connect: str, rate: float = 100.0, duration: float = 10.0, mode: str = "client") -> Chain:
@@ -117,11 +120,15 @@ def measure(connect: str, rate: float = 100.0, duration: float = 10.0, mode: str
             assert p.stdout is not None
             if p.stdout.readline().strip() != READY:
                 raise RuntimeError("a chain relay did not start")
-        cpu0, t0 = [read_proc(p.pid).cpu for p in procs], time.monotonic()
+        s0, t0 = [read_proc(p.pid) for p in procs], time.monotonic()
         pub = base + ["pub", "--connect", connect, "--rate", str(rate), "--duration", str(duration), "--mode", mode]
         subprocess.run(pub, check=True, timeout=duration + 30.0)
-        cpu1, t1 = [read_proc(p.pid).cpu for p in procs], time.monotonic()
-        return Chain(observer.stages(), sum(b - a for a, b in zip(cpu0, cpu1)) / len(procs) / (t1 - t0))
+        s1, t1 = [read_proc(p.pid) for p in procs], time.monotonic()
+        per_relay = len(procs) * (t1 - t0)
+        runs = sum(b.runs - a.runs for a, b in zip(s0, s1))
+        waited = sum(b.waited - a.waited for a, b in zip(s0, s1))
+        cores = sum(b.cpu - a.cpu for a, b in zip(s0, s1)) / per_relay
+        return Chain(observer.stages(), cores, waited / max(runs, 1), runs / per_relay)
     finally:
         observer.close()
         for p in procs:

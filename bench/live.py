@@ -51,6 +51,7 @@ class Live:
     sim: dict[str, float]  # robot -> stack seconds its sim advanced in the window
     cpu: dict[tuple[str, str], float]  # (robot, service) -> CPU seconds in the window; ("-", "router") too
     rss: dict[tuple[str, str], int]  # [bytes] at the end of the window
+    waits: dict[tuple[str, str], tuple[float, int]]  # [s] its threads waited for a core in the window, and the times they got one
     counters: dict[tuple[str, str], dict[str, int]]  # counter increases over the window, from diag
     diag_span: dict[tuple[str, str], float]  # [s] stack time between the two diags the increases are from
     chain: dict[str, list[float]]  # r1's latency per stage and end to end [ms]
@@ -130,6 +131,7 @@ def run(
         sim={r: sim1[r] - sim0[r] for r in ids},
         cpu={k: p1[k].cpu - p0[k].cpu for k in p1},  # (robot, "composed") for a composed process
         rss={k: p1[k].rss for k in p1},
+        waits={k: (p1[k].waited - p0[k].waited, p1[k].runs - p0[k].runs) for k in p1},
         counters={(r, s): _increase(before[r][s], after[r][s]) for r, s in keys},
         diag_span={(r, s): after[r][s].t - before[r][s].t for r, s in keys},
         chain=chain,

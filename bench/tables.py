@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from zenav.bench import camera as camera_bench
 from zenav.bench.accuracy import Summary
+from zenav.bench.chain import Chain
 from zenav.bench.cost import Load, ServiceCost, services
 from zenav.bench.latency import CHAIN, END_TO_END, STAGES, Stats
 from zenav.bench.live import Live
@@ -137,6 +138,7 @@ def _floor(res: Results) -> list[str]:
     ratios += [
         f"one relay process (decode, publish) at {RATE:g} Hz, {m}s: {fmt(c.relay_cores, 3)} of a core" for m, c in res.chains.items()
     ]
+    ratios += [line for m, live in runs.items() if (line := _waits_line(m, live, res.chains[m]))]
     return [
         "",
         "### The floor: a bare chain of the same five hops",
@@ -155,6 +157,20 @@ def _floor(res: Results) -> list[str]:
         "",
         *[f"- {line}" for line in ratios],
     ]
+
+
+def _waits_line(mode: str, live: Live, bare: Chain) -> str | None:
+    """How long the threads of the robot's services waited for a core each time they got one, beside a relay's."""
+    waits = [live.waits[k] for k in live.waits if k[0] == live.robots[0] and k[1] in ROBOT_SERVICES]
+    runs = sum(n for _, n in waits)
+    if runs <= 0 or bare.relay_runs <= 0:
+        return None  # no schedstat on this kernel
+    waited = sum(w for w, _ in waits)
+    return (
+        f"waiting for a core, {mode}s (/proc/<pid>/task/*/schedstat): a thread of the robot's services "
+        f"{waited / runs * 1e6:.0f} us each time it got one, {runs / len(waits) / live.wall:.0f} times a second a "
+        f"service; a bare relay's {bare.relay_wait * 1e6:.0f} us, {bare.relay_runs:.0f} times a second"
+    )
 
 
 def _peer_latency(res: Results, base: Live) -> list[str]:

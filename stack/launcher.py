@@ -61,10 +61,12 @@ class ProcSample:
 
     cpu: float  # [s] user + system CPU time since the process started
     rss: int  # [bytes] resident memory now
+    waited: float = 0.0  # [s] its threads spent ready to run, waiting for a core, since they started
+    runs: int = 0  # times its threads were given a core since they started (each wake-up, each preemption)
 
 
 def read_proc(pid: int) -> ProcSample:
-    """CPU time (utime + stime) and resident memory of a live process."""
+    """CPU time (utime + stime), resident memory and the scheduler's waits (`_waits`) of a live process."""
     with open(f"/proc/{pid}/stat") as f:
         fields = f.read().rsplit(")", 1)[1].split()  # after the command name, which may hold spaces
     utime, stime = int(fields[11]), int(fields[12])  # fields 14 and 15 of proc(5)
@@ -73,7 +75,25 @@ def read_proc(pid: int) -> ProcSample:
         for line in f:
             if line.startswith("VmRSS:"):
                 rss = int(line.split()[1]) * 1024
-    return ProcSample((utime + stime) / CLK_TCK, rss)
+    return ProcSample((utime + stime) / CLK_TCK, rss, *_waits(pid))
+
+
+def _waits(pid: int) -> tuple[float, int]:
+    """[s] the process's threads waited for a core, and how many times they got one, summed over the
+    threads it has now (/proc/<pid>/task/*/schedstat); (0, 0) where the kernel keeps no schedstat."""
+    waited = runs = 0
+    try:
+        tids = os.listdir(f"/proc/{pid}/task")
+    except OSError:
+        return 0.0, 0
+    for tid in tids:
+        try:
+            with open(f"/proc/{pid}/task/{tid}/schedstat") as f:
+                _, wait, n = f.read().split()
+        except (OSError, ValueError):  # a thread that ended meanwhile
+            continue
+        waited, runs = waited + int(wait), runs + int(n)
+    return waited / 1e9, runs
 
 
 def service_argv(name: str, args: Sequence[str]) -> list[str]:

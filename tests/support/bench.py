@@ -37,6 +37,7 @@ def live(robots=1, cpu=0.5, speed=1.0, overruns=0, busy=0.3, failures=(), hot=No
         sim={r: 10.0 * speed for r in ids},
         cpu={**{k: 9.5 if k[1] == hot else cpu for k in keys}, ProcStack.ROUTER: 0.8},
         rss={**{k: 40 * 2**20 for k in keys}, ProcStack.ROUTER: 30 * 2**20},
+        waits={k: (0.03, 1000) for k in keys},
         counters=counters,
         diag_span={k: 10.0 for k in keys},
         chain={END_TO_END: [2.0, 3.0, 4.0]},

@@ -10,14 +10,14 @@ from zenav.bench.latency import END_TO_END, STAGES, Stats
 from zenav.bench.profile import Cost, Hot
 
 
-def bare(end_to_end: list[float], relay_cores: float) -> Chain:
-    """A bare chain run: 0.1 / 0.2 / 0.3 ms a stage, and `end_to_end`."""
-    return Chain({**{s: [0.1, 0.2, 0.3] for s in STAGES}, END_TO_END: end_to_end}, relay_cores)
+def bare(end_to_end: list[float], relay_cores: float, waits: tuple[float, float] = (0.0, 0.0)) -> Chain:
+    """A bare chain run: 0.1 / 0.2 / 0.3 ms a stage, and `end_to_end`; `waits`: a relay's wait for a core [s], and runs a second."""
+    return Chain({**{s: [0.1, 0.2, 0.3] for s in STAGES}, END_TO_END: end_to_end}, relay_cores, *waits)
 
 
 def test_the_performance_sections_are_written(tmp_path):
     res = results()
-    res.chains = {"client": bare([2.0, 2.5, 6.0], 0.03), "peer": bare([1.0, 1.5, 5.0], 0.02)}
+    res.chains = {"client": bare([2.0, 2.5, 6.0], 0.03, (20e-6, 450.0)), "peer": bare([1.0, 1.5, 5.0], 0.02)}
     res.composed = live()
     res.composed.chain.update({s: [0.2, 0.3, 0.4] for s in STAGES})
     res.composed.chain[END_TO_END][:] = [1.0, 1.2, 3.0]
@@ -43,6 +43,10 @@ def test_the_performance_sections_are_written(tmp_path):
     assert "| end to end / bare chain p50, robot's services composed | <= 1.3x | 0.48x | yes |" in text
     # stage by stage beside the bare chain's, per mode: the stack's odometry p50 0.6, the bare chain's 0.2
     assert "| odometry | 0.60 / 0.20 | 0.70 / 0.30 | 0.40 / 0.20 | 0.50 / 0.30 |" in text
+    # each service waited 0.03 s over 1000 runs in the 10 s window; no waits measured for the peers' bare chain
+    wait = "a thread of the robot's services 30 us each time it got one, 100 times a second a service; a bare relay's 20 us, 450 times"
+    assert wait in text
+    assert "waiting for a core, peers" not in text
     assert "Delivery p50 reached 2x the one-robot figure at 5 robots." in text
     assert "The robot's services (odometry, localizer, navigator, motor): 0.050 of a core together." in text
     assert "every robot heard on every host: yes" in text

@@ -7,6 +7,7 @@ import os
 import signal
 import sys
 import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -253,6 +254,16 @@ def test_read_proc_sees_a_process_work():
     after = read_proc(os.getpid())
     assert after.cpu > before.cpu
     assert 10 * 2**20 < after.rss < 10 * 2**30
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/schedstat"), reason="the kernel keeps no schedstat")
+def test_read_proc_counts_the_times_a_thread_got_a_core():
+    before = read_proc(os.getpid())
+    for _ in range(5):
+        time.sleep(0.001)  # each sleep gives the core up, and the thread gets one again to go on
+    after = read_proc(os.getpid())
+    assert after.runs >= before.runs + 5
+    assert after.waited >= before.waited
 
 
 def test_a_proc_stack_without_robots_is_its_router_process(tmp_path):
