@@ -91,8 +91,8 @@ class Chain:
 
     stages: dict[str, list[float]]  # [ms] per stage and end to end, as the observer splits the stack's chain
     relay_cores: float  # [cores] one relay process's CPU over the run (mean of the relays): a hop's floor
-    relay_wait: float = 0.0  # [s] a relay's thread waited for a core each time it got one (mean over the relays' threads)
-    relay_runs: float = 0.0  # [1/s] times one relay's threads got a core (mean of the relays)
+    relay_wait: float  # [s] a relay's thread waited for a core each time it got one (mean over the relays' threads)
+    relay_runs: float  # [1/s] times one relay's threads got a core (mean of the relays)
 
     @property
     def latency(self) -> list[float]:

@@ -61,8 +61,8 @@ class ProcSample:
 
     cpu: float  # [s] user + system CPU time since the process started
     rss: int  # [bytes] resident memory now
-    waited: float = 0.0  # [s] its threads spent ready to run, waiting for a core, since they started
-    runs: int = 0  # times its threads were given a core since they started (each wake-up, each preemption)
+    waited: float  # [s] its threads spent ready to run, waiting for a core, since they started
+    runs: int  # times its threads were given a core since they started (each wake-up, each preemption)
 
 
 def read_proc(pid: int) -> ProcSample:
