@@ -134,11 +134,9 @@ def _floor(res: Results) -> list[str]:
         for row, stage in zip(rows, stages):
             a, b = Stats.of(live.chain[stage]), Stats.of(res.chains[mode].stages[stage])
             row += [f"{fmt(a.p50)} / {fmt(b.p50)}", f"{fmt(a.p99)} / {fmt(b.p99)}"]
-    ratios = [ratio_line(f"end to end ({m}s)", live.chain[END_TO_END], res.chains[m].latency) for m, live in runs.items()]
-    ratios += [
-        f"one relay process (decode, publish) at {RATE:g} Hz, {m}s: {fmt(c.relay_cores, 3)} of a core" for m, c in res.chains.items()
-    ]
-    ratios += [line for m, live in runs.items() if (line := _waits_line(m, live, res.chains[m]))]
+    notes = [ratio_line(f"end to end ({m}s)", live.chain[END_TO_END], res.chains[m].latency) for m, live in runs.items()]
+    notes += [f"one relay process (decode, publish) at {RATE:g} Hz, {m}s: {fmt(c.relay_cores, 3)} of a core" for m, c in res.chains.items()]
+    notes += [line for m, live in runs.items() if (line := _waits_line(m, live, res.chains[m]))]
     return [
         "",
         "### The floor: a bare chain of the same five hops",
@@ -155,13 +153,13 @@ def _floor(res: Results) -> list[str]:
         "",
         *table(header, rows),
         "",
-        *[f"- {line}" for line in ratios],
+        *[f"- {line}" for line in notes],
     ]
 
 
 def _waits_line(mode: str, live: Live, bare: Chain) -> str | None:
     """How long the threads of the robot's services waited for a core each time they got one, beside a relay's."""
-    waits = [live.waits[k] for k in live.waits if k[0] == live.robots[0] and k[1] in ROBOT_SERVICES]
+    waits = [w for (robot, name), w in live.waits.items() if robot == live.robots[0] and name in ROBOT_SERVICES]
     runs = sum(n for _, n in waits)
     if runs <= 0 or bare.relay_runs <= 0:
         return None  # no schedstat on this kernel
