@@ -59,9 +59,14 @@ def speed(latest: dict) -> float:
 
 
 def kill_inside(container) -> None:
-    """Crash a container as a fault would: SIGKILL every process but its init."""
+    """Crash a container as a fault would: SIGKILL every process but its init.
+
+    The kill spares its own shell, but once the service is dead the init exits and the
+    container goes down, killing that shell too if it has not yet returned: 137 (SIGKILL)
+    then means the kill worked, as 0 does. What the test asserts next is the crash's effect.
+    """
     exit_code, output = container.exec_run(["sh", "-c", "kill -KILL -1"])
-    assert exit_code == 0, output
+    assert exit_code in (0, 128 + 9), (exit_code, output)
 
 
 def test_compose_stack_drives_the_robot_and_survives_a_crash(engine):
