@@ -49,6 +49,11 @@ class Inbox:
             self._bytes -= size
             return True, item
 
+    def poke(self) -> None:
+        """Wake the worker waiting on this inbox, to look again at what it has to do."""
+        with self._ready:
+            self._ready.notify()
+
     def wait(self, timeout: float) -> None:
         """Block until something is queued or `timeout` s passed."""
         with self._ready:

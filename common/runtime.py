@@ -20,7 +20,13 @@ between. A sample that finds the service idle and nothing queued is served at on
 the bus's thread that brought it (`inline`, what the deployments set: no thread
 switch; never for a `blocking` service); anything else is queued for the service's
 worker (services composed in one process share one worker, `Executor`, and a blocking
-one has its own), and queries always are. Queries declared
+one has its own), and queries always are. An input declared `after` a periodic topic
+(`@subscribe("vps/pose", after="odom")`) is held while that topic flows (its samples
+served less than HOLD seconds apart, the last one less than HOLD ago) and served by
+the worker in the middle of the gap after that topic's next sample: work that may take
+milliseconds (a late fix's replay) then runs once that sample's chain has gone on and
+before the following one comes, not in the way of either. A query is served only
+after what is held. Queries declared
 `priority` (and liveliness events) go in a lane the worker empties before anything
 else, so a stop is never queued behind other input; on Zenoh they are served on a
 session of their own (bus.ZenohBus), so a stop is not behind other input on the wire
@@ -79,6 +85,9 @@ from zenav.common.config import Settings
 from zenav.common.inbox import Inbox
 
 LOG_CHARS = 200  # a log line (and an internal error reply) is cut to this many characters
+HOLD = 0.05  # [s] wall: a topic flows while its samples are served closer than this (an input `after` it waits less than 1.5x that)
+HOLD_ITEMS = 64  # inputs held at once at most (more are served at once)
+GAP_GAIN = 0.2  # weight of each new gap in a topic's period (smoothed: one late sample does not move it far)
 FORMAT_PARAM = "_format"  # selector parameter choosing the reply format: msgpack (default) or json
 FORMATS = {"msgpack": MSGPACK, "json": JSON}
 
@@ -130,11 +139,14 @@ def reply_ok(q: Query, reply: m.Reply) -> None:
 
 
 # ----------------------------------------------------------------- decorators
-def subscribe(suffix: str, typ: type | None = None) -> Callable:
-    """Run the method for every message on `zenav/<robot>/<suffix>`, decoded as `typ`."""
+def subscribe(suffix: str, typ: type | None = None, *, after: str | None = None) -> Callable:
+    """Run the method for every message on `zenav/<robot>/<suffix>`, decoded as `typ`.
+
+    `after`: a periodic topic this service subscribes to; while it flows, each message is
+    served in the gap after its next sample (the module's docstring)."""
 
     def deco(fn: Any) -> Any:
-        fn._zenav_sub = (suffix, typ or keys.TOPICS[suffix])
+        fn._zenav_sub = (suffix, typ or keys.TOPICS[suffix], after)
         return fn
 
     return deco
@@ -252,6 +264,10 @@ class Service:
         self._started = False
         self._busy = threading.Lock()  # held while this service's code runs (worker, or a bus thread serving inline)
         self.inline = False  # serve a sample on the bus's thread when nothing is queued (set by the deployments; never if blocking)
+        self._held_for: dict[str, str] = {}  # suffix -> the topic its input is held for (@subscribe after=)
+        self._paced: dict[str, tuple[float, float]] = {}  # topic held for -> (wall time its last sample was served, its period)
+        self._held: list[tuple[float, float, tuple]] = []  # (wall time due, stack time it arrived, item) of input held, oldest first
+        self._arrived: float | None = None  # stack time a held input being served arrived
 
     # ------------------------------------------------------------ helpers
     def key(self, suffix: str) -> str:
@@ -266,6 +282,10 @@ class Service:
         self.bus.publish(self.key(suffix), codec.encode(msg))
         self.counters.inc("msgs_out")
         self.counters.seen(suffix)
+
+    def arrived(self) -> float:
+        """The stack time the input being served arrived: now, or when a held one came."""
+        return self.clock.now() if self._arrived is None else self._arrived
 
     def count(self, name: str, n: int = 1) -> None:
         """Increase a diag counter."""
@@ -306,7 +326,10 @@ class Service:
                 continue
             bound = getattr(self, attr)
             if hasattr(fn, "_zenav_sub"):
-                suffix, typ = fn._zenav_sub
+                suffix, typ, after = fn._zenav_sub
+                if after is not None:
+                    self._held_for[suffix] = after
+                    self._paced[after] = (-math.inf, 0.0)
                 self.subscribe(suffix, typ, bound)
             if hasattr(fn, "_zenav_query"):
                 suffix, typ, priority, acts = fn._zenav_query
@@ -394,11 +417,18 @@ class Service:
                 if not got:
                     break
                 if item is not None:
-                    self._dispatch(item)
+                    self._serve(item)
+            if self._held:
+                wait = self._held[0][0] - time.monotonic()
+                if wait <= 0.0:
+                    self._release()
+                else:
+                    delay = self._run_timers()
+                    return wait if delay is None else min(delay, wait)
             return self._run_timers()
 
     def drain(self, limit: int = 100_000) -> int:
-        """Process everything queued and every due timer, without blocking (tests)."""
+        """Process everything queued (held input included) and every due timer, without blocking (tests)."""
         n = 0
         while n < limit:
             self._run_timers()
@@ -406,8 +436,9 @@ class Service:
             if not got:
                 break
             if item is not None:
-                self._dispatch(item)
+                self._serve(item)
                 n += 1
+        self._release()
         self._run_timers()
         return n
 
@@ -424,13 +455,57 @@ class Service:
         if self.inline and not self.blocking and self._busy.acquire(blocking=False):
             try:
                 if self._inbox.empty():
-                    self._dispatch(item)
+                    self._serve(item)
                     return
                 self._put(item, size)
             finally:
                 self._busy.release()
             return
         self._put(item, size)
+
+    def _serve(self, item: tuple) -> None:
+        """Dispatch an item, or hold it for the worker (`after`)."""
+        kind, suffix = item[0], item[2]
+        if kind == "msg":
+            after = self._held_for.get(suffix)
+            if after is not None:
+                due = self._gap_after(after) if len(self._held) < HOLD_ITEMS else None
+                if due is not None:
+                    self._held.append((due, self.clock.now(), item))
+                    self._inbox.poke()  # the worker waits for it
+                    return
+                if self._held:
+                    self._release()  # in arrival order
+            self._dispatch(item)
+            paced = self._paced.get(suffix)
+            if paced is not None:
+                wall = time.monotonic()
+                last, gap = paced
+                if wall - last < HOLD:  # a longer one is a pause, not the topic's period
+                    gap = wall - last if gap == 0.0 else gap + GAP_GAIN * (wall - last - gap)
+                self._paced[suffix] = (wall, gap)
+            return
+        if kind == "query" and self._held:
+            self._release()  # a query sees what came before it
+        self._dispatch(item)
+
+    def _gap_after(self, topic: str) -> float | None:
+        """Wall time in the middle of the gap after `topic`'s next sample, while it flows (None: it does not)."""
+        last, gap = self._paced[topic]
+        wall = time.monotonic()
+        if gap == 0.0 or wall - last >= HOLD:
+            return None
+        return last + (math.floor((wall - last) / gap) + 1.5) * gap
+
+    def _release(self) -> None:
+        """Serve every held input, oldest first, as of its arrival."""
+        held, self._held = self._held, []
+        for _, arrived, item in held:
+            self._arrived = arrived
+            try:
+                self._dispatch(item)
+            finally:
+                self._arrived = None
 
     def _refuse_duplicate(self) -> None:
         """Raise Duplicate, naming the other instance, if this service's token is declared."""
@@ -638,7 +713,7 @@ class Service:
             rates=rates,
             status=status,
             message=message,
-            queue=self._inbox.qsize(),
+            queue=self._inbox.qsize() + len(self._held),
         )
 
     def _publish_diag(self, now: float) -> None:

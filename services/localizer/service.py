@@ -67,14 +67,16 @@ class Localizer(Service):
         """One compass heading (modes that read the compass)."""
         self.mode.on_compass(msg)
 
-    @subscribe("vps/pose")
+    # A late fix re-integrates the history since its capture (milliseconds on a small computer):
+    # it is applied in the gap after the next odom sample, so that no sample's chain waits for it.
+    @subscribe("vps/pose", after="odom")
     @publish("localizer/fixes")
     def on_fix(self, msg: m.VpsPose) -> m.Fix:
-        """One VPS fix, arrived now: its audit record."""
+        """One VPS fix: its audit record."""
         if self.newest_fix is not None and msg.t < self.newest_fix:
             self.count("fixes_out_of_order")  # applied at its capture time all the same
         self.newest_fix = msg.t if self.newest_fix is None else max(self.newest_fix, msg.t)
-        rec = self.mode.on_fix(msg, self.clock.now())
+        rec = self.mode.on_fix(msg, self.arrived())
         self.count(f"fixes_{rec.reason}")
         if rec.reason == "duplicate":
             self.warn("duplicate", f"dropped a second VPS fix captured at t={msg.t:.3f}")

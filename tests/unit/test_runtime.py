@@ -8,7 +8,7 @@ import msgpack
 import pytest
 
 from tests.support.echo import Echo
-from zenav.common import codec, keys
+from zenav.common import codec, keys, runtime
 from zenav.common import messages as m
 from zenav.common.bus import MemoryBus
 from zenav.common.clock import ManualClock, SimClock
@@ -450,3 +450,91 @@ def test_a_sample_stamped_ahead_of_the_sim_clock_by_more_than_a_tick_is_dropped(
     s.drain()
     assert [w.t for w in published(bus, "motors/wheels")] == [10.02, 10.02]
     assert s.counters.values["dropped_future"] == 1
+
+
+class Held(Service):
+    """A fix handler declared after odom: records the order it runs in, and each fix's arrival."""
+
+    name = "localizer"
+
+    def __init__(self, *a):
+        super().__init__(*a)
+        self.order = []
+
+    @subscribe("odom")
+    def on_odom(self, msg: m.Odom) -> None:
+        self.order.append(("odom", msg.t))
+
+    @subscribe("vps/pose", after="odom")
+    def on_fix(self, msg: m.VpsPose) -> None:
+        self.order.append(("fix", msg.t, self.arrived()))
+
+    @query("localizer/pose", acts=False)
+    def pose(self, req: m.Empty, q):
+        self.order.append(("query",))
+        return m.PoseStamped(t=0.0, x=0.0, y=0.0, theta=0.0)
+
+
+@pytest.fixture
+def held(monkeypatch):
+    """(service served inline, bus, at): `at(t)` sets the manual stack clock and the runtime's wall clock to 100 + t."""
+    wall = [100.0]
+    monkeypatch.setattr(runtime.time, "monotonic", lambda: wall[0])
+    bus, clock = MemoryBus(), ManualClock(0.0)
+    s = Held(Settings.load(None), bus, clock)
+    s.start()
+    s.inline = True
+
+    def at(t):
+        clock.t, wall[0] = t, 100.0 + t
+
+    yield s, bus, at
+    s.close()
+
+
+def odom(bus, t):
+    bus.publish("zenav/r1/odom", codec.encode(m.Odom(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
+
+
+def fix(bus, t):
+    bus.publish("zenav/r1/vps/pose", codec.encode(m.VpsPose(t=t, x=0.0, y=0.0, theta=0.0)))
+
+
+def test_an_input_declared_after_a_periodic_topic_is_served_in_the_gap_after_its_next_sample(held):
+    s, bus, at = held
+    at(5.0)
+    fix(bus, 4.6)  # no odometry yet: at once
+    odom(bus, 5.0)
+    at(5.01)
+    odom(bus, 5.01)  # odometry flows, 10 ms apart
+    at(5.012)
+    fix(bus, 4.7)  # held: the next sample is due at 5.02, the gap after it from 5.025
+    wait = s.turn(8)
+    assert s.order == [("fix", 4.6, 5.0), ("odom", 5.0), ("odom", 5.01)] and s.diag(5.012).queue == 1
+    assert wait == pytest.approx(0.013)
+    at(5.02)
+    odom(bus, 5.02)
+    at(5.024)
+    s.turn(8)
+    assert s.order[-1] == ("odom", 5.02)  # not yet
+    at(5.025)
+    s.turn(8)
+    assert s.order[-1] == ("fix", 4.7, 5.012)  # in the gap, as of its arrival
+    assert s.diag(5.025).queue == 0 and s.counters.values["msgs_in"] == 5
+
+
+def test_held_input_is_served_before_a_query_and_not_held_once_the_topic_stops(held):
+    s, bus, at = held
+    for i in range(3):
+        at(5.0 + 0.01 * i)
+        odom(bus, 5.0 + 0.01 * i)
+    fix(bus, 4.7)
+    q = bus.query("zenav/r1/localizer/pose")
+    s.drain()
+    assert s.order[-2:] == [("fix", 4.7, 5.02), ("query",)] and q.replies
+    at(5.02 + 0.8 * runtime.HOLD)
+    fix(bus, 4.8)  # the next sample is late: due in the gap after the one after it
+    assert s.order[-1] == ("query",)
+    at(5.02 + 1.2 * runtime.HOLD)
+    fix(bus, 4.9)  # odometry stopped: at once, after the one held
+    assert s.order[-2:] == [("fix", 4.8, 5.02 + 0.8 * runtime.HOLD), ("fix", 4.9, 5.02 + 1.2 * runtime.HOLD)]
