@@ -213,14 +213,18 @@ def test_a_message_from_the_future_is_dropped_and_later_ones_still_served(sim_sv
     assert s.counters.values["dropped_future"] == 1
 
 
-class Lanes(Service):
-    """Records the order its handlers run in."""
-
-    name = "navigator"
+class Recorder(Service):
+    """Records the order its handlers run in (`order`)."""
 
     def __init__(self, *a):
         super().__init__(*a)
         self.order = []
+
+
+class Lanes(Recorder):
+    """Queries in their lanes, and a topic."""
+
+    name = "navigator"
 
     @query("nav/follow_path")
     def follow(self, req: m.FollowPath, q):
@@ -452,14 +456,10 @@ def test_a_sample_stamped_ahead_of_the_sim_clock_by_more_than_a_tick_is_dropped(
     assert s.counters.values["dropped_future"] == 1
 
 
-class Held(Service):
-    """A fix handler declared after odom: records the order it runs in, and each fix's arrival."""
+class Held(Recorder):
+    """A fix handler declared after odom, recording each fix's arrival."""
 
     name = "localizer"
-
-    def __init__(self, *a):
-        super().__init__(*a)
-        self.order = []
 
     @subscribe("odom")
     def on_odom(self, msg: m.Odom) -> None:
