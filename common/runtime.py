@@ -25,8 +25,9 @@ one has its own), and queries always are. An input declared `after` a periodic t
 served less than HOLD seconds apart, the last one less than HOLD ago) and served by
 the worker in the middle of the gap after that topic's next sample: work that may take
 milliseconds (a late fix's replay) then runs once that sample's chain has gone on and
-before the following one comes, not in the way of either. A query is served only
-after what is held. Queries declared
+before the following one comes, not in the way of either; and always before any input
+after that sample, so that a replayed run gives the same results at any speed. A query
+is served only after what is held. Queries declared
 `priority` (and liveliness events) go in a lane the worker empties before anything
 else, so a stop is never queued behind other input; on Zenoh they are served on a
 session of their own (bus.ZenohBus), so a stop is not behind other input on the wire
@@ -265,8 +266,8 @@ class Service:
         self._busy = threading.Lock()  # held while this service's code runs (worker, or a bus thread serving inline)
         self.inline = False  # serve a sample on the bus's thread when nothing is queued (set by the deployments; never if blocking)
         self._held_for: dict[str, str] = {}  # suffix -> the topic its input is held for (@subscribe after=)
-        self._paced: dict[str, tuple[float, float]] = {}  # topic held for -> (wall time its last sample was served, its period)
-        self._held: list[tuple[float, float, tuple]] = []  # (wall time due, stack time it arrived, item) of input held, oldest first
+        self._paced: dict[str, list] = {}  # topic held for -> [wall time its last sample was served, its period, samples served]
+        self._held: list[tuple[int, float, float, tuple]] = []  # (sample it waits for, wall and stack time it came, item), oldest first
         self._arrived: float | None = None  # stack time a held input being served arrived
 
     # ------------------------------------------------------------ helpers
@@ -329,7 +330,7 @@ class Service:
                 suffix, typ, after = fn._zenav_sub
                 if after is not None:
                     self._held_for[suffix] = after
-                    self._paced[after] = (-math.inf, 0.0)
+                    self._paced[after] = [-math.inf, 0.0, 0]
                 self.subscribe(suffix, typ, bound)
             if hasattr(fn, "_zenav_query"):
                 suffix, typ, priority, acts = fn._zenav_query
@@ -419,7 +420,7 @@ class Service:
                 if item is not None:
                     self._serve(item)
             if self._held:
-                wait = self._held[0][0] - time.monotonic()
+                wait = self._held_wait()
                 if wait <= 0.0:
                     self._release()
                 else:
@@ -464,43 +465,59 @@ class Service:
         self._put(item, size)
 
     def _serve(self, item: tuple) -> None:
-        """Dispatch an item, or hold it for the worker (`after`)."""
-        kind, suffix = item[0], item[2]
-        if kind == "msg":
-            after = self._held_for.get(suffix)
-            if after is not None:
-                due = self._gap_after(after) if len(self._held) < HOLD_ITEMS else None
-                if due is not None:
-                    self._held.append((due, self.clock.now(), item))
-                    self._inbox.poke()  # the worker waits for it
-                    return
-                if self._held:
-                    self._release()  # in arrival order
-            self._dispatch(item)
-            paced = self._paced.get(suffix)
-            if paced is not None:
-                wall = time.monotonic()
-                last, gap = paced
-                if wall - last < HOLD:  # a longer one is a pause, not the topic's period
-                    gap = wall - last if gap == 0.0 else gap + GAP_GAIN * (wall - last - gap)
-                self._paced[suffix] = (wall, gap)
-            return
-        if kind == "query" and self._held:
-            self._release()  # a query sees what came before it
-        self._dispatch(item)
+        """Dispatch an item, or hold it for the worker (`after`).
 
-    def _gap_after(self, topic: str) -> float | None:
-        """Wall time in the middle of the gap after `topic`'s next sample, while it flows (None: it does not)."""
-        last, gap = self._paced[topic]
+        A held input is served after the sample of its topic that comes next (the worker
+        serves it in the gap after that one) and before anything that comes after that
+        sample: in a run replayed faster or slower, it lands between the same inputs."""
+        kind, suffix = item[0], item[2]
+        if self._held and (kind == "query" or self._waited()):
+            self._release()  # a query sees what came before it
+        if kind != "msg":
+            self._dispatch(item)
+            return
+        after = self._held_for.get(suffix)
+        if after is not None:
+            last, gap, count = self._paced[after]
+            if len(self._held) < HOLD_ITEMS and gap > 0.0 and time.monotonic() - last < HOLD:  # it flows
+                self._held.append((count + 1, time.monotonic(), self.clock.now(), item))
+                self._inbox.poke()  # the worker waits for it
+                return
+            if self._held:
+                self._release()  # in arrival order
+        self._dispatch(item)
+        paced = self._paced.get(suffix)
+        if paced is not None:
+            self._count_sample(paced)
+            if self._held and self._waited():
+                self._inbox.poke()  # its gap begins
+
+    def _waited(self) -> bool:
+        """The sample the oldest held input waits for has been served."""
+        waits_for, _, _, item = self._held[0]
+        return self._paced[self._held_for[item[2]]][2] >= waits_for
+
+    def _count_sample(self, paced: list) -> None:
+        """A sample of a topic input is held for was served: its time, and the topic's period."""
         wall = time.monotonic()
-        if gap == 0.0 or wall - last >= HOLD:
-            return None
-        return last + (math.floor((wall - last) / gap) + 1.5) * gap
+        gap = wall - paced[0]
+        if gap < HOLD:  # a longer one is a pause, not the topic's period
+            paced[1] = gap if paced[1] == 0.0 else paced[1] + GAP_GAIN * (gap - paced[1])
+        paced[0] = wall
+        paced[2] += 1
+
+    def _held_wait(self) -> float:
+        """Wall seconds until the oldest held input is due: the middle of the gap after the sample it waits for,
+        or HOLD after it came if that sample does not come."""
+        _, came, _, item = self._held[0]
+        last, gap, _ = self._paced[self._held_for[item[2]]]
+        due = last + gap / 2.0 if self._waited() else came + HOLD
+        return due - time.monotonic()
 
     def _release(self) -> None:
         """Serve every held input, oldest first, as of its arrival."""
         held, self._held = self._held, []
-        for _, arrived, item in held:
+        for _, _, arrived, item in held:
             self._arrived = arrived
             try:
                 self._dispatch(item)
@@ -554,6 +571,10 @@ class Service:
                 tm.due = None
             self._next_due = -math.inf
             self.on_clock_reset()
+            # At once, not a diag period of the new time later: a supervisor that heard nothing
+            # while the sim was down (no clock, no timers) must not take the service for hung.
+            self._last_diag_t = None
+            self._publish_diag(self.clock.now())
 
     def _enqueuer(self, fn: Callable, suffix: str, typ: type) -> Callable[[str, bytes], None]:
         limit = self.limits.max_payload

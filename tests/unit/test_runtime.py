@@ -192,10 +192,13 @@ def test_clock_restart_reschedules_timers_and_calls_the_hook():
     s.start()
     bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=500.0, wall=0.0)))
     s.drain()
+    diags = len(published(bus, "diag/motor"))
     bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=0.01, wall=0.0)))
     s.drain()
     assert len(resets) == 1 and resets[0] < 1.0
     assert s.counters.values["clock_resets"] == 1
+    restarted = published(bus, "diag/motor")[diags:]  # at once: the service is heard from again
+    assert len(restarted) == 1 and restarted[0].t < 1.0 and restarted[0].counters["clock_resets"] == 1
     assert all(tm.due is not None and tm.due < 2.0 for tm in s._timers)  # not waiting for t = 500
     s.close()
 
@@ -465,6 +468,10 @@ class Held(Recorder):
     def on_odom(self, msg: m.Odom) -> None:
         self.order.append(("odom", msg.t))
 
+    @subscribe("sensors/imu")
+    def on_imu(self, msg: m.Imu) -> None:
+        self.order.append(("imu", msg.t))
+
     @subscribe("vps/pose", after="odom")
     def on_fix(self, msg: m.VpsPose) -> None:
         self.order.append(("fix", msg.t, self.arrived()))
@@ -508,19 +515,26 @@ def test_an_input_declared_after_a_periodic_topic_is_served_in_the_gap_after_its
     at(5.01)
     odom(bus, 5.01)  # odometry flows, 10 ms apart
     at(5.012)
-    fix(bus, 4.7)  # held: the next sample is due at 5.02, the gap after it from 5.025
+    fix(bus, 4.7)  # held for the next sample, due at 5.02: the gap after it is from 5.025
     wait = s.turn(8)
     assert s.order == [("fix", 4.6, 5.0), ("odom", 5.0), ("odom", 5.01)] and s.diag(5.012).queue == 1
-    assert wait == pytest.approx(0.013)
+    assert wait == pytest.approx(runtime.HOLD)  # at most, if it does not come
     at(5.02)
     odom(bus, 5.02)
     at(5.024)
-    s.turn(8)
+    assert s.turn(8) == pytest.approx(0.001)
     assert s.order[-1] == ("odom", 5.02)  # not yet
     at(5.025)
     s.turn(8)
     assert s.order[-1] == ("fix", 4.7, 5.012)  # in the gap, as of its arrival
     assert s.diag(5.025).queue == 0 and s.counters.values["msgs_in"] == 5
+    fix(bus, 4.8)
+    at(5.03)
+    odom(bus, 5.03)
+    at(5.04)
+    bus.publish("zenav/r1/sensors/imu", codec.encode(m.Imu(t=5.04, gyro_z=0.0, accel_x=0.0, accel_y=0.0)))
+    odom(bus, 5.04)  # the worker did not get to it: served before anything after the sample it waited for
+    assert s.order[-4:] == [("odom", 5.03), ("fix", 4.8, 5.025), ("imu", 5.04), ("odom", 5.04)]
 
 
 def test_held_input_is_served_before_a_query_and_not_held_once_the_topic_stops(held):
