@@ -472,7 +472,7 @@ class Service:
         sample: in a run replayed faster or slower, it lands between the same inputs."""
         kind, suffix = item[0], item[2]
         if self._held and (kind == "query" or self._waited()):
-            self._release()  # a query sees what came before it
+            self._release()  # a query, or anything after the sample held input waited for, comes after it
         if kind != "msg":
             self._dispatch(item)
             return
