@@ -479,8 +479,9 @@ class Service:
         after = self._held_for.get(suffix)
         if after is not None:
             last, gap, count = self._paced[after]
-            if len(self._held) < HOLD_ITEMS and gap > 0.0 and time.monotonic() - last < HOLD:  # it flows
-                self._held.append((count + 1, time.monotonic(), self.clock.now(), item))
+            wall = time.monotonic()
+            if len(self._held) < HOLD_ITEMS and gap > 0.0 and wall - last < HOLD:  # it flows
+                self._held.append((count + 1, wall, self.clock.now(), item))
                 self._inbox.poke()  # the worker waits for it
                 return
             if self._held:
