@@ -8,6 +8,11 @@ the sim's stamp (now - t on motors/wheels at a realtime factor of 1), and it spl
 exactly into: delivery (sim to a subscriber: one hop, the observer's own), then per
 service the hop into it plus its work (its output's arrival - its input's arrival).
 
+A late VPS fix makes the localizer re-integrate its history since the fix's capture:
+the observer also stamps `vps/pose`, and splits the localizer's stage and end to end of
+the odom samples that arrive just after a fix from the others (AROUND_FIX), to show
+whether that work holds up the chain.
+
 The observer is a process of its own that does nothing else (`Observer`; `python -m
 zenav.bench.latency observe --connect EP --robot r1`), in the services' Zenoh mode: a
 stamp is not held up by the bench's own threads. The bare chain (bench/chain.py) is
@@ -44,6 +49,12 @@ class _Stamped(m.Topic, frozen=True, kw_only=True):
 CHAIN = ("sensors/encoders", "odom", "pose", "cmd_vel", "motors/wheels")  # sim -> odometry -> ... -> motor
 STAGES = ("delivery", "odometry", "localizer", "navigator", "motor")  # what ends with each chain message
 END_TO_END = "end to end"
+FIX = "vps/pose"
+# An odom sample that arrives this soon after a fix would meet the fix's replay were the fix served as it came
+# (a replay took 0.6 to 2.5 ms on the hosts measured).
+NEAR_FIX = 0.003  # [s]
+AROUND_FIX = ("odom within 3 ms after a fix", "other odom")
+SPLIT = ("localizer", END_TO_END)  # what is split by AROUND_FIX: stages() gives e.g. "localizer, other odom"
 
 
 @dataclass(frozen=True)
@@ -71,7 +82,9 @@ class ChainRecorder:
         self._lock = threading.Lock()
         self.stamp: dict[float, float] = {}  # t -> sim's wall clock at t [s]
         self.arrival: dict[str, dict[float, float]] = {topic: {} for topic in CHAIN}  # topic -> t -> wall [s]
+        self.fixes: list[float] = []  # wall arrival of each fix [s]
         bus.subscribe(keys.key(robot, "sim/truth"), self._on_truth)
+        bus.subscribe(keys.key(robot, FIX), self._on_fix)
         for topic in CHAIN:
             bus.subscribe(keys.key(robot, topic), self._stamper(topic))
 
@@ -82,6 +95,15 @@ class ChainRecorder:
             return
         with self._lock:
             self.stamp[msg.t] = msg.wall
+
+    def _on_fix(self, key: str, data: bytes) -> None:
+        now = time.time()
+        try:
+            codec.decode(data, m.VpsPose)
+        except codec.BadInput:
+            return
+        with self._lock:
+            self.fixes.append(now)
 
     def _stamper(self, topic: str) -> Callable[[str, bytes], None]:
         table = self.arrival[topic]
@@ -102,10 +124,24 @@ class ChainRecorder:
         with self._lock:
             ts = [t for t in self.arrival[CHAIN[-1]] if t in self.stamp and all(t in self.arrival[c] for c in CHAIN)]
             times = np.array([[self.stamp[t]] + [self.arrival[c][t] for c in CHAIN] for t in ts]).reshape(-1, len(CHAIN) + 1)
+            fixes = np.array(self.fixes)
         steps = np.diff(times, axis=1) * 1e3  # [ms] column k: chain[k] arrival - the one before
         out = {stage: steps[:, k].tolist() for k, stage in enumerate(STAGES)}
         out[END_TO_END] = ((times[:, -1] - times[:, 0]) * 1e3).tolist()
+        near = near_fix(times[:, 1 + CHAIN.index("odom")], fixes)
+        for name in SPLIT:
+            values = np.array(out[name])
+            out[f"{name}, {AROUND_FIX[0]}"], out[f"{name}, {AROUND_FIX[1]}"] = values[near].tolist(), values[~near].tolist()
         return out
+
+
+def near_fix(arrivals: np.ndarray, fixes: np.ndarray) -> np.ndarray:
+    """Per arrival [s]: whether a fix arrived in the NEAR_FIX before it."""
+    if len(fixes) == 0:
+        return np.zeros(len(arrivals), dtype=bool)
+    fixes = np.sort(fixes)
+    last = np.searchsorted(fixes, arrivals, side="right") - 1  # the newest fix at or before each arrival
+    return (last >= 0) & (arrivals - fixes[np.maximum(last, 0)] < NEAR_FIX)
 
 
 def observe(connect: str, robot: str, mode: str) -> None:

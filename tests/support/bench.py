@@ -15,7 +15,7 @@ import math
 
 from zenav.bench import cost, plan, speed
 from zenav.bench.accuracy import Spec, Summary
-from zenav.bench.latency import END_TO_END, STAGES
+from zenav.bench.latency import AROUND_FIX, END_TO_END, SPLIT, STAGES
 from zenav.bench.live import Live
 from zenav.bench.run import Results
 from zenav.bench.scoring import Score
@@ -75,6 +75,8 @@ def results() -> Results:
     res.peer = live()
     res.peer.chain.update({s: [0.3, 0.4, 0.5] for s in STAGES})
     res.peer.chain[END_TO_END][:] = [1.5, 2.0, 6.0]
+    for run in (base, res.peer):
+        run.chain.update({f"{s}, {g}": [0.4, 0.5] for s in SPLIT for g in AROUND_FIX})
     res.rates = [cost.load(base), cost.load(live(cpu=3.0, speed=0.5))]
     res.robots = [cost.load(base), cost.load(live(robots=2, overruns=3))]
     res.speed = speed.study("processes", (1.0, 3.0), (1,), lambda spec, rtf: summary(spec, rtf, [1.0, 1.2, 0.9]))
@@ -95,15 +97,17 @@ def headings(text: str) -> list[str]:
     return [line.split(" (")[0] for line in text.splitlines() if line.startswith("#")]
 
 
-def sections(*scenarios: str, settle: bool = False, floor: bool = False, peers: bool = True) -> list[str]:
+def sections(*scenarios: str, settle: bool = False, floor: bool = False, peers: bool = True, around_fix: bool = True) -> list[str]:
     """The headings of a report with every section, its accuracy measured in `scenarios` (`settle`: and the settle
-    table; `floor`: and the bare chain; `peers`: and the services as Zenoh peers)."""
+    table; `floor`: and the bare chain; `peers`: and the services as Zenoh peers; `around_fix`: and the localizer's
+    stage around a late fix)."""
     return [
         "# zenav benchmark",
         "## Targets",
         "## Latency",
         *(["### The floor: a bare chain of the same five hops"] if floor else []),
         *(["### Services as Zenoh peers"] if peers else []),
+        *(["### The localizer around a late fix"] if around_fix else []),
         "## Cost",
         "### Sensor rate",
         "### Robots on one router",

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
-from zenav.bench.latency import CHAIN, END_TO_END, STAGES, ChainRecorder, Stats
+from zenav.bench.latency import AROUND_FIX, CHAIN, END_TO_END, SPLIT, STAGES, ChainRecorder, Stats, near_fix
 from zenav.common import codec
 from zenav.common import messages as m
 
@@ -48,7 +49,7 @@ def test_stages_split_end_to_end_exactly(monkeypatch):
     wall[0] += 5.0
     client.callbacks["motors/wheels"](m.Wheels(t=0.03, left=0.0, right=0.0))
     out = rec.stages()
-    assert set(out) == {*STAGES, END_TO_END}
+    assert set(out) == {*STAGES, END_TO_END, *(f"{s}, {g}" for s in SPLIT for g in AROUND_FIX)}
     assert len(out[END_TO_END]) == 3
     for stage, topic in zip(STAGES, CHAIN):
         assert out[stage] == pytest.approx([steps[topic] * 1e3] * 3)
@@ -69,3 +70,35 @@ def test_stats_percentiles_and_empty():
     assert st.p50 == pytest.approx(50.5) and st.p99 == pytest.approx(99.01)
     empty = Stats.of([])
     assert empty.n == 0 and math.isnan(empty.p50)
+
+
+def test_the_samples_just_after_a_fix_are_split_from_the_others(monkeypatch):
+    client = FakeClient()
+    rec = ChainRecorder(client, "r1")
+    wall = [1000.0]
+    monkeypatch.setattr("zenav.bench.latency.time.time", lambda: wall[0])
+    fix = m.VpsPose(t=0.0, x=0.0, y=0.0, theta=0.0)
+    for i in range(5):  # a fix 1.5 ms before sample 1's odom arrives, 4.5 ms before sample 3's; sample 1's pose 1 ms late
+        t = 0.01 * (i + 1)
+        client.callbacks["sim/truth"](stamp(t, wall[0]))
+        for topic in CHAIN:
+            if topic == "odom" and i in (1, 3):
+                client.callbacks["vps/pose"](fix)
+                wall[0] += 0.001 if i == 1 else 0.004
+            wall[0] += 0.003 if (topic, i) == ("pose", 1) else 0.002 if topic == "pose" else 0.0005
+            client.callbacks[topic](m.Wheels(t=t, left=0.0, right=0.0))
+        wall[0] += 0.01
+    client.subs["vps/pose"]("zenav/r1/vps/pose", b"\xc1")  # bad input: not a fix
+    out = rec.stages()
+    near, other = (out[f"localizer, {g}"] for g in AROUND_FIX)
+    assert near == pytest.approx([3.0])  # sample 1
+    assert other == pytest.approx([2.0] * 4)  # the rest, sample 3 too: its fix came 4.5 ms before
+    assert out[f"{END_TO_END}, {AROUND_FIX[0]}"] == pytest.approx([6.0])  # 1 ms of it waiting for the fix
+    assert len(rec.fixes) == 2
+
+
+def test_near_fix_looks_back_from_each_arrival_in_any_order():
+    arrivals = np.array([5.0, 1.0, 3.002, 2.0, 4.0])
+    assert near_fix(arrivals, np.array([3.0, 0.999])).tolist() == [False, True, True, False, False]
+    assert near_fix(arrivals, np.array([])).tolist() == [False] * 5
+    assert near_fix(arrivals, np.array([9.0])).tolist() == [False] * 5
