@@ -53,7 +53,7 @@ FIX = "vps/pose"
 # An odom sample that arrives this soon after a fix would meet the fix's replay were the fix served as it came
 # (a replay took 0.6 to 2.5 ms on the hosts measured).
 NEAR_FIX = 0.003  # [s]
-AROUND_FIX = ("odom within 3 ms after a fix", "other odom")
+AROUND_FIX = (f"odom within {NEAR_FIX * 1e3:g} ms after a fix", "other odom")
 SPLIT = ("localizer", END_TO_END)  # what is split by AROUND_FIX: stages() gives e.g. "localizer, other odom"
 
 
@@ -126,13 +126,13 @@ class ChainRecorder:
             times = np.array([[self.stamp[t]] + [self.arrival[c][t] for c in CHAIN] for t in ts]).reshape(-1, len(CHAIN) + 1)
             fixes = np.array(self.fixes)
         steps = np.diff(times, axis=1) * 1e3  # [ms] column k: chain[k] arrival - the one before
-        out = {stage: steps[:, k].tolist() for k, stage in enumerate(STAGES)}
-        out[END_TO_END] = ((times[:, -1] - times[:, 0]) * 1e3).tolist()
+        out = {stage: steps[:, k] for k, stage in enumerate(STAGES)}
+        out[END_TO_END] = (times[:, -1] - times[:, 0]) * 1e3
         near = near_fix(times[:, 1 + CHAIN.index("odom")], fixes)
         for name in SPLIT:
-            values = np.array(out[name])
-            out[f"{name}, {AROUND_FIX[0]}"], out[f"{name}, {AROUND_FIX[1]}"] = values[near].tolist(), values[~near].tolist()
-        return out
+            for group, mask in zip(AROUND_FIX, (near, ~near)):
+                out[f"{name}, {group}"] = out[name][mask]
+        return {name: values.tolist() for name, values in out.items()}
 
 
 def near_fix(arrivals: np.ndarray, fixes: np.ndarray) -> np.ndarray:
