@@ -11,8 +11,12 @@ window: the bare chain it is compared with runs before and after (bench/run.py).
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,6 +33,28 @@ SETTLE = 1.0  # [s] wall after the first goals start, before the window opens
 START_TIMEOUT = 30.0  # [s] for the first robot's services to come up; each further robot adds START_PER_ROBOT
 START_PER_ROBOT = 6.0  # [s]
 DIAG_WAIT = 5.0  # [s] wall for the diags that close the window (they come once a second of stack time)
+REALTIME = 10  # the control loop's SCHED_FIFO priority in the runs with a busy core (docs/running.md's example)
+BUSY_MAX = 600.0  # [s] the longest a busy-core process runs, should the bench not end it
+# Another program keeping one core busy: a Python loop at normal priority, bounded in time.
+BUSY_LOOP = "import sys, time\nend = time.monotonic() + float(sys.argv[1])\nwhile time.monotonic() < end:\n    pass"
+
+
+@contextmanager
+def busy_core() -> Iterator[None]:
+    """One core kept busy by another process for as long as the block runs."""
+    proc = subprocess.Popen([sys.executable, "-c", BUSY_LOOP, str(BUSY_MAX)])
+    try:
+        yield
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+def realtime_refused(priority: int) -> str | None:
+    """Why a process of this host's user may not run at SCHED_FIFO `priority`, or None if it may."""
+    probe = f"import os; os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param({priority}))"
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=30.0)
+    return None if done.returncode == 0 else (done.stderr.strip().splitlines() or ["refused"])[-1]
 
 
 def machine_cpu() -> tuple[float, float]:
@@ -73,15 +99,18 @@ def run(
     scenario: str = "default",
     zenoh_mode: str = "client",
     compose: tuple[str, ...] = (),
+    realtime: int = 0,
 ) -> Live:
     """Start robots r1..rN at `rate` [Hz] and `rtf`, drive them, measure `window` wall seconds.
 
     zenoh_mode: the services' and the observer's (client: all through the router; peer: also linked directly).
     compose: services of each robot run in one process (stack/composed.py), the rest alone.
+    realtime: the control loop's and the router's SCHED_FIFO priority (`[deployment] realtime`; 0: normal).
     """
     ids = tuple(f"r{i + 1}" for i in range(robots))
     args = ["--scenario", scenario, "--set", f"sim.rtf={rtf}", "--set", f"scenario.sensor_rate_hz={rate}", "--zenoh-mode", zenoh_mode]
-    stack = ProcStack(ids, NAMES, log_dir, args, compose=compose).start()
+    args += ["--set", f"deployment.realtime={realtime}"]
+    stack = ProcStack(ids, NAMES, log_dir, args, compose=compose, realtime=realtime).start()
     bus = None
     stop = threading.Event()
     observer = Observer(stack.endpoint, ids[0], zenoh_mode)  # r1's chain, in the services' mode

@@ -34,6 +34,7 @@ class Plan:
     kinematic_seeds: int  # the navigator's kinematic path trial per controller (bench/studies/navigator.py)
     compose: tuple[str, ...] = ("odometry", "localizer", "navigator", "motor")  # run again composed in one process (none: not)
     peers: bool = True  # the latency run again with the services as Zenoh peers, beside a bare chain of peers
+    busy: bool = True  # the latency run again with one core kept busy, at normal and at real-time priority
     profile_seconds: float = 10.0  # [s] of stack time each service is timed over (bench/profile.py)
     fleet_robots: tuple[int, ...] = (1, 2, 5, 10, 20)  # robots' traffic played through one router (bench/fleet.py)
     fleet_window: float = 10.0  # [s] each robot count plays
@@ -88,6 +89,7 @@ QUICK = Plan(
     kinematic_seeds=3,
     compose=(),
     peers=False,
+    busy=False,
     profile_seconds=3.0,
     fleet_robots=(1, 5),
     fleet_window=3.0,

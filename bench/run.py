@@ -52,6 +52,8 @@ class Results:
     base: Live | None = None  # one robot at 100 Hz, realtime
     peer: Live | None = None  # the same with the services as Zenoh peers
     composed: Live | None = None  # the same with the robot's services composed in one process
+    busy: dict[int, Live] = field(default_factory=dict)  # the control loop's priority (0: normal) -> the run with one core kept busy
+    busy_refused: str = ""  # why the busy runs were not made (real-time priority refused)
     rates: list[Load] = field(default_factory=list)
     robots: list[Load] = field(default_factory=list)
     speed: list[Row] = field(default_factory=list)
@@ -112,6 +114,8 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
         if plan.compose:
             res.composed = live.run(1, RATE, 1.0, plan.latency_window, logs / "composed", compose=plan.compose)
             note(f"the same, {', '.join(plan.compose)} in one process: {len(res.composed.chain['end to end'])} chains")
+        if plan.busy:
+            _busy(plan, res, logs, note)
     if "cost" in plan.sections:
         one = cost.load(base)
         for rate in plan.rates:
@@ -180,6 +184,20 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
             res.camera_runs[trial] = [(runs.get(s, rtf), runs.get(replace(s, vps="camera"), rtf)) for s in group]
             cam = [c.pose.rmse for _, c in res.camera_runs[trial]]
             note(f"camera VPS, {trial}: pose RMSE {', '.join(f'{x * 100:.2f}' for x in cam)} cm")
+
+
+def _busy(plan: Plan, res: Results, logs: Path, note: Callable[[str], None]) -> None:
+    """The clients' latency run with one core kept busy by another program: at normal priority, then with the
+    control loop at real-time priority (where the host allows it)."""
+    refused = live.realtime_refused(live.REALTIME)
+    if refused is not None:
+        res.busy_refused = refused
+        note(f"one core busy: not run ({refused})")
+        return
+    for priority in (0, live.REALTIME):
+        with live.busy_core():
+            res.busy[priority] = r = live.run(1, RATE, 1.0, plan.latency_window, logs / f"busy-{priority}", realtime=priority)
+        note(f"one core busy, real-time priority {priority}: {len(r.chain['end to end'])} chains")
 
 
 def _sweep_point(robots: int, rate: float, window: float, logs: Path) -> Load:

@@ -82,6 +82,32 @@ def latency(res: Results) -> list[str]:
         *_peer_latency(res, base),
         *_composed_latency(res, base),
         *_around_fix(res),
+        *_busy(res, base),
+    ]
+
+
+def _busy(res: Results, base: Live) -> list[str]:
+    """The clients' run again with one core kept busy, at normal priority and with the control loop at real-time."""
+    title = ["", "### A busy computer: the control loop at real-time priority", ""]
+    if res.busy_refused:
+        return [*title, f"Not run: real-time priority refused on this host ({res.busy_refused})."]
+    if not res.busy:
+        return []
+    runs = [("idle, normal priority (the run above)", base)]
+    runs += [(f"one core busy, {f'real-time priority {p}' if p else 'normal priority'}", r) for p, r in sorted(res.busy.items())]
+    rows = []
+    for name, live in runs:
+        wait = _core_wait(live)
+        rows.append([*_stats_row(name, live.chain[END_TO_END]), "-" if wait is None else f"{wait[0]:.0f}"])
+    return [
+        *title,
+        "The clients' run again while another program keeps one core busy (a Python loop at normal priority, as a "
+        "camera's detector or a team's own code would): first at the host's normal scheduling, then with the control "
+        f"loop at real-time priority (`[deployment] realtime = {max(res.busy)}`: driver, odometry, localizer, navigator, "
+        "motor and the router at SCHED_FIFO, ahead of every normal process for a core). End to end [ms], and how "
+        "long a thread of the robot's services waited for a core each time it got one [us].",
+        "",
+        *table(["run", "n", "p50", "p90", "p99", "max", "waited for a core"], rows),
     ]
 
 
@@ -187,16 +213,24 @@ def _floor(res: Results) -> list[str]:
     ]
 
 
-def _waits_line(mode: str, live: Live, bare: Chain) -> str | None:
-    """How long the threads of the robot's services waited for a core each time they got one, beside a relay's."""
+def _core_wait(live: Live) -> tuple[float, float] | None:
+    """([us] a thread of r1's robot services waited for a core each time it got one, [1/s] times a service's threads
+    got one), or None without schedstat."""
     waits = [w for (robot, name), w in live.waits.items() if robot == live.robots[0] and name in ROBOT_SERVICES]
     runs = sum(n for _, n in waits)
-    if runs <= 0 or bare.relay_runs <= 0:
+    if runs <= 0:
+        return None
+    return sum(w for w, _ in waits) / runs * 1e6, runs / len(waits) / live.wall
+
+
+def _waits_line(mode: str, live: Live, bare: Chain) -> str | None:
+    """How long the threads of the robot's services waited for a core each time they got one, beside a relay's."""
+    wait = _core_wait(live)
+    if wait is None or bare.relay_runs <= 0:
         return None  # no schedstat on this kernel
-    waited = sum(w for w, _ in waits)
     return (
         f"waiting for a core, {mode}s (/proc/<pid>/task/*/schedstat): a thread of the robot's services "
-        f"{waited / runs * 1e6:.0f} us each time it got one, {runs / len(waits) / live.wall:.0f} times a second a "
+        f"{wait[0]:.0f} us each time it got one, {wait[1]:.0f} times a second a "
         f"service; a bare relay's {bare.relay_wait * 1e6:.0f} us, {bare.relay_runs:.0f} times a second"
     )
 

@@ -14,6 +14,13 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("router", help="run a Zenoh router until Ctrl-C")
     p.add_argument("--listen", default=DEFAULT_LISTEN, help=f"endpoint(s), comma-separated (default {DEFAULT_LISTEN})")
     p.add_argument("--zenoh-config", help="a Zenoh JSON5 config to start from (auth, access control)")
+    p.add_argument(
+        "--realtime",
+        type=int,
+        default=0,
+        metavar="PRIORITY",
+        help="run its Zenoh threads at SCHED_FIFO PRIORITY, 1 to 99 (default 0: normal)",
+    )
     p.set_defaults(func=run)
 
 
@@ -39,5 +46,9 @@ def run(args: argparse.Namespace) -> int:
             "(anyone there can drive the robot); see docs/running.md for the secure deployment",
             file=sys.stderr,
         )
-    serve(args.listen, args.zenoh_config, ready=lambda: print(f"zenav router listening on {args.listen}", file=sys.stderr, flush=True))
+    if not 0 <= args.realtime <= 99:
+        print(f"zenav router: --realtime {args.realtime}: a priority from 1 to 99, or 0", file=sys.stderr)
+        return 2
+    ready = lambda: print(f"zenav router listening on {args.listen}", file=sys.stderr, flush=True)  # noqa: E731
+    serve(args.listen, args.zenoh_config, ready=ready, priority=args.realtime)
     return 0

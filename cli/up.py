@@ -230,7 +230,11 @@ def run(args: argparse.Namespace) -> int:
     robot = settings.robot_id
     # --connect: join a router that runs elsewhere; otherwise embed one.
     endpoint = args.connect or args.listen
-    session = zenoh.open(zenoh_config("client", connect=args.connect)) if args.connect else open_router(args.listen)
+    session = (
+        zenoh.open(zenoh_config("client", connect=args.connect))
+        if args.connect
+        else open_router(args.listen, priority=settings.deployment.realtime)
+    )
     log_dir = args.log_dir or default_log_dir()
     events: list[str] = []
     tty = sys.stdout.isatty()

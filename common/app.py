@@ -22,6 +22,31 @@ PEER_LISTEN = "tcp/127.0.0.1:0"  # a peer service's own endpoint: loopback, any 
 LOG_LEVELS = ("DEBUG", "INFO", "WARNING", "ERROR")  # what ZENAV_LOG takes
 CONNECT_STEP = 2.0  # [s] a service waiting for its router says so this often
 LOG_HELP = "env ZENAV_LOG: log level of the service processes (DEBUG, INFO, WARNING, ERROR; default INFO)"
+CONTROL_LOOP = ("driver", "odometry", "localizer", "navigator", "motor")  # what `[deployment] realtime` raises
+
+
+def realtime(priority: int, who: str) -> str | None:
+    """Put this thread, and every thread it starts from now on (Zenoh's, when a session opens next), at
+    SCHED_FIFO `priority`; 0 leaves the host's scheduling. The warning logged if the host refuses (the process
+    then runs on at normal priority), else None."""
+    if priority <= 0:
+        return None
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except OSError as e:
+        why = (
+            f"{who}: real-time priority {priority} refused ({e.strerror}): running at normal priority "
+            "(it needs CAP_SYS_NICE or an rtprio limit: docs/running.md)"
+        )
+        logging.getLogger("zenav").warning(why)
+        return why
+    logging.getLogger("zenav").info("%s: real-time priority %d (SCHED_FIFO)", who, priority)
+    return None
+
+
+def normal_priority() -> None:
+    """Put this thread back at the host's normal scheduling (threads started meanwhile keep theirs)."""
+    os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
 
 
 def connection_args(parser: argparse.ArgumentParser) -> None:
@@ -178,6 +203,8 @@ def main(service_cls: type[Service], argv: Sequence[str] | None = None) -> int:
     except ConfigError as e:
         print(f"zenav-{service_cls.name}: {e}", file=sys.stderr)
         return 2
+    # Before Zenoh's threads start, so that they take it; a refusal shows in diag (`realtime_refused`).
+    refused = realtime(settings.deployment.realtime, f"zenav-{service_cls.name}") if service_cls.name in CONTROL_LOOP else None
     done = stop_on_signals()
     bus = open_bus(settings.deployment, done)
     if bus is None:
@@ -190,6 +217,8 @@ def main(service_cls: type[Service], argv: Sequence[str] | None = None) -> int:
         return 2
 
     svc.inline = True
+    if refused:
+        svc.count("realtime_refused")
 
     # Stopped by a signal (at once if one came while the service was being built), or by the launcher's going.
     watch_parent(done.set)

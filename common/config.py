@@ -43,6 +43,9 @@ class Deployment(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     scenario: str = "default"  # scenario preset (default, coarse, harsh)
     seed: Annotated[int, Meta(ge=0)] = 1  # seed of the run's random generators
     compose: tuple[str, ...] = ()  # services `zenav up` runs together in one process (small computers); () each its own
+    # SCHED_FIFO priority of the robot's control loop (driver, odometry, localizer, navigator, motor, and the router
+    # `zenav up` embeds): ahead of every normal process for a core; 0: the host's normal scheduling
+    realtime: Annotated[int, Meta(ge=0, le=99)] = 0
 
     def __post_init__(self) -> None:
         unknown = [name for name in self.compose if name not in SERVICES]

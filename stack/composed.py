@@ -25,7 +25,17 @@ from collections.abc import Iterable, Sequence
 import zenoh
 
 from zenav import services as registry
-from zenav.common.app import LOG_HELP, PEER_LISTEN, deployment_args, settings_from_args, setup_logging, stop_on_signals, watch_parent
+from zenav.common.app import (
+    CONTROL_LOOP,
+    LOG_HELP,
+    PEER_LISTEN,
+    deployment_args,
+    realtime,
+    settings_from_args,
+    setup_logging,
+    stop_on_signals,
+    watch_parent,
+)
 from zenav.common.bus import MSGPACK, Handle, MemoryBus, QueryCallback, SampleCallback, TokenCallback, ZenohBus
 from zenav.common.config import ConfigError, Settings
 from zenav.common.runtime import Duplicate, Executor, Service
@@ -232,6 +242,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ConfigError as e:
         print(f"zenav-composed: {e}", file=sys.stderr)
         return 2
+    # Before Zenoh's threads start, so that they take it; a refusal shows in diag (`realtime_refused`).
+    refused = realtime(settings.deployment.realtime, "zenav-composed") if any(n in CONTROL_LOOP for n in names) else None
     done = stop_on_signals()
     watch_parent(done.set)
     stack = ComposedStack(settings, names)
@@ -240,6 +252,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Duplicate as e:
         print(f"zenav-composed: {e}", file=sys.stderr)
         return 3
+    for name, svc in stack.services.items():
+        if refused and name in CONTROL_LOOP:
+            svc.count("realtime_refused")
     try:
         done.wait()
     finally:

@@ -318,13 +318,16 @@ class ProcStack:
     args: Sequence[str] = ()  # common service arguments: --scenario, --seed, --set ...
     endpoint: str = field(default_factory=lambda: f"tcp/127.0.0.1:{free_port()}")
     compose: Sequence[str] = ()  # services of each robot run together in one process, "<robot>-composed" (stack/composed.py)
+    realtime: int = 0  # the router's real-time priority (the services take theirs from `args`: --set deployment.realtime=N)
     launcher: Launcher = field(init=False)
 
     ROUTER = ("-", "router")  # the (robot, service) key of the router process
 
     def __post_init__(self) -> None:
         self.launcher = Launcher(self.log_dir, restart=False, events=lambda line: None)
-        self.launcher.add("router", [sys.executable, "-m", "zenav.stack.router", "--listen", self.endpoint])
+        self.launcher.add(
+            "router", [sys.executable, "-m", "zenav.stack.router", "--listen", self.endpoint, "--realtime", str(self.realtime)]
+        )
         for robot in self.robots:
             common = ["--connect", self.endpoint, "--robot", robot, *self.args]
             for svc in self.separate:

@@ -10,7 +10,7 @@ import argparse
 
 import zenoh
 
-from zenav.common.app import stop_on_signals
+from zenav.common.app import normal_priority, realtime, stop_on_signals
 from zenav.common.bus import zenoh_config
 from zenav.common.keys import DEFAULT_CONNECT
 from zenav.stack.inprocess import free_port
@@ -18,18 +18,24 @@ from zenav.stack.inprocess import free_port
 DEFAULT_LISTEN = DEFAULT_CONNECT  # where the stack and its tools meet
 
 
-def open_router(listen: str, config_file: str | None = None) -> zenoh.Session:
-    """Open a router session; SystemExit with a clear message if the port is taken."""
+def open_router(listen: str, config_file: str | None = None, priority: int = 0) -> zenoh.Session:
+    """Open a router session; SystemExit with a clear message if the port is taken. `priority` (`[deployment]
+    realtime`; 0: none): the SCHED_FIFO priority of the threads Zenoh starts meanwhile, which are all of them when
+    it is the process's first session (the calling thread keeps its own)."""
+    raised = priority > 0 and realtime(priority, "router") is None
     try:
         return zenoh.open(zenoh_config("router", listen=listen, config_file=config_file))
     except zenoh.ZError as e:
         raise SystemExit(f"zenav: cannot listen on {listen} ({e}); is another router running there?") from None
+    finally:
+        if raised:
+            normal_priority()
 
 
-def serve(listen: str, config_file: str | None = None, ready=lambda: None) -> None:
+def serve(listen: str, config_file: str | None = None, ready=lambda: None, priority: int = 0) -> None:
     """Run a router until SIGINT or SIGTERM; `ready` is called once it listens."""
     done = stop_on_signals()  # before the router listens: a launcher may stop it as soon as it does
-    session = open_router(listen, config_file)
+    session = open_router(listen, config_file, priority)
     ready()
     done.wait()
     session.close()
@@ -58,7 +64,9 @@ def main(argv: list[str] | None = None) -> int:
     """The router process of a launcher."""
     parser = argparse.ArgumentParser(prog="python -m zenav.stack.router", description="a Zenoh router until SIGTERM")
     parser.add_argument("--listen", required=True, help="endpoint(s), comma-separated")
-    serve(parser.parse_args(argv).listen)
+    parser.add_argument("--realtime", type=int, default=0, help="SCHED_FIFO priority of its Zenoh threads (0: normal)")
+    args = parser.parse_args(argv)
+    serve(args.listen, priority=args.realtime)
     return 0
 
 

@@ -33,7 +33,7 @@ def test_a_tiny_bench_writes_the_report_with_its_sections(tmp_path):
     res = run(TINY, tmp_path, "zenav bench (test slice)", say=lines.append)
     path = report.write(res, tmp_path)
     text = path.read_text()
-    assert headings(text) == sections("default", settle=True, floor=True, peers=False)  # peers: the full run's
+    assert headings(text) == sections("default", settle=True, floor=True, peers=False, busy=False)  # peers, busy: the full run's
     for png in ("latency.png", "run_ekf.png"):
         assert (tmp_path / png).stat().st_size > 10_000
     # the measurements are real: chains went through all five services, the robot drove and was localized

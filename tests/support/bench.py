@@ -77,6 +77,8 @@ def results() -> Results:
     res.peer.chain[END_TO_END][:] = [1.5, 2.0, 6.0]
     for run in (base, res.peer):
         run.chain.update({f"{s}, {g}": [0.4, 0.5] for s in SPLIT for g in AROUND_FIX})
+    res.busy = {0: live(), 10: live()}  # one core kept busy, at normal and at real-time priority
+    res.busy[0].chain[END_TO_END][:] = [4.0, 6.0, 16.0]
     res.rates = [cost.load(base), cost.load(live(cpu=3.0, speed=0.5))]
     res.robots = [cost.load(base), cost.load(live(robots=2, overruns=3))]
     res.speed = speed.study("processes", (1.0, 3.0), (1,), lambda spec, rtf: summary(spec, rtf, [1.0, 1.2, 0.9]))
@@ -97,10 +99,12 @@ def headings(text: str) -> list[str]:
     return [line.split(" (")[0] for line in text.splitlines() if line.startswith("#")]
 
 
-def sections(*scenarios: str, settle: bool = False, floor: bool = False, peers: bool = True, around_fix: bool = True) -> list[str]:
+def sections(
+    *scenarios: str, settle: bool = False, floor: bool = False, peers: bool = True, around_fix: bool = True, busy: bool = True
+) -> list[str]:
     """The headings of a report with every section, its accuracy measured in `scenarios` (`settle`: and the settle
     table; `floor`: and the bare chain; `peers`: and the services as Zenoh peers; `around_fix`: and the localizer's
-    stage around a late fix)."""
+    stage around a late fix; `busy`: and the runs with a busy core)."""
     return [
         "# zenav benchmark",
         "## Targets",
@@ -108,6 +112,7 @@ def sections(*scenarios: str, settle: bool = False, floor: bool = False, peers: 
         *(["### The floor: a bare chain of the same five hops"] if floor else []),
         *(["### Services as Zenoh peers"] if peers else []),
         *(["### The localizer around a late fix"] if around_fix else []),
+        *(["### A busy computer: the control loop at real-time priority"] if busy else []),
         "## Cost",
         "### Sensor rate",
         "### Robots on one router",

@@ -9,11 +9,13 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
 from tests.support.procs import pids, service_pid
 from tests.support.rawclient import RawClient
+from zenav.bench.live import realtime_refused
 from zenav.services import NAMES
 from zenav.stack.inprocess import free_port
 
@@ -139,3 +141,48 @@ def test_up_composes_the_services_its_config_file_names(tmp_path):
         if proc.poll() is None:
             proc.kill()
             proc.communicate()
+
+
+ZENOH_THREADS = ("rx-", "tx-", "app-", "acc-", "net-")  # the names of Zenoh's runtime threads
+REFUSED = realtime_refused(5)  # why this host refuses real-time priority, if it does
+
+
+def _threads(pid: int) -> dict[int, tuple[str, int, int]]:
+    """tid -> (name, scheduling policy, priority) of every thread of `pid`."""
+    out = {}
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        tid = int(task.name)
+        out[tid] = ((task / "comm").read_text().strip(), os.sched_getscheduler(tid), os.sched_getparam(tid).sched_priority)
+    return out
+
+
+@pytest.mark.skipif(REFUSED is not None, reason=f"real-time priority refused here: {REFUSED}")
+def test_up_runs_the_control_loop_and_its_router_at_the_realtime_priority_it_is_given(tmp_path):
+    """[deployment] realtime: the robot's control-loop services, every Zenoh thread of them and of the embedded
+    router, at SCHED_FIFO; the sim, the vps and `zenav up`'s own Python thread at the host's normal scheduling."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    argv = [sys.executable, "-m", "zenav.cli", "up", "--listen", endpoint, "--log-dir", str(tmp_path)]
+    argv += ["--set", "deployment.realtime=5", "--duration", "240"]
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    c = RawClient(endpoint)
+    try:
+        c.follow("diag/*")
+        c.wait(lambda latest: all(f"diag/{s}" in latest for s in NAMES), timeout=90)
+        for svc in ("odometry", "localizer", "navigator", "motor"):
+            threads = _threads(service_pid(svc, endpoint)).values()
+            zenoh_threads = [t for t in threads if t[0].startswith(ZENOH_THREADS)]
+            assert zenoh_threads and all(t[1:] == (os.SCHED_FIFO, 5) for t in zenoh_threads), (svc, threads)
+            assert os.sched_getscheduler(service_pid(svc, endpoint)) == os.SCHED_FIFO, svc
+            assert "realtime_refused" not in c.latest[f"diag/{svc}"]["counters"], svc
+        for svc in ("sim", "vps"):
+            assert os.sched_getscheduler(service_pid(svc, endpoint)) == os.SCHED_OTHER, svc
+        up = _threads(proc.pid)
+        assert [t for t in up.values() if t[0].startswith(ZENOH_THREADS) and t[1:] != (os.SCHED_FIFO, 5)] == [], up
+        assert up[proc.pid][1] == os.SCHED_OTHER  # its status screen and supervisor
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=60)
+        assert proc.returncode == 0, out
+    finally:
+        c.close()
+        if proc.poll() is None:
+            proc.kill()

@@ -22,13 +22,23 @@ from zenav.stack.router import Router
 EXIT_WAIT = 10.0  # [s] a stopped service exits within this (a connection attempt lasts CONNECT_STEP)
 
 
+# The motor service in a process that may not take a real-time priority: without CAP_SYS_NICE in its bounding set
+# (run as root: the drop needs CAP_SETPCAP, and without it there is no CAP_SYS_NICE to drop) and no rtprio limit.
+UNPRIVILEGED = """
+import ctypes, os, resource, sys
+PR_CAPBSET_DROP, CAP_SYS_NICE = 24, 23
+ctypes.CDLL(None, use_errno=True).prctl(PR_CAPBSET_DROP, CAP_SYS_NICE, 0, 0, 0)
+resource.setrlimit(resource.RLIMIT_RTPRIO, (0, 0))
+os.execv(sys.executable, [sys.executable, "-m", "zenav.services.motor", *sys.argv[1:]])
+"""
+
+
 @contextmanager
-def motor(*args: str) -> Iterator[tuple[subprocess.Popen, queue.Queue]]:
+def motor(*args: str, unprivileged: bool = False) -> Iterator[tuple[subprocess.Popen, queue.Queue]]:
     """The motor service as a process, and a queue of its stderr lines; killed at the end if still running."""
     env = {**os.environ, "ZENAV_LOG": "INFO"}
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "zenav.services.motor", *args], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, env=env
-    )
+    head = [sys.executable, "-c", UNPRIVILEGED] if unprivileged else [sys.executable, "-m", "zenav.services.motor"]
+    proc = subprocess.Popen([*head, *args], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, env=env)
     assert proc.stderr is not None
     lines: queue.Queue = queue.Queue()
     pump = threading.Thread(target=lambda: [lines.put(line) for line in proc.stderr], daemon=True)  # type: ignore[union-attr]
@@ -83,6 +93,19 @@ def test_a_service_started_before_its_router_joins_it_when_it_comes():
         wait_line(lines, "no router", timeout=CONNECT_STEP + 20)
         with Router(port) as router, Client("r1", router.endpoint) as client:
             assert client.wait_alive(["motor"], timeout=CONNECT_STEP + 20) == {"motor"}
+            proc.send_signal(signal.SIGINT)
+            assert proc.wait(timeout=EXIT_WAIT) == 0
+
+
+def test_a_realtime_priority_the_host_refuses_is_logged_counted_in_diag_and_the_service_runs_on():
+    with Router(free_port()) as router, Client("r1", router.endpoint) as client:
+        diag = client.latest("diag/motor")
+        args = ("--connect", router.endpoint, "--set", "deployment.realtime=5", "--set", 'deployment.clock="wall"')
+        with motor(*args, unprivileged=True) as (proc, lines):
+            assert "real-time priority 5 refused" in wait_line(lines, "real-time priority", timeout=CONNECT_STEP + 20)
+            assert client.wait_alive(["motor"], timeout=CONNECT_STEP + 20) == {"motor"}
+            assert diag.wait(timeout=10.0).counters["realtime_refused"] == 1
+            assert os.sched_getscheduler(proc.pid) == os.SCHED_OTHER
             proc.send_signal(signal.SIGINT)
             assert proc.wait(timeout=EXIT_WAIT) == 0
 

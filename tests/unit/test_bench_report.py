@@ -55,3 +55,15 @@ def test_the_settle_section_writes_a_table_per_pose_error(tmp_path):
     text = report.write(res, tmp_path).read_text()
     assert headings(text)[2:] == ["## Settle table", "### With the synthetic late VPS's pose error", "### With the camera VPS's pose error"]
     assert "| point 0.3 m |" in text
+
+
+def test_the_busy_computer_table_has_a_row_per_run_and_says_why_when_not_run(tmp_path):
+    res = results()
+    text = report.write(res, tmp_path).read_text()
+    assert "| idle, normal priority (the run above) | 3 | 3.00 |" in text
+    assert "| one core busy, normal priority | 3 | 6.00 | 14.00 | 15.80 | 16.00 | 30 |" in text
+    assert "| one core busy, real-time priority 10 | 3 |" in text and "`[deployment] realtime = 10`" in text
+    res.busy, res.busy_refused = {}, "PermissionError: [Errno 1] Operation not permitted"
+    text = report.write(res, tmp_path).read_text()
+    assert "Not run: real-time priority refused on this host (PermissionError: [Errno 1] Operation not permitted)." in text
+    assert "| one core busy" not in text
