@@ -5,6 +5,11 @@ one condition: runtime.Executor). Items of the priority lane (e.g. nav/stop) are
 taken before anything in the normal lane, whatever is queued there. A put that would
 pass either bound is refused (the caller counts it); the priority lane has its own
 item bound so that a flood of normal input cannot keep a stop out.
+
+An input of which only the newest is worth serving (a camera's frames: a detector slower
+than the camera must read the newest frame, not fall further behind with every one) is
+put with `put_latest`: one still queued under the same key is replaced by it, in its
+place, so such an input never holds more than one place in the queue.
 """
 
 from __future__ import annotations
@@ -12,7 +17,8 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
-from typing import Any
+from collections.abc import Hashable
+from typing import Any, Literal
 
 
 class Inbox:
@@ -20,8 +26,9 @@ class Inbox:
 
     def __init__(self, max_items: int, max_bytes: int, ready: threading.Condition | None = None) -> None:
         self.max_items, self.max_bytes = max_items, max_bytes  # [items], [bytes] of the normal lane
-        self._lanes: tuple[deque, deque] = (deque(), deque())  # (priority, normal) of (item, size)
+        self._lanes: tuple[deque, deque] = (deque(), deque())  # (priority, normal) of [item, size, latest key or None]
         self._bytes = 0  # [bytes] queued in both lanes
+        self._latest: dict[Hashable, list] = {}  # key -> its queued entry (put_latest)
         # Inboxes of services that share one worker share this condition: a put wakes that worker.
         self._ready = ready or threading.Condition(threading.Lock())
 
@@ -31,10 +38,29 @@ class Inbox:
             lane = self._lanes[0 if priority else 1]
             if len(lane) >= self.max_items or (not priority and self._bytes + size > self.max_bytes):
                 return False
-            lane.append((item, size))
+            lane.append([item, size, None])
             self._bytes += size
             self._ready.notify()
             return True
+
+    def put_latest(self, key: Hashable, item: Any, size: int = 0) -> Literal["queued", "replaced", "refused"]:
+        """Queue an item of the normal lane of which only the newest under `key` is worth serving: one still
+        queued under `key` is dropped for it ("replaced": it takes that one's place), else as `put`."""
+        with self._ready:
+            entry = self._latest.get(key)
+            if entry is None:
+                if len(self._lanes[1]) >= self.max_items or self._bytes + size > self.max_bytes:
+                    return "refused"
+                entry = self._latest[key] = [item, size, key]
+                self._lanes[1].append(entry)
+                self._bytes += size
+                self._ready.notify()
+                return "queued"
+            if self._bytes - entry[1] + size > self.max_bytes:
+                return "refused"
+            self._bytes += size - entry[1]
+            entry[0], entry[1] = item, size
+            return "replaced"
 
     def get(self, timeout: float | None = None) -> tuple[bool, Any]:
         """(True, item), priority lane first, waiting up to `timeout` s (None: do not wait); (False, None) if empty."""
@@ -45,8 +71,10 @@ class Inbox:
                 if left <= 0.0:
                     return False, None
                 self._ready.wait(left)
-            item, size = (self._lanes[0] or self._lanes[1]).popleft()
+            item, size, key = (self._lanes[0] or self._lanes[1]).popleft()
             self._bytes -= size
+            if key is not None:
+                del self._latest[key]
             return True, item
 
     def poke(self) -> None:

@@ -34,7 +34,12 @@ session of their own (bus.ZenohBus), so a stop is not behind other input on the 
 either. Before the worker gets to it, such a query (on its exact key) runs the
 service's `on_priority` hook at once on the bus's thread: the navigator commands zero
 there, without waiting for the input the worker has in hand. The queue is bounded in
-items and bytes ([limits]): a full one drops new input (`dropped_overflow`).
+items and bytes ([limits]): a full one drops new input (`dropped_overflow`). An input
+declared `latest` (`@subscribe("camera/frame", latest=True)`, as ROS 2's keep-last
+depth 1) holds one place in the queue at most: a sample that comes while its topic's
+previous one is still queued takes that one's place, and the older is dropped, counted
+(`dropped_superseded`) and logged. A service slower than such an input serves its
+newest sample each time, rather than falling further behind with every one.
 
 Sizes are checked in the bus callback, before anything is decoded: a payload over
 [limits] max_payload or selector parameters over max_params are counted (`oversize`),
@@ -140,14 +145,15 @@ def reply_ok(q: Query, reply: m.Reply) -> None:
 
 
 # ----------------------------------------------------------------- decorators
-def subscribe(suffix: str, typ: type | None = None, *, after: str | None = None) -> Callable:
+def subscribe(suffix: str, typ: type | None = None, *, after: str | None = None, latest: bool = False) -> Callable:
     """Run the method for every message on `zenav/<robot>/<suffix>`, decoded as `typ`.
 
     `after`: a periodic topic this service subscribes to; while it flows, each message is
-    served in the gap after its next sample (the module's docstring)."""
+    served in the gap after its next sample (the module's docstring). `latest`: only the
+    newest message is worth serving (the module's docstring)."""
 
     def deco(fn: Any) -> Any:
-        fn._zenav_sub = (suffix, typ or keys.TOPICS[suffix], after)
+        fn._zenav_sub = (suffix, typ or keys.TOPICS[suffix], after, latest)
         return fn
 
     return deco
@@ -327,11 +333,11 @@ class Service:
                 continue
             bound = getattr(self, attr)
             if hasattr(fn, "_zenav_sub"):
-                suffix, typ, after = fn._zenav_sub
+                suffix, typ, after, latest = fn._zenav_sub
                 if after is not None:
                     self._held_for[suffix] = after
                     self._paced[after] = [-math.inf, 0.0, 0]
-                self.subscribe(suffix, typ, bound)
+                self.subscribe(suffix, typ, bound, latest=latest)
             if hasattr(fn, "_zenav_query"):
                 suffix, typ, priority, acts = fn._zenav_query
                 enqueue = self._query_enqueuer(bound, suffix, typ, priority, acts)
@@ -356,10 +362,10 @@ class Service:
             return SimClock(future=lim.future_stamp, jump=lim.clock_jump)
         return WallClock(future=lim.future_stamp)
 
-    def subscribe(self, suffix: str, typ: type, fn: Callable[[Any], Any]) -> None:
+    def subscribe(self, suffix: str, typ: type, fn: Callable[[Any], Any], latest: bool = False) -> None:
         """Subscribe `fn` to a topic at start-up, for subscriptions that depend on config
-        (the @subscribe decorator covers the rest). `fn` may carry @publish."""
-        self._handles.append(self.bus.subscribe(self.key(suffix), self._enqueuer(fn, suffix, typ)))
+        (the @subscribe decorator covers the rest). `fn` may carry @publish; `latest` as @subscribe's."""
+        self._handles.append(self.bus.subscribe(self.key(suffix), self._enqueuer(fn, suffix, typ, latest)))
 
     def watch(self, key: str, fn: Callable[[bool], Any]) -> Handle:
         """Watch a liveliness token key at run time: `fn(alive)` runs in the worker on each
@@ -450,19 +456,29 @@ class Service:
         self.counters.inc("dropped_overflow")
         return False
 
-    def _take(self, item: tuple, size: int) -> None:
+    def _put_latest(self, item: tuple, size: int) -> None:
+        """Queue a sample of a `latest` input in place of its topic's one still queued (dropped, counted)."""
+        outcome = self._inbox.put_latest(item[2], item, size)
+        if outcome == "refused":
+            self.counters.inc("dropped_overflow")
+        elif outcome == "replaced":
+            self.counters.inc("dropped_superseded")
+            self.warn(f"superseded:{item[2]}", f"dropped a {item[2]} sample for a newer one: {self.name} is slower than its input")
+
+    def _take(self, item: tuple, size: int, latest: bool = False) -> None:
         """A sample from a bus thread: served on that thread if the service is idle and nothing
         older is queued (no thread switch: `inline`), else queued for the worker."""
+        put = self._put_latest if latest else self._put
         if self.inline and not self.blocking and self._busy.acquire(blocking=False):
             try:
                 if self._inbox.empty():
                     self._serve(item)
                     return
-                self._put(item, size)
+                put(item, size)
             finally:
                 self._busy.release()
             return
-        self._put(item, size)
+        put(item, size)
 
     def _serve(self, item: tuple) -> None:
         """Dispatch an item, or hold it for the worker (`after`).
@@ -577,14 +593,14 @@ class Service:
             self._last_diag_t = None
             self._publish_diag(self.clock.now())
 
-    def _enqueuer(self, fn: Callable, suffix: str, typ: type) -> Callable[[str, bytes], None]:
+    def _enqueuer(self, fn: Callable, suffix: str, typ: type, latest: bool = False) -> Callable[[str, bytes], None]:
         limit = self.limits.max_payload
 
         def enqueue(key: str, data: bytes) -> None:
             if len(data) > limit:
                 self._oversize(suffix, len(data), limit, "max_payload")
                 return
-            self._take(("msg", fn, suffix, typ, data), len(data))
+            self._take(("msg", fn, suffix, typ, data), len(data), latest)
 
         return enqueue
 

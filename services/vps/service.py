@@ -67,7 +67,8 @@ class Vps(Service):
         if self.reader is None:
             self.subscribe("sim/truth", m.Truth, self.on_truth)
         else:
-            self.subscribe("camera/frame", m.CameraFrame, self.on_frame)
+            # A detector slower than the camera reads the newest frame each time, not one ever older.
+            self.subscribe("camera/frame", m.CameraFrame, self.on_frame, latest=True)
 
     def _restarted(self, t: float) -> None:
         if t < self._last_t:

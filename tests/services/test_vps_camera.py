@@ -67,12 +67,34 @@ def test_each_robot_gets_its_fix_after_the_link_delay(renderer, cal_file):
 def test_bad_frames_are_refused_and_counted(renderer, cal_file):
     rig = make(cal_file)
     good = encode(renderer.render(0.0, [Body(0, 0.2, 0.3, 0.5)]), 0.0, 1)
-    rig.bus.publish(FRAME, codec.encode(encode(renderer.render(0.0, [])[:240, :320], 0.0, 2)))  # wrong size
-    rig.bus.publish(FRAME, codec.encode(m.CameraFrame(t=0.0, width=640, height=480, data=good.data[:1000])))  # corrupt
-    rig.bus.publish(FRAME, b"\x93garbage")  # not a frame at all
-    rig.drain()
+    for data in (
+        codec.encode(encode(renderer.render(0.0, [])[:240, :320], 0.0, 2)),  # wrong size
+        codec.encode(m.CameraFrame(t=0.0, width=640, height=480, data=good.data[:1000])),  # corrupt
+        b"\x93garbage",  # not a frame at all
+    ):
+        rig.bus.publish(FRAME, data)
+        rig.drain()  # each read before the next comes (a newer frame supersedes a queued one)
     c = rig.svc.counters.values
     assert c["frames_refused"] == 2 and c["bad_input"] == 1 and c.get("frames", 0) == 0
+    rig.close()
+
+
+def test_a_vps_slower_than_the_camera_reads_the_newest_frame(renderer, cal_file, caplog):
+    rig = make(cal_file)
+    rig.clock.t = 1.0
+    for i, x in enumerate((0.2, 0.4, 0.6, 0.8)):  # four frames come while the vps is busy (none served yet)
+        rig.bus.publish(FRAME, frame(renderer, 1.0 + i * 0.1, [Body(0, x, 0.3, 0.5)]))
+    assert rig.svc._inbox.qsize() == 1  # one place in the queue, not four frames' worth
+    rig.drain()
+    rig.advance(0.31)
+    [fix] = fixes(rig, "r1")  # only the newest was read
+    assert fix.t == pytest.approx(1.3) and abs(fix.x - 0.8) < 0.002
+    c = rig.svc.counters.values
+    assert c["frames"] == 1 and c["dropped_superseded"] == 3 and c["msgs_in"] == 1
+    assert "dropped a camera/frame sample for a newer one: vps is slower than its input" in caplog.text
+    rig.bus.publish(FRAME, frame(renderer, 1.4, [Body(0, 1.0, 0.3, 0.5)]))  # one that finds the queue empty is read
+    rig.drain()
+    assert rig.svc.counters.values["frames"] == 2 and rig.svc.counters.values["dropped_superseded"] == 3
     rig.close()
 
 
@@ -160,7 +182,7 @@ def test_the_scenarios_vps_outage_hides_the_robot_from_the_camera(cal_file):
     vps = make(cal_file)
     for data in [d for k, d in rig.bus.published if k == FRAME]:  # frames at 0.01, 0.11 (in the outage), 0.21
         vps.bus.publish(FRAME, data)
-    vps.drain()
+        vps.drain()
     vps.advance(0.5)
     assert [round(f.t, 2) for f in fixes(vps, "r1")] == [0.01, 0.21]
     vps.close()

@@ -22,6 +22,25 @@ def test_puts_past_either_bound_are_refused():
     assert box.get()[1] == "stop" and box.nbytes() == 100
 
 
+def test_a_latest_item_takes_the_place_of_the_one_queued_under_its_key():
+    box = Inbox(10, 100)
+    assert box.put("a", 1) and box.put_latest("frame", "f1", 10) == "queued"
+    assert box.put("b", 1) and box.put_latest("frame", "f2", 30) == "replaced"
+    assert box.put_latest("other", "o1", 5) == "queued"
+    assert box.qsize() == 4 and box.nbytes() == 1 + 30 + 1 + 5  # the replaced one's bytes are gone
+    assert [box.get()[1] for _ in range(2)] == ["a", "f2"]  # in the first one's place
+    assert box.put_latest("frame", "f3", 10) == "queued"  # taken: a new one queues behind the rest
+    assert [box.get()[1] for _ in range(3)] == ["b", "o1", "f3"]
+    assert box.get() == (False, None) and box.nbytes() == 0
+
+
+def test_a_latest_item_past_a_bound_is_refused_and_the_queued_one_kept():
+    box = Inbox(2, 100)
+    assert box.put_latest("frame", "f1", 60) == "queued" and box.put_latest("frame", "f2", 120) == "refused"
+    assert box.put("a", 0) and box.put_latest("other", "o1", 0) == "refused"  # two items
+    assert [box.get()[1] for _ in range(2)] == ["f1", "a"] and box.nbytes() == 0
+
+
 def test_get_waits_up_to_its_timeout():
     box = Inbox(1, 1)
     assert box.get(timeout=0.01) == (False, None)
