@@ -49,6 +49,9 @@ def run(args: argparse.Namespace) -> int:
     if not 0 <= args.realtime <= 99:
         print(f"zenav router: --realtime {args.realtime}: a priority from 1 to 99, or 0", file=sys.stderr)
         return 2
-    ready = lambda: print(f"zenav router listening on {args.listen}", file=sys.stderr, flush=True)  # noqa: E731
+
+    def ready() -> None:
+        print(f"zenav router listening on {args.listen}", file=sys.stderr, flush=True)
+
     serve(args.listen, args.zenoh_config, ready=ready, priority=args.realtime)
     return 0

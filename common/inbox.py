@@ -35,13 +35,7 @@ class Inbox:
     def put(self, item: Any, size: int = 0, priority: bool = False) -> bool:
         """Queue an item of `size` bytes; False (not queued) when it would pass a bound."""
         with self._ready:
-            lane = self._lanes[0 if priority else 1]
-            if len(lane) >= self.max_items or (not priority and self._bytes + size > self.max_bytes):
-                return False
-            lane.append([item, size, None])
-            self._bytes += size
-            self._ready.notify()
-            return True
+            return self._append([item, size, None], priority)
 
     def put_latest(self, key: Hashable, item: Any, size: int = 0) -> Literal["queued", "replaced", "refused"]:
         """Queue an item of the normal lane of which only the newest under `key` is worth serving: one still
@@ -49,18 +43,26 @@ class Inbox:
         with self._ready:
             entry = self._latest.get(key)
             if entry is None:
-                if len(self._lanes[1]) >= self.max_items or self._bytes + size > self.max_bytes:
+                entry = [item, size, key]
+                if not self._append(entry, priority=False):
                     return "refused"
-                entry = self._latest[key] = [item, size, key]
-                self._lanes[1].append(entry)
-                self._bytes += size
-                self._ready.notify()
+                self._latest[key] = entry
                 return "queued"
             if self._bytes - entry[1] + size > self.max_bytes:
                 return "refused"
             self._bytes += size - entry[1]
             entry[0], entry[1] = item, size
             return "replaced"
+
+    def _append(self, entry: list, priority: bool) -> bool:
+        """Append [item, size, latest key or None] to its lane unless it would pass a bound (the lock held)."""
+        lane, size = self._lanes[0 if priority else 1], entry[1]
+        if len(lane) >= self.max_items or (not priority and self._bytes + size > self.max_bytes):
+            return False
+        lane.append(entry)
+        self._bytes += size
+        self._ready.notify()
+        return True
 
     def get(self, timeout: float | None = None) -> tuple[bool, Any]:
         """(True, item), priority lane first, waiting up to `timeout` s (None: do not wait); (False, None) if empty."""
