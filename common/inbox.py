@@ -29,6 +29,7 @@ class Inbox:
         self._lanes: tuple[deque, deque] = (deque(), deque())  # (priority, normal) of [item, size, latest key or None]
         self._bytes = 0  # [bytes] queued in both lanes
         self._latest: dict[Hashable, list] = {}  # key -> its queued entry (put_latest)
+        self._poked = False  # poke() since the worker last looked (idle)
         # Inboxes of services that share one worker share this condition: a put wakes that worker.
         self._ready = ready or threading.Condition(threading.Lock())
 
@@ -80,15 +81,22 @@ class Inbox:
             return True, item
 
     def poke(self) -> None:
-        """Wake the worker waiting on this inbox, to look again at what it has to do."""
+        """Wake the worker waiting on this inbox, to look again at what it has to do; if it is not
+        waiting yet, its next wait returns at once (a poke is never lost between a look and a wait)."""
         with self._ready:
+            self._poked = True
             self._ready.notify()
 
     def wait(self, timeout: float) -> None:
-        """Block until something is queued or `timeout` s passed."""
+        """Block until something is queued or poked, or `timeout` s passed."""
         with self._ready:
-            if not (self._lanes[0] or self._lanes[1]):
+            if self.idle():
                 self._ready.wait(timeout)
+
+    def idle(self) -> bool:
+        """Nothing queued and no poke since the last look (the condition's lock held: a worker about to wait)."""
+        poked, self._poked = self._poked, False
+        return not (poked or self._lanes[0] or self._lanes[1])
 
     def empty(self) -> bool:
         """Nothing queued in either lane."""

@@ -16,8 +16,10 @@ A service is a class whose methods are declared as handlers:
         def stop(self, req: Empty, q: Query) -> StopReply: ...
 
 One handler runs at a time, in arrival order, with timers on the service clock in
-between. A sample that finds the service idle and nothing queued is served at once on
-the bus's thread that brought it (`inline`, what the deployments set: no thread
+between, and the calls a handler asked for at a time of that clock (`call_at`: work due
+at a time known in advance, a fix's delivery, without a timer polling for it). A
+sample that finds the service idle and nothing queued is served at once on the bus's
+thread that brought it (`inline`, what the deployments set: no thread
 switch; never for a `blocking` service); anything else is queued for the service's
 worker (services composed in one process share one worker, `Executor`, and a blocking
 one has its own), and queries always are. An input declared `after` a periodic topic
@@ -70,6 +72,8 @@ cut to LOG_CHARS characters a line (`clip`).
 from __future__ import annotations
 
 import functools
+import heapq
+import itertools
 import logging
 import math
 import os
@@ -258,7 +262,9 @@ class Service:
         self.limits = settings.limits
         self._inbox = Inbox(self.limits.queue_items, self.limits.queue_bytes)
         self._timers: list[_Timer] = []
-        self._next_due = -math.inf  # [s] stack time of the earliest timer due (before it, no timer runs)
+        self._next_due = -math.inf  # [s] stack time of the earliest timer or call due (before it, none runs)
+        self._calls: list[tuple[float, int, Callable[[float], Any]]] = []  # heap of (stack time, order, fn): call_at
+        self._call_order = itertools.count()
         self._handles: list = []
         self._token: Handle | None = None
         self._started_wall = time.monotonic()
@@ -293,6 +299,15 @@ class Service:
     def arrived(self) -> float:
         """The stack time the input being served arrived: now, or when a held one came."""
         return self.clock.now() if self._arrived is None else self._arrived
+
+    def call_at(self, t: float, fn: Callable[[float], Any]) -> None:
+        """Run `fn(now)` once, as a timer, when the stack clock reaches `t` (at once if it has): work
+        due at a time known in advance, without a timer waking the service to look for it. Call it
+        from a handler; `fn` may carry @publish. A clock reset (the sim restarted) forgets it."""
+        heapq.heappush(self._calls, (t, next(self._call_order), fn))
+        if t < self._next_due or self._next_due == -math.inf:
+            self._next_due = t
+            self._inbox.poke()  # the worker may be waiting for a later timer
 
     def count(self, name: str, n: int = 1) -> None:
         """Increase a diag counter."""
@@ -586,6 +601,7 @@ class Service:
             self.count("clock_resets")
             for tm in self._timers:
                 tm.due = None
+            self._calls.clear()
             self._next_due = -math.inf
             self.on_clock_reset()
             # At once, not a diag period of the new time later: a supervisor that heard nothing
@@ -708,7 +724,7 @@ class Service:
             reply_ok(q, rep)
 
     def _run_timers(self) -> float | None:
-        """Run due timers; return wall seconds until the next one (None: unknown)."""
+        """Run due timers and calls (call_at); return wall seconds until the next one (None: unknown)."""
         if not self.clock.ready:
             return None
         now = self.clock.now()
@@ -719,19 +735,31 @@ class Service:
             if tm.due is None:
                 tm.due = now + tm.period
             if now >= tm.due:
-                try:
-                    self._publish_result(tm.fn, tm.fn(now))
-                except Exception:
-                    self.counters.inc("errors")
-                    self.warn(f"timer:{tm.fn.__name__}", f"timer {tm.fn.__name__} failed:\n{traceback.format_exc()}")
+                self._fire(tm.fn, now)
                 tm.due += tm.period
                 if tm.due <= now:  # fell behind: skip the missed runs rather than burst
                     self.counters.inc("timer_overruns")
                     tm.due = now + tm.period
             left = tm.due - now
             nearest = left if nearest is None else min(nearest, left)
+        due = []
+        while self._calls and self._calls[0][0] <= now:
+            due.append(heapq.heappop(self._calls)[2])
+        for fn in due:  # after taking them: a call made by one of them waits for the next look
+            self._fire(fn, now)
+        if self._calls:
+            left = max(self._calls[0][0] - now, 0.0)
+            nearest = left if nearest is None else min(nearest, left)
         self._next_due = -math.inf if nearest is None else now + nearest
         return None if nearest is None else self.clock.wall_delay(nearest)
+
+    def _fire(self, fn: Callable[[float], Any], now: float) -> None:
+        """Run a timer or a call at `now`, publishing what it returns (@publish); a failure is logged and counted."""
+        try:
+            self._publish_result(fn, fn(now))
+        except Exception:
+            self.counters.inc("errors")
+            self.warn(f"timer:{fn.__name__}", f"timer {fn.__name__} failed:\n{traceback.format_exc()}")
 
     def diag(self, now: float) -> m.Diag:
         """The diag message now (rates per second of stack-clock time since the last one)."""
@@ -791,7 +819,7 @@ class Executor:
                 if d is not None:
                     delay = d if delay is None else min(delay, d)
             with self._wake:
-                if not self._stop.is_set() and not any(svc._inbox.qsize() for svc in self.services):
+                if not self._stop.is_set() and all([svc._inbox.idle() for svc in self.services]):  # every poke taken
                     self._wake.wait(self.IDLE if delay is None else min(delay, self.IDLE))
 
     def stop(self) -> None:

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import statistics
 from collections import deque
-from typing import Annotated, Literal
+from typing import Literal
 
 import msgspec
-from msgspec import Meta, Struct
+from msgspec import Struct
 
 from zenav.common import codec, keys
 from zenav.common import messages as m
@@ -28,7 +28,6 @@ TAG_UNSEEN = 1.0  # [s] frames coming but this robot's tag not located this long
 class VpsConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """The [vps] section (the synthetic camera's errors are the scenario's; the real one is [camera])."""
 
-    delivery_period: Annotated[float, Meta(gt=0.0, le=1.0)] = 0.005  # [s] how often fixes that are due are sent
     stamp: Literal["capture", "none"] = "capture"  # a fix's t: its capture time, or (none) the time it is sent
     source: Literal["synthetic", "camera"] = "synthetic"  # synthetic: sim/truth plus the scenario's errors; camera: tags in frames
 
@@ -43,7 +42,6 @@ class Vps(Service):
 
     def __init__(self, *args) -> None:
         super().__init__(*args)
-        self.delivery_period = self.cfg.delivery_period
         self.camera = Camera(self.settings.scenario, make_rng(self.settings.deployment.seed))
         self.queues: dict[str, DeliveryQueue] = {self.robot: DeliveryQueue()}
         self._last_t = -1.0  # [s] newest truth sample or frame
@@ -83,8 +81,7 @@ class Vps(Service):
         self._heard = self.clock.now()
         d = self.camera.capture(msg)
         if d is not None:
-            self.queues[self.robot].push(d)
-            self.count("fixes_captured")
+            self._hold(self.robot, d)
 
     def on_frame(self, msg: m.CameraFrame) -> None:
         """One camera frame: each robot tag in it becomes a fix, sent after the link delay."""
@@ -111,8 +108,7 @@ class Vps(Service):
         self.count("tags_duplicate", got.located.duplicates)
         self.count("tags_wrong_size", got.located.wrong_size)
         for robot, fix in got.fixes:
-            self.queues[robot].push(Delivery(now + self.link_delay, msg.seq, fix))
-            self.count("fixes_captured")
+            self._hold(robot, Delivery(now + self.link_delay, msg.seq, fix))
             if robot == self.robot:
                 self._seen = now
         self.timing["pipeline_ms_p50"].append((now - msg.t) * 1e3)  # exposure's middle to detection done, stack clock
@@ -145,7 +141,12 @@ class Vps(Service):
         elif self.reader is None or self.reader.cal is not None:
             self.set_status("ok")
 
-    @timer("delivery_period")
+    def _hold(self, robot: str, d: Delivery) -> None:
+        """Hold a fix until its delivery time, when `deliver` runs."""
+        self.queues[robot].push(d)
+        self.count("fixes_captured")
+        self.call_at(d.t_delivery, self.deliver)
+
     def deliver(self, now: float) -> None:
         """Publish every fix whose delivery time has come."""
         for robot, queue in self.queues.items():

@@ -33,6 +33,18 @@ def test_fixes_arrive_after_the_latency_stamped_with_capture_time():
     rig.close()
 
 
+def test_a_fix_is_sent_at_its_delivery_time():
+    rig = make({**CLEAN, "vps_latency": 0.3037})
+    drive(rig, 0.0, 0.01)  # captured at t = 0, due at 0.3037
+    rig.clock.t = 0.3036
+    rig.drain()
+    assert rig.got("vps/pose") == []
+    rig.clock.t = 0.3037  # not a polling period later
+    rig.drain()
+    assert [f.t for f in rig.got("vps/pose")] == [0.0]
+    rig.close()
+
+
 def test_covariance_is_the_noise_and_counters_show_captures():
     rig = make({"vps_drop": 0.0})
     drive(rig, 0.0, 2.0)
@@ -53,8 +65,8 @@ def test_a_restarted_sim_voids_pending_fixes():
 
 
 def test_bad_config_fails_with_the_key_named():
-    with pytest.raises(ConfigError, match="delivery_period"):
-        make(vps={"delivery_period": 0.0})
+    with pytest.raises(ConfigError, match="stamp"):
+        make(vps={"stamp": "later"})
 
 
 def test_scheduled_faults_act_on_the_fixes_captured_while_they_last():

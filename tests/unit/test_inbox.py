@@ -44,3 +44,12 @@ def test_a_latest_item_past_a_bound_is_refused_and_the_queued_one_kept():
 def test_get_waits_up_to_its_timeout():
     box = Inbox(1, 1)
     assert box.get(timeout=0.01) == (False, None)
+
+
+def test_a_poke_before_the_worker_waits_is_not_lost():
+    ib = Inbox(4, 100)
+    ib.poke()  # between the worker's look and its wait
+    assert not ib.idle()  # so it looks again instead of waiting
+    assert ib.idle()
+    ib.put("x")
+    assert not ib.idle()

@@ -552,3 +552,64 @@ def test_held_input_is_served_before_a_query_and_not_held_once_the_topic_stops(h
     at(5.02 + 1.2 * runtime.HOLD)
     fix(bus, 4.9)  # odometry stopped: at once, after the one held
     assert s.order[-2:] == [("fix", 4.8, 5.02 + 0.8 * runtime.HOLD), ("fix", 4.9, 5.02 + 1.2 * runtime.HOLD)]
+
+
+def test_a_call_runs_once_when_the_clock_reaches_its_time(svc):
+    s, bus, clock = svc
+    s.drain()
+    calls = []
+
+    @runtime.publish("motors/wheels")
+    def later(now):
+        calls.append(("later", now))
+        return m.Wheels(t=now, left=1.0, right=1.0)
+
+    s.call_at(0.3, later)
+    s.call_at(0.2, lambda now: calls.append(("sooner", now)))  # in the order of their times
+    clock.t = 0.19
+    s.drain()
+    assert calls == []
+    clock.t = 0.3
+    s.drain()
+    assert calls == [("sooner", 0.3), ("later", 0.3)]
+    assert [w.t for w in published(bus, "motors/wheels")] == [0.3]
+    clock.t = 5.0
+    s.drain()
+    assert len(calls) == 2  # once
+
+
+def test_a_call_sooner_than_every_timer_wakes_the_worker(svc):
+    s, _, clock = svc
+    s.drain()  # the timers are due 0.5 s and 1 s from now
+    assert s._inbox.idle()
+    s.call_at(0.7, lambda now: None)
+    assert s._inbox.idle()  # after a timer due sooner: the worker wakes for that one anyway
+    s.call_at(0.1, lambda now: None)
+    assert not s._inbox.idle()  # a worker about to wait for the 0.5 s timer looks again first
+
+
+def test_a_failing_call_is_counted_and_the_service_goes_on(svc):
+    s, bus, clock = svc
+    s.call_at(0.1, lambda now: 1 / 0)
+    clock.t = 0.2
+    s.drain()
+    bus.publish("zenav/r1/cmd_vel", codec.encode(m.CmdVel(t=0.2, v=0.1, omega=0.0)))
+    s.drain()
+    assert s.counters.values["errors"] == 1 and len(published(bus, "motors/wheels")) == 1
+
+
+def test_a_clock_restart_forgets_the_calls_asked_for():
+    bus, clock = MemoryBus(), SimClock()
+    s = Echo(Settings.load(None), bus, clock)
+    s.start()
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=5.0, wall=0.0)))
+    s.drain()
+    calls = []
+    s.call_at(5.1, calls.append)
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=0.01, wall=0.0)))
+    s.drain()
+    for k in range(1, 12):  # the sim's new run, to past both
+        bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=0.5 * k, wall=0.0)))
+        s.drain()
+    assert calls == [] and s.counters.values["clock_resets"] == 1 and clock.now() > 5.1  # a time of the sim's previous run
+    s.close()
