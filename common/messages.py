@@ -175,6 +175,7 @@ class Diag(Topic, frozen=True, kw_only=True):
     status: str  # ok, degraded, error
     message: str = ""
     queue: int = 0  # inputs waiting for the worker when this diag was sent
+    cpu: Finite | None = None  # [cores] the service's process's CPU time per wall second since the previous diag
 
 
 # ---------------------------------------------------------------- queries

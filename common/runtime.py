@@ -268,6 +268,7 @@ class Service:
         self._handles: list = []
         self._token: Handle | None = None
         self._started_wall = time.monotonic()
+        self._cpu_mark = (self._started_wall, time.process_time())  # (wall, process CPU) [s] at the last diag
         self._last_diag_t: float | None = None  # stack-clock time of the last diag
         self._stop = threading.Event()
         self._keys: dict[str, str] = {}  # suffix -> full key (publishing is a hot path)
@@ -766,6 +767,9 @@ class Service:
         span = max(now - self._last_diag_t, 1e-3) if self._last_diag_t is not None else self.diag_period
         self._last_diag_t = now
         rates = {k: round(v / span, 2) for k, v in self.counters.window.items()}
+        wall, cpu = time.monotonic(), time.process_time()
+        busy = (cpu - self._cpu_mark[1]) / max(wall - self._cpu_mark[0], 1e-3)
+        self._cpu_mark = (wall, cpu)
         self.counters.window = {}
         status, message = self.status, self.status_message
         if self._others:
@@ -780,6 +784,7 @@ class Service:
             status=status,
             message=message,
             queue=self._inbox.qsize() + len(self._held),
+            cpu=round(busy, 4),
         )
 
     def _publish_diag(self, now: float) -> None:

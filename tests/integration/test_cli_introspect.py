@@ -125,3 +125,5 @@ def test_stop_and_status_on_a_partial_stack(stack, router, capsys):
     code, out, err = zenav(capsys, "status", "--connect", router, "--timeout", "1.5")
     assert code == EXIT_UNAVAILABLE and out[0] == "robot r1: 2/6 services alive" and err.startswith("missing: ")
     assert any(line.startswith("nav    STOPPED") for line in out)
+    header, sim = out[1].split(), next(line.split() for line in out if line.startswith("sim "))
+    assert header[6] == "cpu" and sim[6].endswith("%") and float(sim[6][:-1]) > 0.0  # the sim's process's, of one core

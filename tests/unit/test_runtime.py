@@ -118,6 +118,17 @@ def test_diag_every_second_with_counters_and_rates(svc):
     assert d.rates["cmd_vel"] == pytest.approx(10.0)
 
 
+def test_diag_reports_the_process_cpu_since_the_previous_one(svc):
+    s, _, clock = svc
+    s.diag(clock.now())
+    start = time.process_time()
+    for _ in range(10_000_000):  # at most a few seconds: until 20 ms of CPU are spent
+        if time.process_time() - start > 0.02:
+            break
+    d = s.diag(clock.now())
+    assert d.cpu is not None and 0.0 < d.cpu
+
+
 def test_liveliness_token_while_up():
     bus = MemoryBus()
     s = Echo(Settings.load(None, deployment={"robot": "bot_7"}), bus, ManualClock())
