@@ -100,6 +100,7 @@ HOLD_ITEMS = 64  # inputs held at once at most (more are served at once)
 GAP_GAIN = 0.2  # weight of each new gap in a topic's period (smoothed: one late sample does not move it far)
 FORMAT_PARAM = "_format"  # selector parameter choosing the reply format: msgpack (default) or json
 FORMATS = {"msgpack": MSGPACK, "json": JSON}
+BACKGROUND_NICE = 10  # added to the niceness of a thread doing background work (as `nice` adds by default)
 
 
 def clip(text: str, limit: int = LOG_CHARS) -> str:
@@ -119,6 +120,17 @@ class QueryError(Exception):
     def __init__(self, code: str, message: str) -> None:
         super().__init__(message)
         self.code, self.message = code, message
+
+
+def background_thread() -> None:
+    """Lower the calling thread's priority by BACKGROUND_NICE (Linux keeps niceness per thread; threads it
+    starts later take it): work off the control loop's path, such as a camera's detector, then yields the
+    cores to it on a computer they share. Lowering a priority needs no privilege."""
+    tid = threading.get_native_id()
+    try:
+        os.setpriority(os.PRIO_PROCESS, tid, min(os.getpriority(os.PRIO_PROCESS, tid) + BACKGROUND_NICE, 19))
+    except OSError as e:  # not Linux, or a sandbox that forbids it: the work runs at the priority it has
+        logging.getLogger("zenav").warning("could not lower a background thread's priority: %s", e)
 
 
 def reply_format(q: Query) -> str:
@@ -251,6 +263,10 @@ class Service:
     # bus's thread (`inline`), and composed with others it gets a worker of its own, so
     # that it holds up neither the bus nor their chain.
     blocking = False
+    # Work off the control loop's path that may take long (a camera's frames): the worker that serves it runs at
+    # a lower priority (`background_thread`), so that on a computer that also runs the control loop, the loop
+    # gets the cores first. (The driver blocks but is on the loop's path: it is not background.)
+    background = False
 
     def __init__(self, settings: Settings, bus: Bus, clock: Clock) -> None:
         self.settings = settings
@@ -426,7 +442,9 @@ class Service:
         undeclare_all(self._handles)
 
     def run(self) -> None:
-        """Process input and timers until stop()."""
+        """Process input and timers until stop() (on this thread, lowered first if the service is `background`)."""
+        if self.background:
+            background_thread()
         while not self._stop.is_set():
             delay = self.turn(Executor.ROUND)
             self._inbox.wait(0.1 if delay is None else min(delay, 0.1))
@@ -816,7 +834,9 @@ class Executor:
         self.services.append(svc)
 
     def run(self) -> None:
-        """Serve the services until stop()."""
+        """Serve the services until stop() (on this thread, lowered first if they are all `background`)."""
+        if self.services and all(svc.background for svc in self.services):
+            background_thread()
         while not self._stop.is_set():
             delay: float | None = None
             for svc in self.services:

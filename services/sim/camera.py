@@ -1,7 +1,8 @@
 """The sim's overhead camera: frames of the truth at the camera's rate, rendered beside the physics.
 
 Rendering takes several milliseconds, longer than a physics step may wait: each frame is
-drawn and sent by a worker thread while the steps go on. A frame that falls due while
+drawn and sent by a worker thread, at a lower priority (runtime.background_thread), while
+the steps go on. A frame that falls due while
 the previous one is still being drawn is skipped (counted by the caller).
 """
 
@@ -12,6 +13,7 @@ from concurrent.futures import Future, ThreadPoolExecutor, wait
 
 from zenav.common import messages as m
 from zenav.common.config import Camera
+from zenav.common.runtime import background_thread
 from zenav.world.render import Body, Renderer
 
 
@@ -51,7 +53,9 @@ class Shutter:
 
     def __init__(self, camera: FieldCamera, send: Callable[[m.CameraFrame], None]) -> None:
         self.camera, self.send = camera, send
-        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="zenav-sim-camera")
+        # Drawing at a lower priority than the physics and the control loop's services (a real camera draws its
+        # frames on its own hardware): on a shared computer they get the cores first.
+        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="zenav-sim-camera", initializer=background_thread)
         self._last: Future | None = None
         self.error = ""  # why the last frame failed ("" once one is sent)
         self.failed = 0  # frames that failed

@@ -49,7 +49,8 @@ class Vps(Service):
         self._seen = 0.0  # [s] clock time this robot's tag was last located (camera)
         self.reader: Reader | None = None
         if self.cfg.source == "camera":
-            self.blocking = True  # a frame takes milliseconds to detect
+            self.blocking = True  # a frame takes milliseconds to detect ...
+            self.background = True  # ... and the control loop must not wait for a core meanwhile
             cam = self.settings.section("camera", CameraConfig)
             check_fits(cam, self.limits)
             self.reader = Reader(cam, calibration.configured(cam))

@@ -1,6 +1,7 @@
 """The vps service reading the field camera's frames (vps.source = "camera"), and the sim rendering them."""
 
 import math
+import os
 import threading
 
 import pytest
@@ -220,3 +221,39 @@ def test_a_frame_due_while_the_last_is_drawn_is_skipped_and_failures_are_told():
     assert shutter.take(truth[2]) == "taken" and shutter.idle(10.0)
     assert sent == [0.0] and shutter.error == "ZeroDivisionError: division by zero"
     shutter.close()
+
+
+def niceness() -> int:
+    """The calling thread's niceness (Linux keeps one per thread)."""
+    return os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+
+
+def test_frames_are_drawn_at_a_lower_priority_than_the_steps():
+    small = Camera(width=160, height=120, fx=133.25, fy=133.25)
+    drawn_at = []
+    shutter = Shutter(FieldCamera(small, seed=1, tag=0), lambda frame: drawn_at.append(niceness()))
+    assert shutter.take(m.Truth(t=0.0, x=0.5, y=0.5, theta=0.0, v=0.0, omega=0.0)) == "taken" and shutter.idle(10.0)
+    shutter.close()
+    assert drawn_at == [min(niceness() + 10, 19)]  # the physics' thread keeps its own
+
+
+def test_the_camera_vps_detects_at_a_lower_priority_than_the_control_loop(renderer, cal_file):
+    rig = make(cal_file)
+    assert rig.svc.background and rig.svc.blocking
+    served_at, served = [], threading.Event()
+    read = rig.svc.reader.read
+
+    def reading(msg):
+        served_at.append(niceness())
+        served.set()
+        return read(msg)
+
+    rig.svc.reader.read = reading
+    worker = threading.Thread(target=rig.svc.run)  # as its process runs it
+    worker.start()
+    rig.bus.publish(FRAME, frame(renderer, 0.0, [Body(0, 0.5, 0.5, 0.0, 0.0, 0.0)]))
+    served.wait(10.0)
+    rig.svc.stop()
+    worker.join(10.0)
+    rig.close()
+    assert served_at == [min(niceness() + 10, 19)]  # its worker's; this thread keeps its own

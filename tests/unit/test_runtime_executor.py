@@ -1,5 +1,6 @@
 """Services composed in one process share one worker: runtime.Executor."""
 
+import os
 import threading
 
 from tests.support.echo import Echo
@@ -54,3 +55,35 @@ def test_a_message_passes_through_the_composed_services_on_the_executors_thread(
     assert services[0].threads == [worker.ident] and [(ident, w.t, w.left) for ident, w in wheels] == [(worker.ident, 0.5, 0.1)]
     for svc in services:
         svc.close()
+
+
+def test_an_executor_of_background_services_runs_at_a_lower_priority():
+    """Services off the control loop's path (a camera vps) yield the cores; composed with any other, they do not."""
+
+    def niceness_served(background: tuple[bool, ...]) -> list[int]:
+        bus, clock, executor = MemoryBus(), ManualClock(1.0), Executor()
+        services = [Forward(Settings.load(None, deployment={"robot": f"r{i}"}), bus, clock) for i in range(len(background))]
+        seen, served = [], threading.Event()
+        for svc, bg in zip(services, background):
+            svc.background = bg
+            executor.add(svc)
+            svc.start()
+        bus.subscribe(
+            keys.key("r0", "cmd_vel"),
+            lambda key, data: (seen.append(os.getpriority(os.PRIO_PROCESS, threading.get_native_id())), served.set()),
+        )
+        worker = threading.Thread(target=executor.run)
+        worker.start()
+        try:
+            bus.publish(keys.key("r0", "sensors/encoders"), codec.encode(m.Encoders(t=0.5, left=1, right=2)))
+            assert served.wait(5.0)
+        finally:
+            executor.stop()
+            worker.join(5.0)
+            for svc in services:
+                svc.close()
+        return seen
+
+    mine = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+    assert niceness_served((True,)) == [min(mine + 10, 19)]
+    assert niceness_served((True, False)) == [mine]
