@@ -2,8 +2,8 @@
 
 Rendering takes several milliseconds, longer than a physics step may wait: each frame is
 drawn and sent by a worker thread, at a lower priority (runtime.background_thread), while
-the steps go on. A frame that falls due while
-the previous one is still being drawn is skipped (counted by the caller).
+the steps go on. A frame that falls due while the previous one is still being drawn is
+skipped (counted by the caller).
 """
 
 from __future__ import annotations
