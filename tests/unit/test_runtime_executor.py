@@ -28,6 +28,20 @@ class Forward(Service):
         return m.CmdVel(t=msg.t, v=0.1, omega=0.0)
 
 
+def serve_one(executor: Executor, bus: MemoryBus, robot: str, done: threading.Event) -> threading.Thread:
+    """Run the executor on a thread of its own until one encoder sample of `robot` has led to `done`; its thread, ended."""
+    worker = threading.Thread(target=executor.run)
+    worker.start()
+    try:
+        bus.publish(keys.key(robot, "sensors/encoders"), codec.encode(m.Encoders(t=0.5, left=1, right=2)))
+        assert done.wait(5.0)
+    finally:
+        executor.stop()
+        worker.join(5.0)
+    assert not worker.is_alive()
+    return worker
+
+
 def test_a_message_passes_through_the_composed_services_on_the_executors_thread():
     bus, clock = MemoryBus(), ManualClock(1.0)
     executor = Executor()
@@ -43,15 +57,7 @@ def test_a_message_passes_through_the_composed_services_on_the_executors_thread(
         arrived.set()
 
     bus.subscribe(keys.key("r1", "motors/wheels"), on_wheels)
-    worker = threading.Thread(target=executor.run)
-    worker.start()
-    try:
-        bus.publish(keys.key("r1", "sensors/encoders"), codec.encode(m.Encoders(t=0.5, left=1, right=2)))
-        assert arrived.wait(5.0)
-    finally:
-        executor.stop()
-        worker.join(5.0)
-    assert not worker.is_alive()
+    worker = serve_one(executor, bus, "r1", arrived)
     assert services[0].threads == [worker.ident] and [(ident, w.t, w.left) for ident, w in wheels] == [(worker.ident, 0.5, 0.1)]
     for svc in services:
         svc.close()
@@ -72,16 +78,9 @@ def test_an_executor_of_background_services_runs_at_a_lower_priority():
             keys.key("r0", "cmd_vel"),
             lambda key, data: (seen.append(os.getpriority(os.PRIO_PROCESS, threading.get_native_id())), served.set()),
         )
-        worker = threading.Thread(target=executor.run)
-        worker.start()
-        try:
-            bus.publish(keys.key("r0", "sensors/encoders"), codec.encode(m.Encoders(t=0.5, left=1, right=2)))
-            assert served.wait(5.0)
-        finally:
-            executor.stop()
-            worker.join(5.0)
-            for svc in services:
-                svc.close()
+        serve_one(executor, bus, "r0", served)
+        for svc in services:
+            svc.close()
         return seen
 
     mine = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
