@@ -96,7 +96,7 @@ class Inbox:
     def idle(self) -> bool:
         """Nothing queued and no poke since the last look (the condition's lock held: a worker about to wait)."""
         poked, self._poked = self._poked, False
-        return not (poked or self._lanes[0] or self._lanes[1])
+        return not poked and self.empty()
 
     def empty(self) -> bool:
         """Nothing queued in either lane."""

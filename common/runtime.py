@@ -499,10 +499,10 @@ class Service:
             self.counters.inc("dropped_superseded")
             self.warn(f"superseded:{item[2]}", f"dropped a {item[2]} sample for a newer one: {self.name} is slower than its input")
 
-    def _take(self, item: tuple, size: int, latest: bool = False) -> None:
+    def _take(self, item: tuple, size: int, put: Callable[[tuple, int], Any]) -> None:
         """A sample from a bus thread: served on that thread if the service is idle and nothing
-        older is queued (no thread switch: `inline`), else queued for the worker."""
-        put = self._put_latest if latest else self._put
+        older is queued (no thread switch: `inline`), else queued for the worker by `put`
+        (`_put`, or `_put_latest` for a `latest` input: chosen once, at subscription)."""
         if self.inline and not self.blocking and self._busy.acquire(blocking=False):
             try:
                 if self._inbox.empty():
@@ -606,7 +606,7 @@ class Service:
         if len(data) > self.limits.max_payload:
             self._oversize("clock", len(data), self.limits.max_payload, "max_payload")
             return
-        self._take(("clock", self._on_clock, "clock", m.Clock, data), len(data))
+        self._take(("clock", self._on_clock, "clock", m.Clock, data), len(data), self._put)
 
     def _on_clock(self, msg: m.Clock) -> None:
         clock = self.clock
@@ -629,13 +629,13 @@ class Service:
             self._publish_diag(self.clock.now())
 
     def _enqueuer(self, fn: Callable, suffix: str, typ: type, latest: bool = False) -> Callable[[str, bytes], None]:
-        limit = self.limits.max_payload
+        limit, put = self.limits.max_payload, self._put_latest if latest else self._put
 
         def enqueue(key: str, data: bytes) -> None:
             if len(data) > limit:
                 self._oversize(suffix, len(data), limit, "max_payload")
                 return
-            self._take(("msg", fn, suffix, typ, data), len(data), latest)
+            self._take(("msg", fn, suffix, typ, data), len(data), put)
 
         return enqueue
 
