@@ -58,9 +58,13 @@ class Localizer(Service):
             self.subscribe(suffix, keys.TOPICS[suffix], handlers[suffix])
 
     def on_imu(self, msg: m.Imu) -> None:
-        """One gyro sample (modes that read the gyro)."""
+        """One gyro sample (modes that read the gyro). One for a time whose pose is already out
+        is late: the ekf re-integrates the steps it covers, the other modes go on without it."""
+        odom = self.mode.odom
         if self.mode.on_imu(msg) == "stale":
             self.count("dropped_stale")
+        elif odom is not None and msg.t <= odom.t:
+            self.count("gyro_late")
         self.last_imu = self.clock.now()
 
     def on_compass(self, msg: m.Compass) -> None:

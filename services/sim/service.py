@@ -148,10 +148,14 @@ class Sim(Service):
         # The sample's instant on the host, once its sensors are read (as a driver stamps a reading):
         # `clock` and `sim/truth` carry it, and latency is measured from it.
         wall = time.time()
+        # The gyro first: the odom sample the encoders become reaches the localizer after it
+        # (and the odometry, where it reads the gyro), so the step that sample starts can use it.
+        # After the encoders, it came behind their whole chain in a composed process, whose
+        # link is read in order, and the filter then predicted every step twice.
         for _ in range(fx.copies):
-            self.publish("sensors/encoders", encoders)
             if fx.imu:
                 self.publish("sensors/imu", imu)
+            self.publish("sensors/encoders", encoders)
         # The clock and the truth of the same t, half a step later: sent now, they would wake
         # the processes that follow them (every service, the vps, views) while the sample goes
         # through the control chain, which then waits for a core. They carry `wall`, so their

@@ -112,6 +112,26 @@ def test_diag_degraded_without_fixes_and_reports_latency(run):
     rig.close()
 
 
+def test_a_gyro_sample_after_its_odom_sample_is_counted_late_and_filled_in(run):
+    """The ekf predicts the steps a late gyro sample covers again: the estimate ends as if it had come first."""
+    on_time, late = make(), make()
+    replay(on_time, run, 3.0, fixes=False)  # the gyro sample before its odom sample
+    for imu, odom in zip(run.imu, run.odom):
+        if odom.t <= 3.0:
+            late.clock.t = odom.t
+            late.put("odom", odom)
+            late.put("sensors/imu", imu)
+    n = len(late.got("pose"))
+    assert n == 301 and late.svc.counters.values["gyro_late"] == n
+    assert "gyro_late" not in on_time.svc.counters.values
+    a, b = on_time.svc.mode.get_pose(), late.svc.mode.get_pose()
+    assert a is not None and b is not None and a.t == b.t == 3.0
+    assert (b.x, b.y, b.theta) == pytest.approx((a.x, a.y, a.theta), abs=1e-12)
+    assert b.calibration == pytest.approx(a.calibration, abs=1e-12)
+    on_time.close()
+    late.close()
+
+
 def test_stale_odometry_is_counted_and_dropped():
     rig = make()
     rig.put("odom", m.Odom(t=1.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0))

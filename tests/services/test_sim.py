@@ -70,6 +70,16 @@ def test_a_steps_clock_tick_and_truth_follow_its_sensors_by_half_a_step():
     assert truth.wall == clock.wall > 0  # the sample's instant, when its sensors were read
 
 
+def test_a_steps_gyro_sample_goes_out_before_its_encoders():
+    """So that the odom sample the encoders become finds its gyro sample at the localizer, also where
+    both come down one link read in order (the robot's services composed in one process)."""
+    rig = Rig(Sim)
+    rig.run(0.05)
+    sensors = {rig.key("sensors/imu"): ("imu", m.Imu), rig.key("sensors/encoders"): ("encoders", m.Encoders)}
+    sent = [(sensors[k][0], round(codec.decode(d, sensors[k][1]).t, 6)) for k, d in rig.bus.published if k in sensors]
+    assert sent == [(name, i / 100) for i in range(1, 6) for name in ("imu", "encoders")]
+
+
 def test_rates_follow_the_scenario():
     rig = Rig(Sim, scenario={"sensor_rate_hz": 50.0, "compass_rate_hz": 4.0})
     rig.run(1.0, dt=0.02)

@@ -132,6 +132,10 @@ def test_up_composes_the_services_its_config_file_names(tmp_path):
         c.wait_nav_ready(timeout=60)
         ok, reply = c.query("nav/move_to_point", {"x": 0.3, "y": 0.0, "tolerance": 0.03, "wait": True}, timeout=60)
         assert ok and reply["result"] == "succeeded", reply
+        # each gyro sample came before the odom sample of its step, though the process reads them down one
+        # link in order and serves each encoder sample's whole chain before the next message
+        localizer = c.wait(lambda latest: latest["diag/localizer"]["counters"]["msgs_in"] > 400, timeout=20)["diag/localizer"]
+        assert localizer["counters"].get("gyro_late", 0) == 0, localizer["counters"]
         proc.send_signal(signal.SIGINT)
         out, _ = proc.communicate(timeout=60)
         assert proc.returncode == 0, out
