@@ -150,8 +150,8 @@ class Sim(Service):
         wall = time.time()
         # The gyro first: the odom sample the encoders become reaches the localizer after it
         # (and the odometry, where it reads the gyro), so the step that sample starts can use it.
-        # After the encoders, it came behind their whole chain in a composed process, whose
-        # link is read in order, and the filter then predicted every step twice.
+        # Sent after the encoders, it would come behind their whole chain in a composed process,
+        # whose link is read in order, and the filter would predict every step twice.
         for _ in range(fx.copies):
             if fx.imu:
                 self.publish("sensors/imu", imu)

@@ -1,11 +1,11 @@
 """The vps service reading the field camera's frames (vps.source = "camera"), and the sim rendering them."""
 
 import math
-import os
 import threading
 
 import pytest
 
+from tests.support.procs import niceness
 from tests.support.rig import Rig
 from zenav.common import codec, keys
 from zenav.common import messages as m
@@ -221,11 +221,6 @@ def test_a_frame_due_while_the_last_is_drawn_is_skipped_and_failures_are_told():
     assert shutter.take(truth[2]) == "taken" and shutter.idle(10.0)
     assert sent == [0.0] and shutter.error == "ZeroDivisionError: division by zero"
     shutter.close()
-
-
-def niceness() -> int:
-    """The calling thread's niceness (Linux keeps one per thread)."""
-    return os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
 
 
 def test_frames_are_drawn_at_a_lower_priority_than_the_steps():

@@ -1,7 +1,9 @@
-"""Processes the system and integration tests start: `zenav up` as a stack, its service pids, stderr readers."""
+"""Processes the system and integration tests start: `zenav up` as a stack, its service pids, stderr readers;
+and the calling thread's niceness."""
 
 from __future__ import annotations
 
+import os
 import queue
 import signal
 import subprocess
@@ -13,6 +15,11 @@ from pathlib import Path
 
 from zenav.common.client import Client
 from zenav.stack.inprocess import free_port
+
+
+def niceness() -> int:
+    """The calling thread's niceness (Linux keeps one per thread)."""
+    return os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
 
 
 def pids(module: str, endpoint: str) -> list[int]:

@@ -1,9 +1,9 @@
 """Services composed in one process share one worker: runtime.Executor."""
 
-import os
 import threading
 
 from tests.support.echo import Echo
+from tests.support.procs import niceness
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.bus import MemoryBus
@@ -76,13 +76,13 @@ def test_an_executor_of_background_services_runs_at_a_lower_priority():
             svc.start()
         bus.subscribe(
             keys.key("r0", "cmd_vel"),
-            lambda key, data: (seen.append(os.getpriority(os.PRIO_PROCESS, threading.get_native_id())), served.set()),
+            lambda key, data: (seen.append(niceness()), served.set()),
         )
         serve_one(executor, bus, "r0", served)
         for svc in services:
             svc.close()
         return seen
 
-    mine = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+    mine = niceness()
     assert niceness_served((True,)) == [min(mine + 10, 19)]
     assert niceness_served((True, False)) == [mine]
