@@ -95,16 +95,20 @@ class Driver(Service):
         self._try_open(self.clock.now())
 
     # ------------------------------------------------------------ inputs
-    @subscribe("motors/wheels")
+    # The newest only: a board behind a slow serial link must not run commands late, one after another.
+    @subscribe("motors/wheels", latest=True)
     def on_wheels(self, msg: m.Wheels) -> None:
-        """A wheel speed command [rad/s]: sent at once when it changes the board's target."""
+        """A wheel speed command [rad/s]: sent at once when it changes the board's target (with the next read if one is due)."""
         rate = self.cfg.pid_rate
         self.target = (
             p.ticks_per_frame(msg.left, self.ticks_per_rev, rate, self.limit),
             p.ticks_per_frame(msg.right, self.ticks_per_rev, rate, self.limit),
         )
         self.cmd_t = self.clock.now()
-        if self.synced and self.target != self.sent:
+        # A read that is due goes first: the poll sends the target, then reads. On a link slower
+        # than the commands come (a Bluetooth serial module), sending each at once would leave
+        # no time for the counts.
+        if self.synced and self.target != self.sent and self.cmd_t - self.read_t < self.poll_period:
             self._link(self._send, self.cmd_t)
 
     @on_liveliness("motor")

@@ -60,7 +60,7 @@ class Motor(Service):
         self.ramp, self.last_out_t = ramp, now
         return m.Wheels(t=t, left=wheels[0], right=wheels[1])
 
-    @subscribe("cmd_vel")
+    @subscribe("cmd_vel", latest=True)  # a command that a newer one followed is not run late
     @publish("motors/wheels")
     def on_cmd_vel(self, msg: m.CmdVel) -> m.Wheels | None:
         """One velocity command: the wheel commands after limits, stamped with the command's t."""

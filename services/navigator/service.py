@@ -60,7 +60,7 @@ class Navigator(Service):
         self._stops = 0  # nav/stop queries arrived (queued) but not yet handled: no cmd_vel from the worker
 
     # ------------------------------------------------------------ inputs
-    @subscribe("pose")
+    @subscribe("pose", latest=True)  # a navigator behind its input acts on the newest pose
     def on_pose(self, msg: m.Pose) -> None:
         """Run the goal on each pose: the command acts on (and carries the t of) this pose."""
         last = self.machine.pose

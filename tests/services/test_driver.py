@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+import time
 
 import pytest
 
@@ -99,6 +100,33 @@ def test_the_counts_published_follow_the_board(emu):
         assert live.wait(lambda: live.encoders()[-1].left >= left and live.encoders()[-1].right >= right)
         last = live.encoders()[-1]
         assert left <= last.left <= emu.counts()[0] and right <= last.right <= emu.counts()[1]
+
+
+def test_a_driver_behind_its_commands_sends_the_board_the_newest(emu):
+    with Live(emu) as live:
+        assert live.wait(lambda: live.svc.synced)
+        before = len(sent(emu, "m"))
+        for i in range(1, 21):  # 20 commands at once, each a new target: faster than the serial link takes them
+            live.wheels(i / 2.0, 0.0)
+        assert live.wait(lambda: live.counter("msgs_in") + live.counter("dropped_superseded") == 20)
+        assert live.wait(lambda: last_m(emu) == "m 19 0")  # the newest, 10 rad/s
+        # Those the board had no time for were dropped, not sent late one after another.
+        assert live.counter("dropped_superseded") >= 1
+        assert len(sent(emu, "m")) - before < 20
+
+
+def test_the_counts_keep_coming_while_commands_flood_a_slow_link(tmp_path):
+    # 4800 baud: a command's reply takes 8 ms on the wire and a read's about 19: together more than
+    # the 10 ms between commands, so each command sent at once would leave the counts no time.
+    with Emulator(str(tmp_path / "board"), baud=4800) as slow, Live(slow, baud=4800) as live:
+        assert live.wait(lambda: live.svc.synced)
+        start = time.monotonic()
+        for i in range(100):  # a new target every 10 ms for 1 s
+            live.wheels((i % 19 + 1) / 2.0, 0.0)
+            time.sleep(max(start + (i + 1) / 100.0 - time.monotonic(), 0.0))  # paced as the motor sends
+        reads = [c for t, c in slow.commands if c == "e" and t >= start]
+        assert len(reads) >= 5  # about 24 in 1 s; one without the read first
+        assert live.wait(lambda: last_m(slow) == "m 5 0")  # the newest, 2.5 rad/s
 
 
 def test_watchdog_stops_the_board_when_commands_stop(emu):

@@ -6,6 +6,7 @@ import msgpack
 import pytest
 
 from tests.support.rig import Rig
+from zenav.common import codec
 from zenav.common import messages as m
 from zenav.common.app import main
 from zenav.common.bus import MemoryBus
@@ -30,6 +31,19 @@ def test_command_to_wheels_with_the_command_t():
     [w] = rig.got("motors/wheels")
     assert w.t == rig.t - 0.02
     assert (w.left, w.right) == pytest.approx(((0.1 - 0.5 * L / 2) / R, (0.1 + 0.5 * L / 2) / R))
+
+
+def test_a_motor_behind_its_commands_runs_only_the_newest(caplog):
+    rig = make(motor={"max_wheel_accel": 1e4})
+    for i, v in enumerate((0.1, 0.2, 0.3)):  # three commands come before the motor gets to any
+        rig.bus.publish(rig.key("cmd_vel"), codec.encode(m.CmdVel(t=rig.t - 0.02 + i * 0.01, v=v, omega=0.0)))
+    assert rig.svc._inbox.qsize() == 1
+    rig.drain()
+    [w] = rig.got("motors/wheels")  # no command run late, one after another
+    assert w.t == pytest.approx(rig.t) and (w.left, w.right) == pytest.approx((0.3 / R, 0.3 / R))
+    c = rig.svc.counters.values
+    assert c["dropped_superseded"] == 2 and c["msgs_in"] == 1
+    assert "dropped a cmd_vel sample for a newer one: motor is slower than its input" in caplog.text
 
 
 def test_saturation_keeps_the_curvature():

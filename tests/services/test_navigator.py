@@ -36,6 +36,19 @@ def test_cmd_vel_carries_the_pose_t(rig):
     assert rig.published("cmd_vel")[-1].t == pytest.approx(rig.clock.now())
 
 
+def test_a_navigator_behind_its_poses_acts_on_the_newest(rig):
+    rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0})
+    rig.step(3)
+    before = len(rig.published("cmd_vel"))
+    for _ in range(3):  # three poses come before the navigator gets to any
+        rig.clock.advance(0.01)
+        pose = m.Pose(t=rig.clock.now(), x=rig.x, y=rig.y, theta=rig.theta, v=0.2, omega=0.0)
+        rig.bus.publish("zenav/r1/pose", codec.encode(pose))
+    rig.nav.drain()
+    assert [c.t for c in rig.published("cmd_vel")[before:]] == [pytest.approx(rig.clock.now())]
+    assert rig.nav.counters.values["dropped_superseded"] == 2
+
+
 def test_turn_to_heading_turns_without_overshoot(rig):
     q = rig.query("nav/turn_to_heading", {"heading": 1.5, "wait": True})
     seen = []
