@@ -27,8 +27,13 @@ def pose_line(label: str, msg: Any, truth: Any) -> str:
     return line
 
 
+# Input a service counted and let go unserved, besides bad input: stale or future stamps, a full
+# queue, superseded by a newer sample (a service slower than its input), oversize.
+DROPPED = ("dropped_stale", "dropped_future", "dropped_overflow", "dropped_superseded", "oversize")
+
+
 def service_rows(names: Sequence[str], diags: Mapping[str, Any], alive: set[str], sup: Any | None = None) -> list[str]:
-    rows = [f"{'service':<10} {'alive':<5} {'status':<9} {'restarts':>8}  {'in/out':>13} {'bad':>4} {'cpu':>6}  rates [Hz]"]
+    rows = [f"{'service':<10} {'alive':<5} {'status':<9} {'restarts':>8}  {'in/out':>13} {'bad':>4} {'dropped':>7} {'cpu':>6}  rates [Hz]"]
     for n in names:
         d = diags.get(n)
         d = d.msg if d is not None and hasattr(d, "msg") else d
@@ -37,9 +42,11 @@ def service_rows(names: Sequence[str], diags: Mapping[str, Any], alive: set[str]
         status = d.status if d is not None else "-"
         io = f"{d.counters.get('msgs_in', 0)}/{d.counters.get('msgs_out', 0)}" if d is not None else "-"
         bad = str(d.counters.get("bad_input", 0)) if d is not None else "-"
+        dropped = str(sum(d.counters.get(k, 0) for k in DROPPED)) if d is not None else "-"
         cpu = f"{d.cpu * 100:.1f}%" if d is not None and d.cpu is not None else "-"  # of one core, the process's
         rates = ", ".join(f"{k} {v:.0f}" for k, v in sorted(d.rates.items()) if not k.startswith("diag/")) if d else ""
-        rows.append(f"{n:<10} {'yes' if n in alive else 'NO':<5} {status:<9} {restarts:>8}  {io:>13} {bad:>4} {cpu:>6}  {rates}")
+        up = "yes" if n in alive else "NO"
+        rows.append(f"{n:<10} {up:<5} {status:<9} {restarts:>8}  {io:>13} {bad:>4} {dropped:>7} {cpu:>6}  {rates}")
         if d is not None and d.message:
             rows.append(f"{'':<10} {d.message}")
     return rows

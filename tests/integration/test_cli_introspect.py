@@ -126,4 +126,5 @@ def test_stop_and_status_on_a_partial_stack(stack, router, capsys):
     assert code == EXIT_UNAVAILABLE and out[0] == "robot r1: 2/6 services alive" and err.startswith("missing: ")
     assert any(line.startswith("nav    STOPPED") for line in out)
     header, sim = out[1].split(), next(line.split() for line in out if line.startswith("sim "))
-    assert header[6] == "cpu" and sim[6].endswith("%") and float(sim[6][:-1]) > 0.0  # the sim's process's, of one core
+    assert header[7] == "cpu" and sim[7].endswith("%") and float(sim[7][:-1]) > 0.0  # the sim's process's, of one core
+    assert header[5:7] == ["bad", "dropped"] and sim[5].isdigit() and sim[6].isdigit()
