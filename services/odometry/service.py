@@ -93,7 +93,7 @@ class Odometry(Service):
         # The sim restarted: its time and encoders start again, and so does the odom frame.
         self.state = od.OdometryState()
 
-    @subscribe("motors/wheels", latest=True)  # only the newest command is watched
+    @subscribe("motors/wheels")
     def on_wheels(self, msg: m.Wheels) -> None:
         """The wheel speeds commanded: an encoder that shows nothing meanwhile is silent."""
         self.state = od.command(self.state, msg.left, msg.right)

@@ -89,7 +89,7 @@ class Sim(Service):
         """Sim time [s] of the newest step."""
         return self.steps / self.rate
 
-    @subscribe("motors/wheels", latest=True)  # a motor board runs the newest command
+    @subscribe("motors/wheels")
     def on_wheels(self, msg: m.Wheels) -> None:
         self.cmd, self.cmd_t = (msg.left, msg.right), self.t
 

@@ -5,7 +5,6 @@ import math
 import pytest
 
 from tests.support.rig import Rig
-from zenav.common import codec
 from zenav.common import messages as m
 from zenav.common.app import main
 from zenav.common.bus import MemoryBus
@@ -148,13 +147,3 @@ def test_silent_encoders_are_an_error_until_the_next_sample():
     assert d.status == "error" and "no encoder sample for" in d.message
     drive(rig, 0.1, 0.2, 0.0, imu=False, start=(0.5 * 0.2 / R, 0.5 * 0.2 / R, 0.0))
     assert diag(rig).status == "ok"
-
-
-def test_only_the_newest_wheel_command_is_watched():
-    rig = make()
-    for left in (1.0, 2.0, 3.0):  # three commands before the odometry gets to any
-        rig.bus.publish(rig.key("motors/wheels"), codec.encode(m.Wheels(t=rig.t, left=left, right=-left)))
-    rig.drain()
-    assert rig.svc.state.watch.cmd == (3.0, -3.0)
-    c = rig.svc.counters.values
-    assert c["dropped_superseded"] == 2 and c["msgs_in"] == 1

@@ -49,16 +49,6 @@ def test_rates_over_one_second_of_sim_time():
     assert all(x.wall > 0 for x in rig.got("sim/truth"))
 
 
-def test_the_sim_runs_the_newest_wheel_command_as_a_motor_board_does():
-    rig = Rig(Sim)
-    for left in (1.0, 2.0, 3.0):  # three commands before the sim gets to any
-        command(rig, left, -left)
-    rig.drain()
-    assert rig.svc.cmd == (3.0, -3.0)
-    c = rig.svc.counters.values
-    assert c["dropped_superseded"] == 2 and c["msgs_in"] == 1
-
-
 def test_the_clock_ticks_at_its_rate_up_to_every_step():
     rig = Rig(Sim, sim={"clock_rate_hz": 1000.0})
     rig.run(0.1)

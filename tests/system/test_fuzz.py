@@ -186,7 +186,7 @@ def fuzz(make_stack, declared, client, total: int) -> dict:
 
     # Puts, in rounds small enough for the services' queues; the counters must keep up. Each is
     # refused once read (bad_input), or dropped unread for a newer sample of an input that keeps
-    # only the newest (dropped_superseded: the commands and poses).
+    # only the newest (dropped_superseded: the motor's commands, the navigator's poses).
     def dropped(counters: dict[str, int]) -> int:
         return counters["bad_input"] + counters.get("dropped_superseded", 0)
 
