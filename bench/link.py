@@ -30,7 +30,6 @@ from zenav.services.driver.service import Driver
 from zenav.tools.arduino_emulator import Emulator
 
 RATE = 100.0  # [Hz] motors/wheels, as the motor sends it
-TICKS = 360  # encoder ticks per wheel turn (the emulator's and [robot]'s default)
 WAIT = 5.0  # [s] the longest wait for the board's handshake
 
 
@@ -68,9 +67,10 @@ def run(baud: int, seconds: float) -> Link:
             published: dict[tuple[int, int], float] = {}  # target -> when its command was published
             n, start = round(seconds * RATE), time.monotonic()
             reads0 = sum(k == encoders for k, _ in bus.published)
+            ticks, rate = driver.ticks_per_rev, driver.cfg.pid_rate  # the geometry the driver converts with
             for i in range(n):
                 left, right = target(i)
-                msg = m.Wheels(t=0.0, left=p.wheel_speed(left, TICKS, p.PID_RATE), right=p.wheel_speed(right, TICKS, p.PID_RATE))
+                msg = m.Wheels(t=0.0, left=p.wheel_speed(left, ticks, rate), right=p.wheel_speed(right, ticks, rate))
                 published[(left, right)] = time.monotonic()
                 bus.publish(wheels, codec.encode(msg))
                 time.sleep(max(start + (i + 1) / RATE - time.monotonic(), 0.0))
