@@ -27,6 +27,10 @@ class Clock(Protocol):
     def now(self) -> float:
         """Seconds on the stack clock."""
 
+    def tick(self) -> float:
+        """The stack time of the newest tick, never extrapolated: what has been heard, so the same in a
+        replay at any speed (a sim clock's last tick; now() for a clock that does not tick)."""
+
     @property
     def ready(self) -> bool:
         """Whether now() means anything yet (a sim clock waits for its first tick)."""
@@ -50,6 +54,9 @@ class WallClock:
     def now(self) -> float:
         return time.time()
 
+    def tick(self) -> float:
+        return time.time()
+
     def wall_delay(self, dt: float) -> float | None:
         return max(dt, 0.0)
 
@@ -70,6 +77,9 @@ class ScaledWallClock:
 
     def now(self) -> float:
         return self._t0 + (time.monotonic() - self._start) * self.rtf
+
+    def tick(self) -> float:
+        return self.now()
 
     def wall_delay(self, dt: float) -> float | None:
         return max(dt, 0.0) / self.rtf
@@ -161,6 +171,10 @@ class SimClock:
             self._last = max(self._last, self._t + min(ext, self._step))
             return self._last
 
+    def tick(self) -> float:
+        t = self._t
+        return 0.0 if t is None else t
+
     def wall_delay(self, dt: float) -> float | None:
         return max(dt, 0.0) / self._rtf
 
@@ -191,6 +205,9 @@ class ManualClock:
         self.t = t
 
     def now(self) -> float:
+        return self.t
+
+    def tick(self) -> float:
         return self.t
 
     def advance(self, dt: float) -> float:

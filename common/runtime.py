@@ -23,12 +23,15 @@ thread that brought it (`inline`, what the deployments set: no thread
 switch; never for a `blocking` service); anything else is queued for the service's
 worker (services composed in one process share one worker, `Executor`, and a blocking
 one has its own), and queries always are. An input declared `after` a periodic topic
-(`@subscribe("vps/pose", after="odom")`) is held while that topic flows (its samples
-served less than HOLD seconds apart, the last one less than HOLD ago) and served by
-the worker in the middle of the gap after that topic's next sample: work that may take
-milliseconds (a late fix's replay) then runs once that sample's chain has gone on and
-before the following one comes, not in the way of either; and always before any input
-after that sample, so that a replayed run gives the same results at any speed. A query
+(`@subscribe("vps/pose", after="odom")`) is held while that topic flows (its last
+sample served less than HOLD ago) and served by the worker in the middle of the gap
+after that topic's next sample: work that may take milliseconds (a late fix's replay)
+then runs once that sample's chain has gone on and before the following one comes, not
+in the way of either; and always before any input after that sample. If that sample
+does not come, it is served once the stack clock is HOLD past its arrival (or HOLD_WALL
+of wall time has passed with the clock still too: a paused sim). Both are judged on the
+clock's ticks (`Clock.tick`), never extrapolated from the wall clock, so a replayed run
+gives the same results at any speed, however a busy host delays the replay. A query
 is served only after what is held. Queries declared
 `priority` (and liveliness events) go in a lane the worker empties before anything
 else, so a stop is never queued behind other input; on Zenoh they are served on a
@@ -95,7 +98,8 @@ from zenav.common.config import Settings
 from zenav.common.inbox import Inbox
 
 LOG_CHARS = 200  # a log line (and an internal error reply) is cut to this many characters
-HOLD = 0.05  # [s] wall: a topic flows while its samples are served closer than this (an input `after` it waits less than 1.5x that)
+HOLD = 0.05  # [s] stack clock: a topic flows while its last sample was served less than this ago (an input `after` it waits at most that)
+HOLD_WALL = 1.0  # [s] wall: ... or this long, when the stack clock does not move either (a sim paused, a replay at its end)
 HOLD_ITEMS = 64  # inputs held at once at most (more are served at once)
 GAP_GAIN = 0.2  # weight of each new gap in a topic's period (smoothed: one late sample does not move it far)
 FORMAT_PARAM = "_format"  # selector parameter choosing the reply format: msgpack (default) or json
@@ -295,8 +299,10 @@ class Service:
         self._busy = threading.Lock()  # held while this service's code runs (worker, or a bus thread serving inline)
         self.inline = False  # serve a sample on the bus's thread when nothing is queued (set by the deployments; never if blocking)
         self._held_for: dict[str, str] = {}  # suffix -> the topic its input is held for (@subscribe after=)
-        self._paced: dict[str, list] = {}  # topic held for -> [wall time its last sample was served, its period, samples served]
-        self._held: list[tuple[int, float, float, tuple]] = []  # (sample it waits for, wall and stack time it came, item), oldest first
+        # topic held for -> [wall time its last sample was served, its period (wall), samples served, the clock's tick then]
+        self._paced: dict[str, list] = {}
+        # (sample it waits for, wall time, tick and stack time it came, item), oldest first
+        self._held: list[tuple[int, float, float, float, tuple]] = []
         self._arrived: float | None = None  # stack time a held input being served arrived
 
     # ------------------------------------------------------------ helpers
@@ -368,7 +374,7 @@ class Service:
                 suffix, typ, after, latest = fn._zenav_sub
                 if after is not None:
                     self._held_for[suffix] = after
-                    self._paced[after] = [-math.inf, 0.0, 0]
+                    self._paced[after] = [-math.inf, 0.0, 0, -math.inf]
                 self.subscribe(suffix, typ, bound, latest=latest)
             if hasattr(fn, "_zenav_query"):
                 suffix, typ, priority, acts = fn._zenav_query
@@ -521,17 +527,17 @@ class Service:
         serves it in the gap after that one) and before anything that comes after that
         sample: in a run replayed faster or slower, it lands between the same inputs."""
         kind, suffix = item[0], item[2]
-        if self._held and (kind == "query" or self._waited()):
+        if self._held and (kind == "query" or self._waited() or self._overdue()):
             self._release()  # a query, or anything after the sample held input waited for, comes after it
         if kind != "msg":
             self._dispatch(item)
             return
         after = self._held_for.get(suffix)
         if after is not None:
-            last, gap, count = self._paced[after]
-            wall = time.monotonic()
-            if len(self._held) < HOLD_ITEMS and gap > 0.0 and wall - last < HOLD:  # it flows
-                self._held.append((count + 1, wall, self.clock.now(), item))
+            count, tick = self._paced[after][2:]
+            now = self.clock.tick()
+            if len(self._held) < HOLD_ITEMS and now - tick < HOLD:  # it flows
+                self._held.append((count + 1, time.monotonic(), now, self.clock.now(), item))
                 self._inbox.poke()  # the worker waits for it
                 return
             if self._held:
@@ -545,8 +551,12 @@ class Service:
 
     def _waited(self) -> bool:
         """The sample the oldest held input waits for has been served."""
-        waits_for, _, _, item = self._held[0]
+        waits_for, _, _, _, item = self._held[0]
         return self._paced[self._held_for[item[2]]][2] >= waits_for
+
+    def _overdue(self) -> bool:
+        """The sample the oldest held input waits for has not come, and the stack clock is HOLD past its arrival."""
+        return self.clock.tick() - self._held[0][2] >= HOLD
 
     def _count_sample(self, paced: list) -> None:
         """A sample of a topic input is held for was served: its time, and the topic's period."""
@@ -556,19 +566,26 @@ class Service:
             paced[1] = gap if paced[1] == 0.0 else paced[1] + GAP_GAIN * (gap - paced[1])
         paced[0] = wall
         paced[2] += 1
+        paced[3] = self.clock.tick()
 
     def _held_wait(self) -> float:
-        """Wall seconds until the oldest held input is due: the middle of the gap after the sample it waits for,
-        or HOLD after it came if that sample does not come."""
-        _, came, _, item = self._held[0]
-        last, gap, _ = self._paced[self._held_for[item[2]]]
-        due = last + gap / 2.0 if self._waited() else came + HOLD
-        return due - time.monotonic()
+        """Wall seconds until the oldest held input is due: the middle of the gap after the sample it waits for;
+        if that sample has not come, when the stack clock is HOLD past its arrival (looked at again then: a
+        stalled sim clock does not get there) or, at the latest, HOLD_WALL after it came."""
+        _, came, tick, _, item = self._held[0]
+        last, gap = self._paced[self._held_for[item[2]]][:2]
+        wall = time.monotonic()
+        if self._waited():
+            return last + gap / 2.0 - wall
+        if self._overdue():
+            return 0.0
+        until = self.clock.wall_delay(tick + HOLD - self.clock.tick())
+        return min(HOLD if until is None else until, came + HOLD_WALL - wall)
 
     def _release(self) -> None:
         """Serve every held input, oldest first, as of its arrival."""
         held, self._held = self._held, []
-        for _, _, arrived, item in held:
+        for _, _, _, arrived, item in held:
             self._arrived = arrived
             try:
                 self._dispatch(item)

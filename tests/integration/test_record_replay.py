@@ -206,14 +206,26 @@ def test_replay_reruns_the_localizer_on_recorded_sensors(router, make_stack, cli
     poses: queue.Queue = queue.Queue()
     client.subscribe("pose", poses.put)
 
-    def rerun(rate: float) -> dict[float, m.Pose]:
+    class Stalling:
+        """The publisher, stalled once after the 15th fix as a busy host stalls a replay (longer than HOLD)."""
+
+        fixes = 0
+
+        def publish(self, key: str, data: bytes) -> None:
+            publisher.publish(key, data)
+            if key.endswith("/vps/pose"):
+                self.fixes += 1
+                if self.fixes == 15:
+                    time.sleep(0.1)
+
+    def rerun(rate: float, bus) -> dict[float, m.Pose]:
         """Replay the localizer's inputs into a fresh localizer; return its poses by t."""
         stack = make_stack(["localizer"])
         client.wait_alive(["localizer"], timeout=30)
         for _ in range(poses.qsize()):  # poses the last rerun made past the recorded ones (the recorded odom outlasts its poses)
             poses.get_nowait()
         wait_subscriber(publisher, keys.key("r1", "odom"))
-        assert replay(path, publisher, rate=rate, suffixes=LOCALIZER_INPUTS) > 1000
+        assert replay(path, bus, rate=rate, suffixes=LOCALIZER_INPUTS) > 1000
         out: dict[float, m.Pose] = {}
         while len(out) < len(recorded):
             try:
@@ -224,8 +236,8 @@ def test_replay_reruns_the_localizer_on_recorded_sensors(router, make_stack, cli
         stack.stop()
         return out
 
-    at_pace, faster = rerun(1.0), rerun(4.0)
-    # The replay is deterministic: at its own pace or four times faster, the same poses.
+    at_pace, faster = rerun(1.0, publisher), rerun(4.0, Stalling())
+    # The replay is deterministic: at its own pace or four times faster and stalled, the same poses.
     assert len(at_pace) >= 0.99 * len(recorded)
     assert at_pace == faster
     # It reproduces the recorded run. A fix that reached the original localizer one odom

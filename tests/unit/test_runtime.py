@@ -565,6 +565,56 @@ def test_held_input_is_served_before_a_query_and_not_held_once_the_topic_stops(h
     assert s.order[-2:] == [("fix", 4.8, 5.02 + 0.8 * runtime.HOLD), ("fix", 4.9, 5.02 + 1.2 * runtime.HOLD)]
 
 
+@pytest.fixture
+def held_sim(monkeypatch):
+    """(service on a sim clock, served inline, bus, wall): the monotonic clock is wall[0]."""
+    wall = [100.0]
+    monkeypatch.setattr(runtime.time, "monotonic", lambda: wall[0])
+    bus = MemoryBus()
+    s = Held(Settings.load(None), bus, SimClock())
+    s.start()
+    s.inline = True
+    yield s, bus, wall
+    s.close()
+
+
+def test_on_a_sim_clock_held_input_waits_out_a_stalled_host_and_goes_with_the_ticks(held_sim):
+    s, bus, wall = held_sim
+
+    def clock(t):
+        bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=t, rtf=1.0)))
+
+    for t in (5.0, 5.01):
+        clock(t)
+        odom(bus, t)
+        wall[0] += 0.01
+    fix(bus, 4.7)
+    wall[0] += 0.2  # the host stalls (a replay's publisher, say): wall time passes, the clock does not
+    assert 0.0 < s.turn(8) <= runtime.HOLD  # looked at again, not released
+    fix(bus, 4.8)  # odometry still flows as far as the clock says: held too
+    assert s.order[-1] == ("odom", 5.01)
+    clock(5.02)
+    odom(bus, 5.02)
+    s.drain()
+    assert [o[:2] for o in s.order[-3:]] == [("odom", 5.02), ("fix", 4.7), ("fix", 4.8)]  # as at any replay speed
+    # The odometry stops and the clock goes on: released at the tick HOLD past its arrival, before what comes next.
+    fix(bus, 4.9)
+    clock(5.03)
+    assert s.order[-1][:2] == ("fix", 4.8)
+    clock(5.02 + runtime.HOLD + 0.005)
+    bus.publish("zenav/r1/sensors/imu", codec.encode(m.Imu(t=5.08, gyro_z=0.0, accel_x=0.0, accel_y=0.0)))
+    assert [o[:2] for o in s.order[-2:]] == [("fix", 4.9), ("imu", 5.08)]
+    # The clock stops too (a paused sim): released HOLD_WALL after it came.
+    clock(5.09)
+    odom(bus, 5.09)
+    fix(bus, 5.0)
+    wall[0] += runtime.HOLD_WALL - 0.01
+    assert s.turn(8) > 0.0 and s.order[-1] == ("odom", 5.09)
+    wall[0] += 0.01
+    s.turn(8)
+    assert s.order[-1][:2] == ("fix", 5.0)
+
+
 def test_a_call_runs_once_when_the_clock_reaches_its_time(svc):
     s, bus, clock = svc
     s.drain()
