@@ -114,7 +114,16 @@ def known_sections() -> tuple[str, ...]:
     return tuple(dict.fromkeys([*OWN_SECTIONS, *documented]))
 
 
+# Keys a config may still carry from an earlier release: [section] key -> what became of it.
+RETIRED: dict[tuple[str, str], str] = {
+    ("vps", "delivery_period"): "each fix is sent at its delivery time, with no timer to set; delete the line",
+}
+
+
 def _convert(raw: Any, typ: type[T], where: str) -> T:
+    for key in raw if isinstance(raw, dict) else ():
+        if (where, key) in RETIRED:
+            raise ConfigError(f"config [{where}]: `{key}` is no longer a setting: {RETIRED[where, key]}")
     try:
         return msgspec.convert(raw, typ)
     except msgspec.ValidationError as e:

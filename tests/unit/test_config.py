@@ -88,6 +88,12 @@ def test_service_sections_refuse_unknown_keys(name):
         Settings.load(None, **{name: {"no_such_key": 1}}).section(name, typ)
 
 
+def test_a_retired_key_says_what_became_of_it():
+    typ = services.load("vps").config_type
+    with pytest.raises(ConfigError, match=r"\[vps\]: `delivery_period` is no longer a setting: each fix is sent at its delivery time"):
+        Settings.load(None, vps={"delivery_period": 0.005}).section("vps", typ)
+
+
 def test_bad_file_is_a_config_error(tmp_path):
     p = tmp_path / "bad.toml"
     p.write_text("[sim\nrtf = 1")
