@@ -24,7 +24,7 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--rate", type=float, default=1.0, help="speed-up over the recorded pace; 0 = as fast as possible (default 1)")
     p.add_argument(
         "--topics",
-        help="comma-separated topic suffixes to replay (default: all), e.g. clock,odom,vps/pose to re-run the localizer",
+        help="comma-separated topic suffixes to replay (default: all), e.g. clock,odom,vps/pose,sensors/imu to re-run the localizer",
     )
     p.set_defaults(func=run)
 

@@ -32,6 +32,10 @@ class Clock(Protocol):
         replay at any speed (a sim clock's last tick; now() for a clock that does not tick)."""
 
     @property
+    def resolution(self) -> float:
+        """[s] how far the stack time may be past tick(): a sim clock's tick interval (0: read continuously)."""
+
+    @property
     def ready(self) -> bool:
         """Whether now() means anything yet (a sim clock waits for its first tick)."""
 
@@ -47,6 +51,7 @@ class WallClock:
     """Real hardware: the host's wall clock (epoch seconds)."""
 
     ready = True
+    resolution = 0.0
 
     def __init__(self, future: float = FUTURE_STAMP) -> None:
         self._future = future  # [s]
@@ -68,6 +73,7 @@ class ScaledWallClock:
     """The sim's own schedule: wall time scaled by the realtime factor, from t0."""
 
     ready = True
+    resolution = 0.0
 
     def __init__(self, rtf: float = 1.0, t0: float = 0.0, future: float = FUTURE_STAMP) -> None:
         self.rtf = rtf
@@ -175,6 +181,10 @@ class SimClock:
         t = self._t
         return 0.0 if t is None else t
 
+    @property
+    def resolution(self) -> float:
+        return self._step
+
     def wall_delay(self, dt: float) -> float | None:
         return max(dt, 0.0) / self._rtf
 
@@ -200,6 +210,7 @@ class ManualClock:
     """A clock that tests set and advance."""
 
     ready = True
+    resolution = 0.0
 
     def __init__(self, t: float = 0.0) -> None:
         self.t = t

@@ -536,7 +536,7 @@ class Service:
         if after is not None:
             count, tick = self._paced[after][2:]
             now = self.clock.tick()
-            if len(self._held) < HOLD_ITEMS and now - tick < HOLD:  # it flows
+            if len(self._held) < HOLD_ITEMS and now < tick + HOLD + self.clock.resolution:  # it flows
                 self._held.append((count + 1, time.monotonic(), now, self.clock.now(), item))
                 self._inbox.poke()  # the worker waits for it
                 return
@@ -556,7 +556,13 @@ class Service:
 
     def _overdue(self) -> bool:
         """The sample the oldest held input waits for has not come, and the stack clock is HOLD past its arrival."""
-        return self.clock.tick() - self._held[0][2] >= HOLD
+        return self.clock.tick() >= self._due()
+
+    def _due(self) -> float:
+        """The tick at which the oldest held input stops waiting for the sample: HOLD past the tick it came at,
+        plus one tick interval (the sim's clock may tick slower than the topic: its next sample comes after the
+        next tick)."""
+        return self._held[0][2] + HOLD + self.clock.resolution
 
     def _count_sample(self, paced: list) -> None:
         """A sample of a topic input is held for was served: its time, and the topic's period."""
@@ -572,14 +578,14 @@ class Service:
         """Wall seconds until the oldest held input is due: the middle of the gap after the sample it waits for;
         if that sample has not come, when the stack clock is HOLD past its arrival (looked at again then: a
         stalled sim clock does not get there) or, at the latest, HOLD_WALL after it came."""
-        _, came, tick, _, item = self._held[0]
+        _, came, _, _, item = self._held[0]
         last, gap = self._paced[self._held_for[item[2]]][:2]
         wall = time.monotonic()
         if self._waited():
             return last + gap / 2.0 - wall
         if self._overdue():
             return 0.0
-        until = self.clock.wall_delay(tick + HOLD - self.clock.tick())
+        until = self.clock.wall_delay(self._due() - self.clock.tick())
         return min(HOLD if until is None else until, came + HOLD_WALL - wall)
 
     def _release(self) -> None:

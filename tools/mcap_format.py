@@ -177,17 +177,22 @@ def read(path: str, robot: str | None = None, suffixes: Iterable[str] | None = N
         yield Record(key, on, suffix, msgspec.json.decode(message.data, type=typ), message.log_time)
 
 
-def robots(path: str) -> list[str]:
-    """The robot ids that have contract channels in a recording, in first-seen order."""
+def topics(path: str) -> dict[str, set[str]]:
+    """The robot ids that have contract channels in a recording, in first-seen order, each with its topic suffixes."""
     if finished(path):  # the summary lists every channel
         with open(path, "rb") as f:
             summary = make_reader(f).get_summary()
         channels: Iterable[Channel] = summary.channels.values() if summary else ()
     else:
         channels = (channel for channel, _ in _messages(path))
-    found: list[str] = []
+    found: dict[str, set[str]] = {}
     for channel in channels:
         topic = contract_topic(key_of(channel.topic))
-        if topic is not None and topic[0] not in found:
-            found.append(topic[0])
+        if topic is not None:
+            found.setdefault(topic[0], set()).add(topic[1])
     return found
+
+
+def robots(path: str) -> list[str]:
+    """The robot ids that have contract channels in a recording, in first-seen order."""
+    return list(topics(path))

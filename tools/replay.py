@@ -6,6 +6,9 @@ them. Each is decoded from the recording's JSON through its contract type and
 encoded as msgpack again. A replayed `clock` tick is the one thing rewritten: its
 `wall` becomes the replay's wall clock and its `rtf` is multiplied by `rate`, so the
 services following it (SimClock) extrapolate from now, not from the recording day.
+A robot recorded with no `clock` (a real one, on the wall clock) gets ticks made from
+its messages' stamps when `clock` is replayed: one before each message whose stamp is
+TICK past the last, so services on the sim clock follow the recording all the same.
 
 To re-run the localizer on recorded sensors, replay `clock`, `odom` and `vps/pose`
 into a stack that runs only the localizer, and compare its `pose` with the recorded one.
@@ -13,6 +16,7 @@ into a stack that runs only the localizer, and compare its `pose` with the recor
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections.abc import Iterable
@@ -23,6 +27,8 @@ from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.bus import Bus
 from zenav.tools import mcap_format as fmt
+
+TICK = 0.01  # [s] of stamps between the clock ticks made for a robot recorded without any (the sim's 100 Hz)
 
 
 def replay(
@@ -44,6 +50,9 @@ def replay(
     start_wall = time.monotonic()
     first_ns: int | None = None
     sent = 0
+    ticks: dict[str, float] = {}  # robot recorded without a clock -> the last tick made for it
+    if suffixes is None or "clock" in suffixes:
+        ticks = {r: -math.inf for r, topics in fmt.topics(path).items() if "clock" not in topics and robot in (None, r)}
     for rec in fmt.read(path, robot, suffixes):
         first_ns = rec.log_time if first_ns is None else first_ns
         if rate > 0:
@@ -53,8 +62,13 @@ def replay(
         elif stop.is_set():
             break
         msg = rec.msg
+        key = keys.key(as_robot or rec.robot, rec.suffix)
         if isinstance(msg, m.Clock):
             msg = msgspec.structs.replace(msg, wall=time.time(), rtf=msg.rtf * rate if rate > 0 else msg.rtf)
-        bus.publish(keys.key(as_robot or rec.robot, rec.suffix), codec.encode(msg))
+        elif rec.robot in ticks and msg.t >= ticks[rec.robot] + TICK:
+            ticks[rec.robot] = msg.t
+            tick = m.Clock(t=msg.t, rtf=rate if rate > 0 else 1.0, wall=time.time())
+            bus.publish(keys.key(as_robot or rec.robot, "clock"), codec.encode(tick))
+        bus.publish(key, codec.encode(msg))
         sent += 1
     return sent

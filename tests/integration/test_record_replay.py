@@ -17,7 +17,7 @@ from tests.support.matching import wait_subscriber
 from tests.support.procs import reaped, stderr_lines
 from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common.bus import ZenohBus
+from zenav.common.bus import MemoryBus, ZenohBus
 from zenav.tools import mcap_format as fmt
 from zenav.tools.record import Recorder
 from zenav.tools.replay import replay
@@ -205,6 +205,8 @@ def test_replay_reruns_the_localizer_on_recorded_sensors(router, make_stack, cli
 
     poses: queue.Queue = queue.Queue()
     client.subscribe("pose", poses.put)
+    fixes: queue.Queue = queue.Queue()
+    client.subscribe("localizer/fixes", fixes.put)
 
     class Stalling:
         """The publisher, stalled once after the 15th fix as a busy host stalls a replay (longer than HOLD)."""
@@ -218,14 +220,16 @@ def test_replay_reruns_the_localizer_on_recorded_sensors(router, make_stack, cli
                 if self.fixes == 15:
                     time.sleep(0.1)
 
-    def rerun(rate: float, bus) -> dict[float, m.Pose]:
-        """Replay the localizer's inputs into a fresh localizer; return its poses by t."""
+    def rerun(rate: float, bus, source: str = path) -> dict[float, m.Pose]:
+        """Replay the localizer's inputs (`clock` too) into a fresh localizer; return its poses by t."""
         stack = make_stack(["localizer"])
         client.wait_alive(["localizer"], timeout=30)
         for _ in range(poses.qsize()):  # poses the last rerun made past the recorded ones (the recorded odom outlasts its poses)
             poses.get_nowait()
+        for _ in range(fixes.qsize()):
+            fixes.get_nowait()
         wait_subscriber(publisher, keys.key("r1", "odom"))
-        assert replay(path, bus, rate=rate, suffixes=LOCALIZER_INPUTS) > 1000
+        assert replay(source, bus, rate=rate, suffixes=LOCALIZER_INPUTS) > 1000
         out: dict[float, m.Pose] = {}
         while len(out) < len(recorded):
             try:
@@ -242,7 +246,30 @@ def test_replay_reruns_the_localizer_on_recorded_sensors(router, make_stack, cli
     assert at_pace == faster
     # It reproduces the recorded run. A fix that reached the original localizer one odom
     # sample earlier or later than it reached the recorder shifts a few poses slightly.
-    diffs = [math.hypot(recorded[t].x - p.x, recorded[t].y - p.y) for t, p in at_pace.items() if t in recorded]
+    reproduces(recorded, at_pace)
+
+    # A robot on the wall clock records no `clock`: the replay makes the ticks from the stamps,
+    # and the localizer (on the sim clock, as `zenav up --services localizer` runs it) follows.
+    unclocked = str(tmp_path / "no_clock.mcap")
+    mem = MemoryBus()
+    copier = Recorder(unclocked, mem, "r1").start()
+    replay(path, mem, rate=4.0, suffixes=[s for s in LOCALIZER_INPUTS if s != "clock"])
+    copier.stop()
+    assert "clock" not in fmt.topics(unclocked)["r1"]
+    again = rerun(1.0, publisher, unclocked)
+    assert len(again) >= 0.99 * len(recorded)
+    reproduces(recorded, again)
+    audits = [fixes.get_nowait() for _ in range(fixes.qsize())]
+    assert sum(f.accepted for f in audits) > 25
+    # Their arrival is on the recording's time: each fix as late as in the recorded run (the VPS's ~0.3 s).
+    late = {r.msg.t: r.msg.latency for r in fmt.read(path, "r1", ["localizer/fixes"])}
+    off = sorted(abs(f.latency - late[f.t]) for f in audits if f.accepted and f.t in late)
+    assert len(off) > 25 and off[len(off) // 2] < 0.02 and all(f.latency > 0.0 for f in audits if f.accepted)
+
+
+def reproduces(recorded: dict[float, m.Pose], rerun: dict[float, m.Pose]) -> None:
+    """Most poses of a re-run are the recorded ones, and the rest within millimetres."""
+    diffs = [math.hypot(recorded[t].x - p.x, recorded[t].y - p.y) for t, p in rerun.items() if t in recorded]
     same = sum(d < 1e-6 for d in diffs)
     assert same >= 0.9 * len(diffs), f"{same} of {len(diffs)} poses reproduced"
     assert math.sqrt(sum(d * d for d in diffs) / len(diffs)) < 0.005  # [m] rms

@@ -590,18 +590,20 @@ def test_on_a_sim_clock_held_input_waits_out_a_stalled_host_and_goes_with_the_ti
         wall[0] += 0.01
     fix(bus, 4.7)
     wall[0] += 0.2  # the host stalls (a replay's publisher, say): wall time passes, the clock does not
-    assert 0.0 < s.turn(8) <= runtime.HOLD  # looked at again, not released
+    assert 0.0 < s.turn(8) <= runtime.HOLD + 0.01  # looked at again (HOLD and a tick after it came), not released
     fix(bus, 4.8)  # odometry still flows as far as the clock says: held too
     assert s.order[-1] == ("odom", 5.01)
     clock(5.02)
     odom(bus, 5.02)
     s.drain()
     assert [o[:2] for o in s.order[-3:]] == [("odom", 5.02), ("fix", 4.7), ("fix", 4.8)]  # as at any replay speed
-    # The odometry stops and the clock goes on: released at the tick HOLD past its arrival, before what comes next.
+    # The odometry stops and the clock goes on: released at the tick HOLD and a tick interval past its
+    # arrival, before what comes next.
     fix(bus, 4.9)
-    clock(5.03)
+    for t in (5.03, 5.04, 5.05, 5.06, 5.07):
+        clock(t)
     assert s.order[-1][:2] == ("fix", 4.8)
-    clock(5.02 + runtime.HOLD + 0.005)
+    clock(5.02 + runtime.HOLD + 0.02)
     bus.publish("zenav/r1/sensors/imu", codec.encode(m.Imu(t=5.08, gyro_z=0.0, accel_x=0.0, accel_y=0.0)))
     assert [o[:2] for o in s.order[-2:]] == [("fix", 4.9), ("imu", 5.08)]
     # The clock stops too (a paused sim): released HOLD_WALL after it came.
@@ -613,6 +615,20 @@ def test_on_a_sim_clock_held_input_waits_out_a_stalled_host_and_goes_with_the_ti
     wall[0] += 0.01
     s.turn(8)
     assert s.order[-1][:2] == ("fix", 5.0)
+
+
+def test_held_input_waits_for_the_next_sample_across_a_tick_of_a_clock_slower_than_the_topic(held_sim):
+    s, bus, wall = held_sim
+    for k in range(3):  # the sim's clock at 20 Hz, odometry at 100 Hz
+        bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=round(3.41 + 0.05 * k, 2), rtf=1.0)))
+        for i in range(5):
+            odom(bus, round(3.41 + 0.05 * k + 0.01 * i, 2))
+            wall[0] += 0.01
+    fix(bus, 3.2)  # after the last sample before a tick
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=3.56, rtf=1.0)))
+    odom(bus, 3.56)
+    s.drain()
+    assert [o[:2] for o in s.order[-2:]] == [("odom", 3.56), ("fix", 3.2)]  # not released by the tick
 
 
 def test_a_call_runs_once_when_the_clock_reaches_its_time(svc):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import threading
 import time
 
@@ -102,6 +103,36 @@ def test_replay_keeps_the_recorded_pace_divided_by_the_rate(tmp_path):
     clocks = [codec.decode(d, m.Clock) for _, d in bus.published]
     assert [c.t for c in clocks] == [0.0, 1.0, 2.0]
     assert all(c.rtf == 4.0 and c.wall > 1e9 for c in clocks)  # rtf times the rate; the replay's wall clock
+
+
+def test_a_robot_recorded_without_a_clock_gets_ticks_from_its_stamps(tmp_path):
+    path = str(tmp_path / "robot.mcap")
+    t0 = 1.8e9  # a real robot's wall clock
+    rows: list[tuple[str, m.Topic, float]] = []
+    for i in range(40):
+        t = t0 + i * 0.005
+        rows.append((keys.key("r1", "odom"), m.Odom(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0), i * 0.001))
+        if i % 10 == 9:
+            rows.append((keys.key("r1", "vps/pose"), m.VpsPose(t=t - 0.3, x=0.0, y=0.0, theta=0.0), i * 0.001))
+    rows.append((keys.key("r2", "clock"), m.Clock(t=5.0), 0.05))  # another robot, with its own clock: none made
+    rows.append((keys.key("r2", "odom"), m.Odom(t=5.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0), 0.05))
+    write_recording(path, rows)
+    bus = MemoryBus()
+    assert replay(path, bus, rate=0.0) == 46
+    out = [(k.split("/", 2)[1:], codec.decode(d, keys.TOPICS[k.split("/", 2)[2]])) for k, d in bus.published]
+    ticks = [msg for (r, s), msg in out if (r, s) == ("r1", "clock")]
+    assert [c.t for c in ticks] == [t0 + i * 0.01 for i in range(20)]  # one per TICK of stamps, the fixes' not ahead
+    assert all(c.rtf == 1.0 and c.wall > 1e9 for c in ticks)
+    last = -math.inf
+    for (r, s), msg in out:  # each tick before the first odom sample it covers; none behind
+        if (r, s) == ("r1", "clock"):
+            last = msg.t
+        elif (r, s) == ("r1", "odom"):
+            assert last <= msg.t < last + 0.01
+    assert [msg.t for (r, s), msg in out if r == "r2"] == [5.0, 5.0]  # its recorded clock only
+    bus = MemoryBus()
+    assert replay(path, bus, rate=0.0, suffixes=["odom", "vps/pose"]) == 45  # clock not asked for: none made
+    assert not [k for k, _ in bus.published if k.endswith("/clock")]
 
 
 def test_replay_stops_when_told(tmp_path):
