@@ -24,11 +24,11 @@ switch; never for a `blocking` service); anything else is queued for the service
 worker (services composed in one process share one worker, `Executor`, and a blocking
 one has its own), and queries always are. An input declared `after` a periodic topic
 (`@subscribe("vps/pose", after="odom")`) is held while that topic flows (its last
-sample served less than HOLD ago) and served by the worker in the middle of the gap
+sample served less than HOLD and a clock tick interval ago) and served by the worker in the middle of the gap
 after that topic's next sample: work that may take milliseconds (a late fix's replay)
 then runs once that sample's chain has gone on and before the following one comes, not
 in the way of either; and always before any input after that sample. If that sample
-does not come, it is served once the stack clock is HOLD past its arrival (or HOLD_WALL
+does not come, it is served once the stack clock is that far past its arrival (or HOLD_WALL
 of wall time has passed with the clock still too: a paused sim). Both are judged on the
 clock's ticks (`Clock.tick`), never extrapolated from the wall clock, so a replayed run
 gives the same results at any speed, however a busy host delays the replay. A query
@@ -98,7 +98,7 @@ from zenav.common.config import Settings
 from zenav.common.inbox import Inbox
 
 LOG_CHARS = 200  # a log line (and an internal error reply) is cut to this many characters
-HOLD = 0.05  # [s] stack clock: a topic flows while its last sample was served less than this ago (an input `after` it waits at most that)
+HOLD = 0.05  # [s] stack clock: a topic flows while its last sample was served less than this and a tick interval ago (and an input `after` it waits as long at most)
 HOLD_WALL = 1.0  # [s] wall: ... or this long, when the stack clock does not move either (a sim paused, a replay at its end)
 HOLD_ITEMS = 64  # inputs held at once at most (more are served at once)
 GAP_GAIN = 0.2  # weight of each new gap in a topic's period (smoothed: one late sample does not move it far)
