@@ -98,8 +98,10 @@ from zenav.common.config import Settings
 from zenav.common.inbox import Inbox
 
 LOG_CHARS = 200  # a log line (and an internal error reply) is cut to this many characters
-HOLD = 0.05  # [s] stack clock: a topic flows while its last sample was served less than this and a tick interval ago (and an input `after` it waits as long at most)
-HOLD_WALL = 1.0  # [s] wall: ... or this long, when the stack clock does not move either (a sim paused, a replay at its end)
+# [s] stack clock: a topic flows while its last sample was served less than this and a tick interval ago
+# (and an input `after` it waits as long at most)
+HOLD = 0.05
+HOLD_WALL = 1.0  # [s] wall: how long it waits at most when the stack clock does not move either (a sim paused, a replay at its end)
 HOLD_ITEMS = 64  # inputs held at once at most (more are served at once)
 GAP_GAIN = 0.2  # weight of each new gap in a topic's period (smoothed: one late sample does not move it far)
 FORMAT_PARAM = "_format"  # selector parameter choosing the reply format: msgpack (default) or json
