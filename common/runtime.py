@@ -557,7 +557,7 @@ class Service:
         return self._paced[self._held_for[item[2]]][2] >= waits_for
 
     def _overdue(self) -> bool:
-        """The sample the oldest held input waits for has not come, and the stack clock is HOLD past its arrival."""
+        """The sample the oldest held input waits for has not come, and the stack clock has reached `_due`."""
         return self.clock.tick() >= self._due()
 
     def _due(self) -> float:
@@ -570,7 +570,7 @@ class Service:
         """A sample of a topic input is held for was served: its time, and the topic's period."""
         wall = time.monotonic()
         gap = wall - paced[0]
-        if gap < HOLD:  # a longer one is a pause, not the topic's period
+        if gap < HOLD:  # a longer one is a pause, not the topic's period (wall: it only times the gap's middle)
             paced[1] = gap if paced[1] == 0.0 else paced[1] + GAP_GAIN * (gap - paced[1])
         paced[0] = wall
         paced[2] += 1
@@ -578,8 +578,8 @@ class Service:
 
     def _held_wait(self) -> float:
         """Wall seconds until the oldest held input is due: the middle of the gap after the sample it waits for;
-        if that sample has not come, when the stack clock is HOLD past its arrival (looked at again then: a
-        stalled sim clock does not get there) or, at the latest, HOLD_WALL after it came."""
+        if that sample has not come, when the stack clock reaches `_due` (looked at again then: a stalled sim
+        clock does not get there) or, at the latest, HOLD_WALL after it came."""
         _, came, _, _, item = self._held[0]
         last, gap = self._paced[self._held_for[item[2]]][:2]
         wall = time.monotonic()

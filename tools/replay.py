@@ -47,6 +47,7 @@ def replay(
     if rate < 0:
         raise ValueError(f"rate must be >= 0, not {rate}")
     stop = stop or threading.Event()
+    suffixes = None if suffixes is None else list(suffixes)  # read twice: for the clock, then the messages
     start_wall = time.monotonic()
     first_ns: int | None = None
     sent = 0
@@ -61,14 +62,13 @@ def replay(
                 break
         elif stop.is_set():
             break
-        msg = rec.msg
-        key = keys.key(as_robot or rec.robot, rec.suffix)
+        msg, on = rec.msg, as_robot or rec.robot
         if isinstance(msg, m.Clock):
             msg = msgspec.structs.replace(msg, wall=time.time(), rtf=msg.rtf * rate if rate > 0 else msg.rtf)
         elif rec.robot in ticks and msg.t >= ticks[rec.robot] + TICK:
             ticks[rec.robot] = msg.t
             tick = m.Clock(t=msg.t, rtf=rate if rate > 0 else 1.0, wall=time.time())
-            bus.publish(keys.key(as_robot or rec.robot, "clock"), codec.encode(tick))
-        bus.publish(key, codec.encode(msg))
+            bus.publish(keys.key(on, "clock"), codec.encode(tick))
+        bus.publish(keys.key(on, rec.suffix), codec.encode(msg))
         sent += 1
     return sent
