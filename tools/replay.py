@@ -4,11 +4,16 @@ Messages go out in the order they were recorded, spaced as they arrived at the
 recorder (log_time) divided by `rate`; rate 0 sends them as fast as the bus takes
 them. Each is decoded from the recording's JSON through its contract type and
 encoded as msgpack again. A replayed `clock` tick is the one thing rewritten: its
-`wall` becomes the replay's wall clock and its `rtf` is multiplied by `rate`, so the
-services following it (SimClock) extrapolate from now, not from the recording day.
+`wall` becomes the replay's wall clock and its `rtf` is multiplied by `rate` (up to
+MAX_RTF, the highest a stack clock takes), so the services following it (SimClock)
+extrapolate from now, not from the recording day.
 A robot recorded with no `clock` (a real one, on the wall clock) gets ticks made from
 its messages' stamps when `clock` is replayed: one before each message whose stamp is
 TICK past the last, so services on the sim clock follow the recording all the same.
+Across a longer gap in the stamps (the robot's recorder or odometry paused) they come
+every FILL at most: a stack clock refuses a tick further ahead than a plausible step
+([limits] clock_jump), and at rate 0 no wall time passes to make a longer one plausible.
+The ticks are the same at any rate, and so is the re-run.
 
 To re-run the localizer on recorded sensors, replay `clock`, `odom` and `vps/pose`
 into a stack that runs only the localizer, and compare its `pose` with the recorded one.
@@ -26,9 +31,11 @@ import msgspec
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.bus import Bus
+from zenav.common.clock import MAX_RTF
 from zenav.tools import mcap_format as fmt
 
 TICK = 0.01  # [s] of stamps between the clock ticks made for a robot recorded without any (the sim's 100 Hz)
+FILL = 0.25  # [s] of stamps at most between such ticks across a gap (well under [limits] clock_jump's default 1 s)
 
 
 def replay(
@@ -52,6 +59,7 @@ def replay(
     first_ns: int | None = None
     sent = 0
     ticks: dict[str, float] = {}  # robot recorded without a clock -> the last tick made for it
+    made_rtf = min(rate, MAX_RTF) if rate > 0 else 1.0
     if suffixes is None or "clock" in suffixes:
         ticks = {r: -math.inf for r, topics in fmt.topics(path).items() if "clock" not in topics and robot in (None, r)}
     for rec in fmt.read(path, robot, suffixes):
@@ -64,11 +72,18 @@ def replay(
             break
         msg, on = rec.msg, as_robot or rec.robot
         if isinstance(msg, m.Clock):
-            msg = msgspec.structs.replace(msg, wall=time.time(), rtf=msg.rtf * rate if rate > 0 else msg.rtf)
+            msg = msgspec.structs.replace(msg, wall=time.time(), rtf=min(msg.rtf * rate, MAX_RTF) if rate > 0 else msg.rtf)
         elif rec.robot in ticks and msg.t >= ticks[rec.robot] + TICK:
+            for t in made_ticks(ticks[rec.robot], msg.t):
+                bus.publish(keys.key(on, "clock"), codec.encode(m.Clock(t=t, rtf=made_rtf, wall=time.time())))
             ticks[rec.robot] = msg.t
-            tick = m.Clock(t=msg.t, rtf=rate if rate > 0 else 1.0, wall=time.time())
-            bus.publish(keys.key(on, "clock"), codec.encode(tick))
         bus.publish(keys.key(on, rec.suffix), codec.encode(msg))
         sent += 1
     return sent
+
+
+def made_ticks(last: float, t: float) -> list[float]:
+    """The ticks made up to a stamp t, the last one made at `last` (-inf: none yet): t, after
+    evenly spaced ones across a gap longer than FILL."""
+    n = 1 if math.isinf(last) else math.ceil((t - last) / FILL)
+    return [t] if n <= 1 else [last + (t - last) * k / n for k in range(1, n)] + [t]

@@ -16,9 +16,10 @@ from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_USAGE, build_parser
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.bus import MemoryBus
+from zenav.common.clock import ACCEPTED, MAX_RTF, SimClock
 from zenav.tools import mcap_format as fmt
 from zenav.tools.record import Recorder
-from zenav.tools.replay import replay
+from zenav.tools.replay import FILL, replay
 
 
 def parse(*argv: str) -> argparse.Namespace:
@@ -103,6 +104,9 @@ def test_replay_keeps_the_recorded_pace_divided_by_the_rate(tmp_path):
     clocks = [codec.decode(d, m.Clock) for _, d in bus.published]
     assert [c.t for c in clocks] == [0.0, 1.0, 2.0]
     assert all(c.rtf == 4.0 and c.wall > 1e9 for c in clocks)  # rtf times the rate; the replay's wall clock
+    bus = MemoryBus()
+    assert replay(path, bus, rate=80.0) == 3
+    assert [codec.decode(d, m.Clock).rtf for _, d in bus.published] == [MAX_RTF] * 3  # 160x: as high as a stack clock takes
 
 
 def test_a_robot_recorded_without_a_clock_gets_ticks_from_its_stamps(tmp_path):
@@ -133,6 +137,28 @@ def test_a_robot_recorded_without_a_clock_gets_ticks_from_its_stamps(tmp_path):
     bus = MemoryBus()
     assert replay(path, bus, rate=0.0, suffixes=["odom", "vps/pose"]) == 45  # clock not asked for: none made
     assert not [k for k, _ in bus.published if k.endswith("/clock")]
+
+
+def test_a_stack_clock_takes_every_tick_made_across_a_gap_in_the_stamps_even_as_fast_as_possible(tmp_path):
+    path = str(tmp_path / "paused.mcap")
+    t0 = 1.8e9
+    stamps = [t0 + i * 0.01 for i in range(50)] + [t0 + 5.49 + i * 0.01 for i in range(50)]  # the robot paused 5 s
+    write_recording(path, [(keys.key("r1", "odom"), m.Odom(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0), t - t0) for t in stamps])
+    for rate in (0.0, 1000.0):  # no wall time for the gap, and a little
+        clock, outcomes, ticks = SimClock(), [], []
+
+        def follow(key: str, data: bytes, clock=clock, outcomes=outcomes, ticks=ticks) -> None:
+            tick = codec.decode(data, m.Clock)
+            ticks.append(tick.t)
+            outcomes.append(clock.update(tick))
+
+        bus = MemoryBus()
+        bus.subscribe(keys.key("r1", "clock"), follow)
+        assert replay(path, bus, rate=rate) == 100
+        assert set(outcomes) == {ACCEPTED} and clock.tick() == stamps[-1]
+        gaps = [b - a for a, b in zip(ticks, ticks[1:])]
+        assert min(gaps) > 0.0 and max(gaps) <= FILL + 1e-9
+        assert ticks[:50] == stamps[:50] and ticks[-50:] == stamps[-50:]  # the stamps' own ticks, as without a gap
 
 
 def test_replay_stops_when_told(tmp_path):
