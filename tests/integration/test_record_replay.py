@@ -261,6 +261,7 @@ def test_replay_reruns_the_localizer_on_recorded_sensors(router, make_stack, cli
     reproduces(recorded, again)
     audits = [fixes.get_nowait() for _ in range(fixes.qsize())]
     assert sum(f.accepted for f in audits) > 25
+    assert rerun(0.0, publisher, unclocked) == again  # its ticks are the same as fast as possible
     # Their arrival is on the recording's time: each fix as late as in the recorded run (the VPS's ~0.3 s).
     late = {r.msg.t: r.msg.latency for r in fmt.read(path, "r1", ["localizer/fixes"])}
     off = sorted(abs(f.latency - late[f.t]) for f in audits if f.accepted and f.t in late)
