@@ -42,6 +42,7 @@ def run(args: argparse.Namespace) -> int:
         check_robot(args.from_robot, "--from-robot")
         deployment(args)  # --config, --set: valid, although replay needs only --robot and --connect
         finished = check_recording(args.input)
+        check_robots(args.input, args.from_robot, args.robot)
         bus = open_bus(args)
     except Failed as e:
         return fail("replay", e)
@@ -55,3 +56,19 @@ def run(args: argparse.Namespace) -> int:
         bus.close()
     print(f"{args.input}: {sent} messages replayed" + (" (stopped)" if stop.is_set() else ""), file=sys.stderr)
     return EXIT_OK
+
+
+def check_robots(path: str, source: str | None, target: str | None) -> None:
+    """Failed(EXIT_USAGE) if --from-robot names a robot the recording does not hold, or if --robot would
+    publish several recorded robots as one."""
+    from zenav.tools import mcap_format as fmt
+
+    held = fmt.robots(path)
+    if source is not None and source not in held:
+        raise Failed(EXIT_USAGE, f"{path} holds no robot {source} (it holds {', '.join(held) or 'none'})")
+    if source is None and target is not None and len(held) > 1:
+        raise Failed(
+            EXIT_USAGE,
+            f"{path} holds robots {', '.join(held)}: --robot (or ZENAV_ROBOT) {target} would publish them all as one; "
+            "pick one with --from-robot, or give neither to publish each as recorded",
+        )

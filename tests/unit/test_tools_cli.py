@@ -59,6 +59,21 @@ def test_replay_refuses_bad_arguments_before_connecting(tmp_path, capsys):
     assert replay_cmd.run(parse("replay", missing)) == EXIT_USAGE
 
 
+def test_replay_refuses_a_robot_the_recording_does_not_hold_and_several_published_as_one(tmp_path, capsys, monkeypatch):
+    path = str(tmp_path / "two.mcap")
+    write_recording(path, [(keys.key(r, "odom"), m.Odom(t=1.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0), 0.0) for r in ("r1", "r2")])
+    monkeypatch.setattr(replay_cmd, "open_bus", lambda args: pytest.fail("connected"))
+    assert replay_cmd.run(parse("replay", path, "--from-robot", "r3")) == EXIT_USAGE
+    assert "holds no robot r3 (it holds r1, r2)" in capsys.readouterr().err
+    assert replay_cmd.run(parse("replay", path, "--robot", "r9")) == EXIT_USAGE
+    assert "holds robots r1, r2: --robot (or ZENAV_ROBOT) r9 would publish them all as one" in capsys.readouterr().err
+    monkeypatch.setenv("ZENAV_ROBOT", "r9")
+    assert replay_cmd.run(parse("replay", path)) == EXIT_USAGE  # the same from the environment
+    monkeypatch.setattr(replay_cmd, "open_bus", lambda args: MemoryBus())
+    assert replay_cmd.run(parse("replay", path, "--from-robot", "r2", "--rate", "0")) == EXIT_OK  # one of them, as r9
+    assert "1 messages replayed" in capsys.readouterr().err
+
+
 def test_record_on_the_memory_bus_then_plot(tmp_path, capsys):
     bus = MemoryBus()
     path = str(tmp_path / "run.mcap")
