@@ -15,8 +15,8 @@ every FILL at most: a stack clock refuses a tick further ahead than a plausible 
 ([limits] clock_jump), and at rate 0 no wall time passes to make a longer one plausible.
 The ticks are the same at any rate, and so is the re-run.
 
-To re-run the localizer on recorded sensors, replay `clock`, `odom` and `vps/pose`
-into a stack that runs only the localizer, and compare its `pose` with the recorded one.
+To re-run the localizer on recorded sensors, replay `clock`, `odom`, `vps/pose` and
+`sensors/imu` into a stack that runs only the localizer, and compare its `pose` with the recorded one.
 """
 
 from __future__ import annotations
