@@ -538,7 +538,7 @@ class Service:
         if after is not None:
             count, tick = self._paced[after][2:]
             now = self.clock.tick()
-            if len(self._held) < HOLD_ITEMS and now < tick + HOLD + self.clock.resolution:  # it flows
+            if len(self._held) < HOLD_ITEMS and now < tick + self._hold_span():  # it flows
                 self._held.append((count + 1, time.monotonic(), now, self.clock.now(), item))
                 self._inbox.poke()  # the worker waits for it
                 return
@@ -561,10 +561,13 @@ class Service:
         return self.clock.tick() >= self._due()
 
     def _due(self) -> float:
-        """The tick at which the oldest held input stops waiting for the sample: HOLD past the tick it came at,
-        plus one tick interval (the sim's clock may tick slower than the topic: its next sample comes after the
-        next tick)."""
-        return self._held[0][2] + HOLD + self.clock.resolution
+        """The tick at which the oldest held input stops waiting for the sample: `_hold_span` past the tick it came at."""
+        return self._held[0][2] + self._hold_span()
+
+    def _hold_span(self) -> float:
+        """[s] of stack clock a topic flows after its last sample, and a held input waits at most: HOLD plus one
+        tick interval (the sim's clock may tick slower than the topic: its next sample comes after the next tick)."""
+        return HOLD + self.clock.resolution
 
     def _count_sample(self, paced: list) -> None:
         """A sample of a topic input is held for was served: its time, and the topic's period."""
