@@ -8,6 +8,7 @@ import subprocess
 
 import pytest
 
+from tests.support.docker import build_images
 from zenav.common.client import Client
 from zenav.common.config import Settings
 from zenav.stack.inprocess import InProcessStack
@@ -52,7 +53,7 @@ def make_stack(router):
         s.stop()
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def engine():
     """A docker SDK client of an engine that answers; skip otherwise."""
     docker = pytest.importorskip("docker", reason="the docker Python SDK is not installed (pip install docker)")
@@ -65,3 +66,9 @@ def engine():
     client = docker.from_env()
     yield client
     client.close()
+
+
+@pytest.fixture(scope="session")
+def image_mb(engine) -> float:
+    """The zenav image built once for the session from this checkout (the base too, if absent); its size [MB]."""
+    return build_images(engine)

@@ -10,7 +10,7 @@ import time
 import pytest
 import zenoh
 
-from tests.support.docker import IMAGE, REPO, build_images, compose_command, run
+from tests.support.docker import IMAGE, REPO, compose_command, run
 from tests.support.rawclient import RawClient
 from zenav.services import NAMES
 from zenav.stack.inprocess import free_port
@@ -69,9 +69,8 @@ def kill_inside(container) -> None:
     assert exit_code in (0, 128 + 9), (exit_code, output)
 
 
-def test_compose_stack_drives_the_robot_and_survives_a_crash(engine):
+def test_compose_stack_drives_the_robot_and_survives_a_crash(engine, image_mb):
     compose = compose_command()
-    size_mb = build_images(engine)
     project = f"zenavtest{os.getpid()}"
     port = free_port()
     env = {**os.environ, "ZENAV_IMAGE": IMAGE, "ZENAV_PORT": str(port), "ZENAV_ROBOT": "r1"}
@@ -121,7 +120,7 @@ def test_compose_stack_drives_the_robot_and_survives_a_crash(engine):
         assert max(abs(t["v"]) for t in client.history["sim/truth"][stopped_from:]) < STOPPED_SPEED
 
         print(
-            f"\ncompose figures: image {IMAGE} {size_mb:.0f} MB; start to all alive {start_s:.1f} s; "
+            f"\ncompose figures: image {IMAGE} {image_mb:.0f} MB; start to all alive {start_s:.1f} s; "
             f"goal ({GOAL[0]}, {GOAL[1]}) truth error {goal_error:.3f} m; "
             f"navigator killed: robot stopped in {stop_s:.2f} s, navigator back in {back_s:.1f} s"
         )

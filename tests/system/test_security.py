@@ -267,10 +267,9 @@ def test_the_services_run_under_the_acl_and_only_an_operator_drives(deployment, 
 
 @pytest.mark.docker
 @pytest.mark.timeout(900)
-def test_the_secure_compose_deployment(engine, tmp_path):
+def test_the_secure_compose_deployment(image_mb, tmp_path):
     """docker-compose.yml with docker/secure/compose.yml: the same rules, in containers."""
     compose_command = compose.compose_command()  # skips without compose
-    compose.build_images(engine)
     secrets = tmp_path / "secrets"
     subprocess.run(["sh", str(REPO / "docker" / "make-secrets.sh"), "-d", str(secrets)], check=True, capture_output=True, timeout=30)
     port = free_port()
