@@ -8,13 +8,19 @@ import subprocess
 
 import pytest
 
-from tests.support.docker import build_images
+from tests.support.docker import BUILD, engine_answers
 from zenav.common.client import Client
 from zenav.common.config import Settings
 from zenav.stack.inprocess import InProcessStack
 from zenav.stack.router import Router
 
 ZENOH_VARIABLES = ("ZENOH_CONNECT", "ZENOH_MODE", "ZENOH_CONFIG")
+
+
+def pytest_collection_finish(session: pytest.Session) -> None:
+    """Start building the images now if a docker test is to run: the tests before it run meanwhile."""
+    if any(item.get_closest_marker("docker") for item in session.items) and engine_answers():
+        BUILD.start()
 
 
 @pytest.fixture(autouse=True)
@@ -70,5 +76,5 @@ def engine():
 
 @pytest.fixture(scope="session")
 def image_mb(engine) -> float:
-    """The zenav image built once for the session from this checkout (the base too, if absent); its size [MB]."""
-    return build_images(engine)
+    """The zenav image built once a session from this checkout (the base too, if absent); its size [MB]."""
+    return BUILD.result()
