@@ -95,11 +95,17 @@ def _targets(res: Results) -> list[str]:
         bare = res.chains.get("client")
         if (e2e.p50 > TARGET_P50 or e2e.p99 > TARGET_P99) and bare is not None:
             floor = Stats.of(bare.latency)
+            extra = e2e.p50 - floor.p50
+            rest = (
+                f"the services' own work and queueing add the other {fmt(extra)} ms at p50"
+                if extra >= 0.0
+                else f"at p50 the stack took {fmt(-extra)} ms less than they did: "
+                "the hops and the host's load, not the services' work, set its latency"
+            )
             notes.append(
                 f"Latency: a sample crosses 5 hops (sim, odometry, localizer, navigator, motor, to the observer). The "
                 f"same five hops with no service work took {fmt(floor.p50)} ms at p50 and {fmt(floor.p99)} ms at p99 "
-                f"around this run; the services' own work and queueing add the other {fmt(e2e.p50 - floor.p50)} ms at "
-                f"p50. The machine was {res.base.machine_busy:.0%} busy (every process on it) during the window."
+                f"around this run; {rest}. The machine was {res.base.machine_busy:.0%} busy (every process on it) during the window."
             )
         costs = cost.services(res.base)
         cpu = sum(c.cpu_per_sim_s for c in costs)

@@ -56,3 +56,12 @@ def test_the_performance_sections_are_written(tmp_path):
     # each input by topic, the chain's first (bold); one chain sample: odometry's 40 us, 80 paced (no other service timed)
     assert "| odometry | **sensors/encoders** | 100 | 40.0 | 80.0 |\n| odometry | sensors/compass | 10 | 10.0 | 20.0 |" in text
     assert "One sample of the chain costs the robot's services 40 us back to back and 80 us paced, 4 relays 4 and 100 us." in text
+
+
+def test_the_latency_note_says_what_the_services_add_over_the_bare_chain_or_that_they_were_quicker(tmp_path):
+    res = results()  # end to end p50 3.0, p99 8.88 ms: over the 8 ms goal, so the note is written
+    res.chains = {"client": bare([2.0, 2.5, 6.0], 0.03)}
+    assert "the services' own work and queueing add the other 0.50 ms at p50" in report.write(res, tmp_path).read_text()
+    res.chains = {"client": bare([3.0, 3.5, 6.0], 0.03)}
+    text = report.write(res, tmp_path).read_text()
+    assert "at p50 the stack took 0.50 ms less than they did" in text and "add the other -" not in text
