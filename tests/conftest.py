@@ -3,12 +3,10 @@
 from __future__ import annotations
 
 import os
-import shutil
-import subprocess
 
 import pytest
 
-from tests.support.docker import BUILD, engine_answers
+from tests.support.docker import BUILD, no_engine
 from zenav.common.client import Client
 from zenav.common.config import Settings
 from zenav.stack.inprocess import InProcessStack
@@ -19,7 +17,7 @@ ZENOH_VARIABLES = ("ZENOH_CONNECT", "ZENOH_MODE", "ZENOH_CONFIG")
 
 def pytest_collection_finish(session: pytest.Session) -> None:
     """Start building the images now if a docker test is to run: the tests before it run meanwhile."""
-    if any(item.get_closest_marker("docker") for item in session.items) and engine_answers():
+    if any(item.get_closest_marker("docker") for item in session.items) and no_engine() is None:
         BUILD.start()
 
 
@@ -63,12 +61,9 @@ def make_stack(router):
 def engine():
     """A docker SDK client of an engine that answers; skip otherwise."""
     docker = pytest.importorskip("docker", reason="the docker Python SDK is not installed (pip install docker)")
-    if not shutil.which("docker"):
-        pytest.skip("the docker command is not installed")
-    # Asked with the CLI first: the SDK leaks a socket when no engine answers.
-    version = subprocess.run(["docker", "version", "--format", "{{.Server.Version}}"], capture_output=True, text=True)
-    if version.returncode != 0:
-        pytest.skip(f"no Docker engine answers: {version.stderr.strip()}")
+    why = no_engine()  # asked with the CLI first: the SDK leaks a socket when no engine answers
+    if why is not None:
+        pytest.skip(why)
     client = docker.from_env()
     yield client
     client.close()

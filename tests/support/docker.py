@@ -31,11 +31,12 @@ def run(cmd: list[str], env: dict | None = None, timeout: float = 600) -> None:
     assert proc.returncode == 0, f"{' '.join(cmd)} exited {proc.returncode}:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
 
 
-def engine_answers() -> bool:
-    """Whether the docker command is installed and an engine answers it."""
+def no_engine() -> str | None:
+    """Why no Docker engine can be used (no docker command, or no engine answers it); None if one answers."""
     if not shutil.which("docker"):
-        return False
-    return subprocess.run(["docker", "version", "--format", "{{.Server.Version}}"], capture_output=True).returncode == 0
+        return "the docker command is not installed"
+    version = subprocess.run(["docker", "version", "--format", "{{.Server.Version}}"], capture_output=True, text=True)
+    return f"no Docker engine answers: {version.stderr.strip()}" if version.returncode != 0 else None
 
 
 def build_images() -> float:
