@@ -59,7 +59,7 @@ def replay(
     first_ns: int | None = None
     sent = 0
     ticks: dict[str, float] = {}  # robot recorded without a clock -> the last tick made for it
-    made_rtf = min(rate, MAX_RTF) if rate > 0 else 1.0
+    made_rtf = replayed_rtf(1.0, rate)  # a robot recorded without a clock ran in realtime
     if suffixes is None or "clock" in suffixes:
         ticks = {r: -math.inf for r, topics in fmt.topics(path).items() if "clock" not in topics and robot in (None, r)}
     for rec in fmt.read(path, robot, suffixes):
@@ -72,7 +72,7 @@ def replay(
             break
         msg, on = rec.msg, as_robot or rec.robot
         if isinstance(msg, m.Clock):
-            msg = msgspec.structs.replace(msg, wall=time.time(), rtf=min(msg.rtf * rate, MAX_RTF) if rate > 0 else msg.rtf)
+            msg = msgspec.structs.replace(msg, wall=time.time(), rtf=replayed_rtf(msg.rtf, rate))
         elif rec.robot in ticks and msg.t >= ticks[rec.robot] + TICK:
             for t in made_ticks(ticks[rec.robot], msg.t):
                 bus.publish(keys.key(on, "clock"), codec.encode(m.Clock(t=t, rtf=made_rtf, wall=time.time())))
@@ -80,6 +80,11 @@ def replay(
         bus.publish(keys.key(on, rec.suffix), codec.encode(msg))
         sent += 1
     return sent
+
+
+def replayed_rtf(rtf: float, rate: float) -> float:
+    """A recorded tick's rtf replayed at `rate`: times the rate, at most MAX_RTF; as recorded at rate 0."""
+    return min(rtf * rate, MAX_RTF) if rate > 0 else rtf
 
 
 def made_ticks(last: float, t: float) -> list[float]:
