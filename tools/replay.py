@@ -13,7 +13,10 @@ TICK past the last, so services on the sim clock follow the recording all the sa
 Across a longer gap in the stamps (the robot's recorder or odometry paused) they come
 every FILL at most: a stack clock refuses a tick further ahead than a plausible step
 ([limits] clock_jump), and at rate 0 no wall time passes to make a longer one plausible.
-The ticks are the same at any rate, and so is the re-run.
+Where the stamps go back by more than RESTART_JUMP (the robot restarted, or its wall
+clock was set back), the made ticks start again from there, as a restarted sim's would:
+a stack clock takes such a tick as a restart. The ticks are the same at any rate, and so
+is the re-run.
 
 To re-run the localizer on recorded sensors, replay `clock`, `odom`, `vps/pose` and
 `sensors/imu` into a stack that runs only the localizer, and compare its `pose` with the recorded one.
@@ -31,7 +34,7 @@ import msgspec
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.bus import Bus
-from zenav.common.clock import MAX_RTF
+from zenav.common.clock import MAX_RTF, RESTART_JUMP
 from zenav.tools import mcap_format as fmt
 
 TICK = 0.01  # [s] of stamps between the clock ticks made for a robot recorded without any (the sim's 100 Hz)
@@ -73,7 +76,7 @@ def replay(
         msg, on = rec.msg, as_robot or rec.robot
         if isinstance(msg, m.Clock):
             msg = msgspec.structs.replace(msg, wall=time.time(), rtf=replayed_rtf(msg.rtf, rate))
-        elif rec.robot in ticks and msg.t >= ticks[rec.robot] + TICK:
+        elif rec.robot in ticks and not ticks[rec.robot] - RESTART_JUMP <= msg.t < ticks[rec.robot] + TICK:
             for t in made_ticks(ticks[rec.robot], msg.t):
                 bus.publish(keys.key(on, "clock"), codec.encode(m.Clock(t=t, rtf=made_rtf, wall=time.time())))
             ticks[rec.robot] = msg.t
@@ -89,6 +92,6 @@ def replayed_rtf(rtf: float, rate: float) -> float:
 
 def made_ticks(last: float, t: float) -> list[float]:
     """The ticks made up to a stamp t, the last one made at `last` (-inf: none yet): t, after
-    evenly spaced ones across a gap longer than FILL."""
-    n = 1 if math.isinf(last) else math.ceil((t - last) / FILL)
+    evenly spaced ones across a gap longer than FILL; t alone where the stamps went back."""
+    n = 1 if math.isinf(last) or t < last else math.ceil((t - last) / FILL)
     return [t] if n <= 1 else [last + (t - last) * k / n for k in range(1, n)] + [t]

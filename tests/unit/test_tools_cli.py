@@ -16,7 +16,7 @@ from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_USAGE, build_parser
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.bus import MemoryBus
-from zenav.common.clock import ACCEPTED, MAX_RTF, SimClock
+from zenav.common.clock import ACCEPTED, MAX_RTF, RESTARTED, SimClock
 from zenav.tools import mcap_format as fmt
 from zenav.tools.record import Recorder
 from zenav.tools.replay import FILL, replay
@@ -174,6 +174,30 @@ def test_a_stack_clock_takes_every_tick_made_across_a_gap_in_the_stamps_even_as_
         gaps = [b - a for a, b in zip(ticks, ticks[1:])]
         assert min(gaps) > 0.0 and max(gaps) <= FILL + 1e-9
         assert ticks[:50] == stamps[:50] and ticks[-50:] == stamps[-50:]  # the stamps' own ticks, as without a gap
+
+
+def test_ticks_made_from_stamps_start_again_where_the_robot_restarted(tmp_path):
+    path = str(tmp_path / "restarted.mcap")
+    t0 = 1.8e9
+    before = [t0 + i * 0.01 for i in range(30)]
+    after = [3.0 + i * 0.01 for i in range(30)]  # the robot restarted: its stamps from its boot
+    odom = [m.Odom(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0) for t in before + after]
+    rows: list[tuple[str, m.Topic, float]] = [(keys.key("r1", "odom"), msg, i * 0.01) for i, msg in enumerate(odom)]
+    fix = m.VpsPose(t=after[9] - 0.3, x=0.0, y=0.0, theta=0.0)  # late: no tick back for it
+    rows.insert(40, (keys.key("r1", "vps/pose"), fix, 0.395))
+    write_recording(path, rows)
+    clock, outcomes, ticks = SimClock(), [], []
+
+    def follow(key: str, data: bytes) -> None:
+        tick = codec.decode(data, m.Clock)
+        ticks.append(tick.t)
+        outcomes.append(clock.update(tick))
+
+    bus = MemoryBus()
+    bus.subscribe(keys.key("r1", "clock"), follow)
+    assert replay(path, bus, rate=0.0) == 61
+    assert ticks == before + after  # one a stamp (TICK apart), from the restart on too
+    assert outcomes == [ACCEPTED] * 30 + [RESTARTED] + [ACCEPTED] * 29 and clock.tick() == after[-1]
 
 
 def test_replay_stops_when_told(tmp_path):
