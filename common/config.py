@@ -90,6 +90,12 @@ class Field(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
         if not (self.x_min < self.x_max and self.y_min < self.y_max):
             raise ValueError("x_min < x_max and y_min < y_max are required")
 
+    def beyond(self, x: float, y: float) -> float:
+        """[m] how far (x, y) lies outside the field: 0 inside it (or with the field off)."""
+        if not self.enabled:
+            return 0.0
+        return max(self.x_min - x, x - self.x_max, self.y_min - y, y - self.y_max, 0.0)
+
     def outside(self, x: float, y: float) -> str | None:
         """The bound (x, y) [m] lies beyond, as text, or None when inside (or the field is off)."""
         if not self.enabled or (self.x_min <= x <= self.x_max and self.y_min <= y <= self.y_max):

@@ -42,6 +42,7 @@ SUCCEEDED, CANCELLED, ABORTED = "succeeded", "cancelled", "aborted"
 STATES = (STOPPED, MOVING_TO_POINT, MOVING_TO_POSE, TURNING_TO_HEADING, MOVING_STRAIGHT, FOLLOWING_PATH)  # nav/state's `state`
 RESULTS = (SUCCEEDED, CANCELLED, ABORTED)  # a goal's `result`
 FACE_OFF_LINE = 0.8  # [-] a correction turns to face its point first when it lies this many tolerances off the heading line,
+FIELD_SLACK = 0.02  # [m] a goal started outside the field may take the robot this much farther out (a turn, the pose's noise)
 NOISE_SIGMAS = 2.0  # [-] plus this many position sigmas: an offset the estimate's noise explains is not chased by a turn
 MAX_SWITCHES = 256  # path points passed on one pose at most (bunched points: the rest on the next poses)
 
@@ -94,6 +95,7 @@ class _Run:
     goal: Goal
     start_t: float  # [s] clock time the goal started
     origin: PoseSample  # pose when it started
+    beyond: float  # [m] how far outside the field the goal may take the robot (0: it started inside)
     small: Hold  # the settle_error band
     big: Hold  # the big_error band
     deadline: float = math.inf  # [s] clock time of the time-out
@@ -235,7 +237,9 @@ class GoalMachine:
         self.goal, self.state, self.result, self.exit, self.message = goal, goal.state, None, None, ""
         p = self.params
         timeout = goal.timeout or p.goal_timeout
-        run = self._run = _Run(goal, now, pose, Hold(p.settle_time), Hold(p.big_time), now + timeout if timeout > 0 else math.inf)
+        out = self.area.beyond(pose.x, pose.y)
+        beyond = out + FIELD_SLACK if out > 0 else 0.0  # started outside: it may bring the robot back in
+        run = self._run = _Run(goal, now, pose, beyond, Hold(p.settle_time), Hold(p.big_time), now + timeout if timeout > 0 else math.inf)
         if goal.points:
             run.rest = path_rest(goal.points)
             self._aim(run, pose)
@@ -266,9 +270,12 @@ class GoalMachine:
         run = self._run
         if run is None:
             return None, None
-        left = self.area.outside(pose.x, pose.y)
-        if left is not None:
-            return (0.0, 0.0), self.abort(f"left the field: {left}")
+        out = self.area.beyond(pose.x, pose.y)
+        if out > run.beyond:
+            farther = f", farther out than the goal's start allows ({run.beyond:.3f} m)" if run.beyond else ""
+            return (0.0, 0.0), self.abort(f"left the field: {self.area.outside(pose.x, pose.y)}{farther}")
+        if out == 0.0:
+            run.beyond = 0.0  # inside (again): the field's bounds hold
         if run.settle_from is None:
             cmd = self._step(run, pose)
             if cmd is not None:

@@ -456,6 +456,20 @@ def test_leaving_the_field_aborts_the_goal_and_stops(rig):
     assert rep.result == "aborted" and rep.message.startswith("left the field") and rig.cmd == (0.0, 0.0)
 
 
+def test_a_robot_stopped_past_the_edge_is_driven_back_in(rig):
+    q = rig.query("nav/move_straight", {"speed": 0.3, "wait": True})
+    rig.step(10)
+    rig.x = 3.012  # over the edge
+    rig.step()
+    assert reply(q).message.startswith("left the field")
+    rep = rig.run_until(rig.query("nav/move_to_point", {"x": 2.5, "y": 0.0, "wait": True}))  # turns in place out there first
+    assert rep.result == "succeeded", rep.message
+    assert math.hypot(rig.x - 2.5, rig.y) < 0.02
+    q = rig.query("nav/move_straight", {"speed": 0.3, "wait": True})  # inside again: the bounds hold
+    rep = rig.run_until(q)
+    assert rep.message.startswith("left the field") and "farther out" not in rep.message and rig.x < 3.01
+
+
 def test_move_straight_without_a_distance_ends_after_the_time_limit():
     r = Rig(straight_max_time=2.0)
     r.pose()

@@ -229,6 +229,23 @@ def test_a_pose_outside_the_field_aborts_the_goal():
     assert cmd == (0.0, 0.0) and end.result == goals.ABORTED and end.stop and end.message.startswith("left the field")
 
 
+def test_a_goal_started_outside_the_field_may_bring_the_robot_back_not_farther_out():
+    half_pi = math.pi / 2
+    mc = GoalMachine(Params(), WHEELS, FIELD)
+    mc.on_pose(PoseSample(0.0, 0.5, -1.011, half_pi))  # stopped 11 mm past y_min
+    mc.start(to_point(0.5, 0.0), 0.0)
+    for t, y in ((0.1, -1.02), (0.2, -1.025), (0.3, -1.0)):  # a turn's wobble, 1.4 cm farther out at most, then back in
+        cmd, end = mc.on_pose(PoseSample(t, 0.5, y, half_pi))
+        assert end is None and cmd is not None, (y, end)
+    cmd, end = mc.on_pose(PoseSample(0.4, 0.5, -1.001, half_pi))  # back in, the field's bounds hold again
+    assert cmd == (0.0, 0.0) and end.result == goals.ABORTED and end.message.startswith("left the field")
+    mc.on_pose(PoseSample(0.5, 0.5, -1.011, -half_pi))
+    mc.start(Goal(goals.MOVING_STRAIGHT, speed=0.2), 0.5)  # outward
+    assert mc.on_pose(PoseSample(0.6, 0.5, -1.030, -half_pi))[1] is None
+    end = mc.on_pose(PoseSample(0.7, 0.5, -1.032, -half_pi))[1]
+    assert end.result == goals.ABORTED and "farther out than the goal's start allows (0.031 m)" in end.message
+
+
 def test_move_straight_without_a_distance_has_a_time_limit():
     mc = machine(straight_max_time=1.0)
     mc.start(Goal(goals.MOVING_STRAIGHT, speed=0.2), 0.0)
