@@ -23,12 +23,26 @@ import msgspec
 from zenav.cli.checks import Failed, fail
 from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_UNAVAILABLE, EXIT_USAGE
 from zenav.cli.session import open_bus, positive, robot_id
-from zenav.cli.wire import Seen, decode, error_reply, hz_line, json_line, parse_params, query_types, rate, resolve, topic_type, topics_table
+from zenav.cli.wire import (
+    Seen,
+    decode,
+    error_reply,
+    hz_line,
+    json_line,
+    parse_params,
+    query_types,
+    rate,
+    resolve,
+    topic_type,
+    topics_table,
+    unknown_topic,
+)
 from zenav.common import codec
 from zenav.common.app import connection_args
 from zenav.common.bus import ZenohBus
 
 POLL = 0.2  # [s] longest wait for a sample before looking at the clock and Ctrl-C again
+QUIET_NOTE = 3.0  # [s] with nothing on the key this long, echo and hz say they are still listening
 HZ_KEEP = 10_000  # arrivals per key the rate is computed over (the newest)
 EXIT_CODES = {"invalid_argument": EXIT_USAGE, "unavailable": EXIT_UNAVAILABLE}  # other error codes: EXIT_FAILED
 Body = Callable[[argparse.Namespace, str, ZenohBus], int]  # a subcommand: (args, key, bus) -> exit code
@@ -113,6 +127,22 @@ def listen(bus: ZenohBus, key: str) -> queue.SimpleQueue[tuple[str, bytes, float
     return samples
 
 
+def follow(bus: ZenohBus, key: str, command: str) -> queue.SimpleQueue[tuple[str, bytes, float]]:
+    """`listen` for echo and hz, saying first on stderr if the key names no contract topic (a typo?)."""
+    note = unknown_topic(key)
+    if note:
+        print(f"zenav {command}: {note}", file=sys.stderr, flush=True)
+    return listen(bus, key)
+
+
+def quiet(command: str, key: str, since: float, said: bool) -> bool:
+    """Say once on stderr that nothing came on the key for QUIET_NOTE seconds since `since`; whether it is said."""
+    if not said and time.monotonic() - since >= QUIET_NOTE:
+        print(f"zenav {command}: nothing on {key} yet; still listening (zenav topics lists what is published)", file=sys.stderr, flush=True)
+        return True
+    return said
+
+
 def take(samples: queue.SimpleQueue[tuple[str, bytes, float]], deadline: float | None) -> tuple[str, bytes, float] | None:
     """The next sample, or None after POLL seconds or at the deadline."""
     left = POLL if deadline is None else min(POLL, deadline - time.monotonic())
@@ -145,16 +175,19 @@ def topics(args: argparse.Namespace, key: str, bus: ZenohBus) -> int:
 
 def echo(args: argparse.Namespace, key: str, bus: ZenohBus) -> int:
     """Print each sample on the key as a JSON line, until --once/--count/--timeout or Ctrl-C."""
-    samples = listen(bus, key)
+    samples = follow(bus, key, "echo")
     limit = 1 if args.once else args.count
-    deadline = None if args.timeout is None else time.monotonic() + args.timeout
-    shown = 0
+    start = time.monotonic()
+    deadline = None if args.timeout is None else start + args.timeout
+    shown, said = 0, False
     while (limit is None or shown < limit) and (deadline is None or time.monotonic() < deadline):
         got = take(samples, deadline)
         if got is not None:
             k, data, _ = got
             print(json_line(k, data, topic_type(k)), flush=True)
             shown += 1
+        elif shown == 0:
+            said = quiet("echo", key, start, said)
     if shown == 0:
         print(f"zenav echo: no message on {key} in {args.timeout:g} s", file=sys.stderr)
         return EXIT_FAILED
@@ -163,16 +196,18 @@ def echo(args: argparse.Namespace, key: str, bus: ZenohBus) -> int:
 
 def hz(args: argparse.Namespace, key: str, bus: ZenohBus) -> int:
     """Print the rate of each key matching, every second, until --window/--count or Ctrl-C."""
-    samples = listen(bus, key)
+    samples = follow(bus, key, "hz")
     start = time.monotonic()
     deadline = None if args.window is None else start + args.window
     arrivals: dict[str, deque[float]] = {}
-    total, shown = 0, start
+    total, shown, said = 0, start, False
     while (args.count is None or total < args.count) and (deadline is None or time.monotonic() < deadline):
         got = take(samples, deadline)
         if got is not None:
             arrivals.setdefault(got[0], deque(maxlen=HZ_KEEP)).append(got[2])
             total += 1
+        elif not arrivals:
+            said = quiet("hz", key, start, said)
         if time.monotonic() - shown >= 1.0 and arrivals:
             shown = time.monotonic()
             print("\n".join(hz_line(k, rate(ts)) for k, ts in sorted(arrivals.items())), flush=True)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
 from collections.abc import Iterable, Sequence
@@ -36,6 +37,16 @@ def topic_type(full: str) -> type | None:
     if where is None:
         return None
     return keys.FIELD_TOPICS.get(where[1]) if where[0] == keys.FIELD else keys.TOPICS.get(where[1])
+
+
+def unknown_topic(full: str) -> str | None:
+    """A note for a key without wildcards that names no contract topic under zenav/ (a typo?), with the nearest name; else None."""
+    where = keys.split(full)
+    if where is None or "*" in full or topic_type(full) is not None:
+        return None
+    names = keys.FIELD_TOPICS if where[0] == keys.FIELD else keys.TOPICS
+    near = difflib.get_close_matches(where[1], names, n=1)
+    return f"{where[1]} is no topic of the contract{f' (did you mean {near[0]}?)' if near else ''}; listening anyway"
 
 
 def query_types(full: str) -> tuple[type, type] | None:

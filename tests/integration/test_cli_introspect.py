@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from zenav.cli import session
+from zenav.cli import introspect, session
 from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_UNAVAILABLE, EXIT_USAGE, main
 from zenav.stack.inprocess import free_port
 
@@ -54,7 +54,30 @@ def test_echo_prints_json_lines_with_wildcards_and_absolute_keys(stack, router, 
 
 def test_echo_of_a_silent_key_gives_up(stack, router, capsys):
     code, out, err = zenav(capsys, "echo", "nosuch/topic", "--connect", router, "--timeout", "0.3")
-    assert code == EXIT_FAILED and out == [] and err == "zenav echo: no message on zenav/r1/nosuch/topic in 0.3 s\n"
+    said = [
+        "zenav echo: nosuch/topic is no topic of the contract; listening anyway",
+        "zenav echo: no message on zenav/r1/nosuch/topic in 0.3 s",
+    ]
+    assert code == EXIT_FAILED and out == [] and err.splitlines() == said
+
+
+def test_echo_and_hz_name_the_topic_a_typo_meant_and_say_they_still_listen(stack, router, capsys, monkeypatch):
+    monkeypatch.setattr(introspect, "QUIET_NOTE", 0.1)
+    code, out, err = zenav(capsys, "echo", "odon", "--connect", router, "--timeout", "1")
+    said = [
+        "zenav echo: odon is no topic of the contract (did you mean odom?); listening anyway",
+        "zenav echo: nothing on zenav/r1/odon yet; still listening (zenav topics lists what is published)",
+        "zenav echo: no message on zenav/r1/odon in 1 s",
+    ]
+    assert code == EXIT_FAILED and out == [] and err.splitlines() == said
+    code, out, err = zenav(capsys, "hz", "odom", "--connect", router, "--window", "1")  # a topic, not published here: no odometry
+    said = [
+        "zenav hz: nothing on zenav/r1/odom yet; still listening (zenav topics lists what is published)",
+        "zenav hz: no message on zenav/r1/odom in 1.0 s",
+    ]
+    assert code == EXIT_FAILED and err.splitlines() == said
+    code, out, err = zenav(capsys, "echo", "clock", "--connect", router, "--once", "--timeout", "10")
+    assert code == EXIT_OK and err == ""
 
 
 def test_hz_measures_the_rate(stack, router, capsys):

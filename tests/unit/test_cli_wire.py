@@ -45,6 +45,15 @@ def test_contract_types_of_keys():
 POSE = m.Pose(t=1.5, x=0.25, y=-1.0, theta=0.5, v=0.1, omega=0.0)
 
 
+def test_a_key_that_names_no_topic_is_noted_with_the_nearest_name():
+    assert wire.unknown_topic("zenav/r1/odon") == "odon is no topic of the contract (did you mean odom?); listening anyway"
+    assert wire.unknown_topic("zenav/r2/sensor/imu").startswith("sensor/imu is no topic of the contract (did you mean sensors/imu?)")
+    assert "(did you mean camera/frame?)" in wire.unknown_topic("zenav/field/camera/frames")
+    assert wire.unknown_topic("zenav/r1/xyzzy") == "xyzzy is no topic of the contract; listening anyway"
+    for key in ("zenav/r1/odom", "zenav/r1/diag/motor", "zenav/r1/diag/*", "zenav/r1/**", "zenav/field/camera/frame", "other/k", "@/x"):
+        assert wire.unknown_topic(key) is None, key
+
+
 def test_payloads_decode_as_their_type_else_as_what_they_are():
     kind, value = wire.decode(codec.encode(POSE), m.Pose)
     assert kind == "Pose" and value["x"] == 0.25 and value["theta"] == 0.5
