@@ -114,7 +114,7 @@ def checked(args: argparse.Namespace) -> str:
                 try:
                     msgspec.convert(args.request, types[0])
                 except msgspec.ValidationError as e:
-                    raise ValueError(f"{types[0].__name__}: {e}") from None
+                    raise ValueError(codec.invalid(types[0], e, args.request)) from None
     except ValueError as e:
         raise Failed(EXIT_USAGE, str(e)) from None
     return key

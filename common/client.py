@@ -147,7 +147,7 @@ class Client:
         try:
             msgspec.convert(request or {}, request_type)
         except msgspec.ValidationError as e:
-            raise InvalidArgument(f"{request_type.__name__}: {e}") from None
+            raise InvalidArgument(codec.invalid(request_type, e, request)) from None
         replies = self.bus.get(self.key(suffix), payload=codec.encode(request or {}), timeout=timeout, urgent=suffix in URGENT)
         if not replies:
             raise Unavailable(f"no reply from {self.key(suffix)} (is the service up?)")

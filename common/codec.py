@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Mapping
 from typing import Any, TypeVar
 
@@ -18,6 +19,29 @@ class BadInput(ValueError):
     """A payload that is not a valid message of the expected type."""
 
 
+def invalid(typ: type, error: Exception, value: Any = None) -> str:
+    """What is wrong with `value` as a `typ`: msgspec's error, and the value where it is a nan or infinity."""
+    try:
+        found = _nonfinite(value)
+    except RecursionError:
+        found = None
+    note = f" (`{found[0]}` is {found[1]}: a number must be finite)" if found and f"at `{found[0]}`" in str(error) else ""
+    return f"{typ.__name__}: {error}{note}"
+
+
+def _nonfinite(value: Any, path: str = "$") -> tuple[str, float] | None:
+    """The path and value of the first float in a decoded value that is nan or infinite; None if there is none."""
+    if isinstance(value, float):
+        return None if math.isfinite(value) else (path, value)
+    if isinstance(value, dict):
+        items: Any = ((f"{path}.{k}", v) for k, v in value.items())
+    elif isinstance(value, list | tuple):
+        items = ((f"{path}[{i}]", v) for i, v in enumerate(value))
+    else:
+        return None
+    return next((found for p, v in items if (found := _nonfinite(v, p)) is not None), None)
+
+
 def encode(msg: Any) -> bytes:
     """Encode a message (or any msgpack-able value) to bytes."""
     return _encoder.encode(msg)
@@ -30,12 +54,22 @@ def decode(data: bytes, typ: type[T]) -> T:
         dec = _decoders[typ] = msgspec.msgpack.Decoder(typ)
     try:
         return dec.decode(data)
-    except (msgspec.ValidationError, msgspec.DecodeError) as e:
+    except msgspec.ValidationError as e:
+        raise BadInput(invalid(typ, e, _untyped(data))) from None
+    except msgspec.DecodeError as e:
         raise BadInput(f"{typ.__name__}: {e}") from None
     except UnicodeDecodeError:
         raise BadInput(f"{typ.__name__}: a string is not valid UTF-8") from None
     except RecursionError:  # e.g. a thousand nested arrays under an ignored key
         raise BadInput(f"{typ.__name__}: payload nested too deeply") from None
+
+
+def _untyped(data: bytes) -> Any:
+    """The payload decoded without a type, to name what a validation error was about; None if that fails too."""
+    try:
+        return msgspec.msgpack.decode(data)
+    except (msgspec.DecodeError, UnicodeDecodeError, RecursionError):
+        return None
 
 
 def _param_value(text: str) -> Any:
@@ -51,9 +85,10 @@ def _param_value(text: str) -> Any:
 
 def from_params(params: Mapping[str, str], typ: type[T]) -> T:
     """Build a request from selector parameters (`?x=1;y=0.5`), converting text."""
+    values = {k: _param_value(v) for k, v in params.items()}
     try:
-        return msgspec.convert({k: _param_value(v) for k, v in params.items()}, typ, strict=False)
+        return msgspec.convert(values, typ, strict=False)
     except msgspec.ValidationError as e:
-        raise BadInput(f"{typ.__name__}: {e}") from None
+        raise BadInput(invalid(typ, e, values)) from None
     except RecursionError:
         raise BadInput(f"{typ.__name__}: parameters nested too deeply") from None

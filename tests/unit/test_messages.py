@@ -73,6 +73,15 @@ def test_bad_numbers_are_rejected_naming_the_field(bad):
         codec.decode(msgpack.packb({"t": 1.0, "v": bad, "omega": 0.0}), m.CmdVel)
 
 
+def test_a_nan_or_infinity_is_named_as_such_where_it_set_off_the_error():
+    with pytest.raises(codec.BadInput) as e:
+        codec.decode(msgpack.packb({"points": [[0.0, 0.0], [1.0, -math.inf]]}), m.FollowPath)
+    assert str(e.value).endswith("at `$.points[1][1]` (`$.points[1][1]` is -inf: a number must be finite)")
+    with pytest.raises(codec.BadInput) as e:
+        codec.decode(msgpack.packb({"x": 1e9, "y": math.nan}), m.MoveToPoint)  # the error is x's: no word of y
+    assert str(e.value) == "MoveToPoint: Expected `float` <= 10000.0 - at `$.x`"
+
+
 def test_encoder_ticks_are_signed_32_bit():
     codec.decode(msgpack.packb({"t": 0.0, "left": -(2**31), "right": 2**31 - 1}), m.Encoders)
     with pytest.raises(codec.BadInput, match="left"):
