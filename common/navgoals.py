@@ -24,6 +24,7 @@ class GoalEnd:
     result: str  # succeeded, cancelled, aborted
     message: str  # the navigator's words ("arrived", "preempted by goal 4", ...)
     elapsed: float | None  # [s] stack clock from its start to its end; None if either was not seen
+    exit: str | None = None  # why its move ended (within_tolerance, settled, timeout, cancelled...); None if unknown
 
 
 class GoalTracker:
@@ -63,10 +64,10 @@ class GoalTracker:
         """How the goal ended, or None while it may still run."""
         st = self._states.get(goal_id)
         if st is not None and st.result is not None:
-            return GoalEnd(st.result, st.message, self._elapsed(goal_id, st.t))
+            return GoalEnd(st.result, st.message, self._elapsed(goal_id, st.t), st.exit)
         if not self.current(goal_id):
             later = goal_id + 1  # ids count up by one: the goal that preempted this one
-            return GoalEnd("cancelled", f"preempted by goal {later}", self._elapsed(goal_id, self._starts.get(later)))
+            return GoalEnd("cancelled", f"preempted by goal {later}", self._elapsed(goal_id, self._starts.get(later)), "cancelled")
         return None
 
     def _elapsed(self, goal_id: int, end_t: float | None) -> float | None:

@@ -160,25 +160,56 @@ class Robot:
         """Until the navigator would take a goal (see `zenav.robot.Robot.wait_ready`)."""
         await asyncio.to_thread(self.sync.wait_ready, timeout, tuple(services))
 
-    async def move_to_point(self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None) -> Goal:
+    async def move_to_point(
+        self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None, timeout: float | None = None
+    ) -> Goal:
         """Drive to (x [m], y [m]) in the map frame."""
-        return await self._goal(self.sync.move_to_point, x, y, speed=speed, tolerance=tolerance)
+        return await self._goal(self.sync.move_to_point, x, y, speed=speed, tolerance=tolerance, timeout=timeout)
 
-    async def turn_to_heading(self, heading: float, *, speed: float | None = None, tolerance: float | None = None) -> Goal:
+    async def move_to_pose(
+        self,
+        x: float,
+        y: float,
+        theta: float,
+        *,
+        speed: float | None = None,
+        tolerance: float | None = None,
+        heading_tolerance: float | None = None,
+        lead: float | None = None,
+        timeout: float | None = None,
+    ) -> Goal:
+        """Drive to (x [m], y [m]) and arrive with heading `theta` [rad]."""
+        options = {"speed": speed, "tolerance": tolerance, "heading_tolerance": heading_tolerance, "lead": lead, "timeout": timeout}
+        return await self._goal(self.sync.move_to_pose, x, y, theta, **options)
+
+    async def turn_to_heading(
+        self, heading: float, *, speed: float | None = None, tolerance: float | None = None, timeout: float | None = None
+    ) -> Goal:
         """Turn in place to `heading` [rad]."""
-        return await self._goal(self.sync.turn_to_heading, heading, speed=speed, tolerance=tolerance)
+        return await self._goal(self.sync.turn_to_heading, heading, speed=speed, tolerance=tolerance, timeout=timeout)
 
-    async def turn_to_point(self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None) -> Goal:
+    async def turn_to_point(
+        self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None, timeout: float | None = None
+    ) -> Goal:
         """Turn in place to face (x [m], y [m])."""
-        return await self._goal(self.sync.turn_to_point, x, y, speed=speed, tolerance=tolerance)
+        return await self._goal(self.sync.turn_to_point, x, y, speed=speed, tolerance=tolerance, timeout=timeout)
 
     async def move_straight(self, speed: float, *, distance: float | None = None) -> Goal:
         """Drive on the current heading at `speed` [m/s], for `distance` [m] or until stopped."""
         return await self._goal(self.sync.move_straight, speed, distance=distance)
 
-    async def follow_path(self, points: Iterable[Sequence[float]], *, speed: float | None = None, tolerance: float | None = None) -> Goal:
-        """Drive through the (x [m], y [m]) points in order."""
-        return await self._goal(self.sync.follow_path, [list(p) for p in points], speed=speed, tolerance=tolerance)
+    async def follow_path(
+        self,
+        points: Iterable[Sequence[float]],
+        *,
+        speed: float | None = None,
+        tolerance: float | None = None,
+        waypoint_tolerance: float | None = None,
+        timeout: float | None = None,
+    ) -> Goal:
+        """Drive through the points in order, (x [m], y [m]) or (x, y, tolerance [m])."""
+        options = {"speed": speed, "tolerance": tolerance, "waypoint_tolerance": waypoint_tolerance, "timeout": timeout}
+        return await self._goal(self.sync.follow_path, [list(p) for p in points], **options)
 
     async def stop(self) -> str:
         """Cancel whatever goal runs and command zero at once; the navigator's state."""

@@ -60,6 +60,7 @@ class Result:
     message: str  # why, in the navigator's words ("arrived", "preempted by goal 4", "pose stale: ...")
     pose: m.Pose | None  # the newest pose when the end was seen
     elapsed: float  # [s] from the goal's start to its end
+    exit: str | None = None  # why the move ended: within_tolerance, passed, settled, timeout, stalled, cancelled... (None: unknown)
 
     @property
     def succeeded(self) -> bool:
@@ -224,9 +225,14 @@ class Robot:
                 raise TimeoutError(f"navigator not ready after {timeout} s: {why}") from None
 
     # ------------------------------------------------------------ goals
-    def move_to_point(self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None) -> Goal:
-        """Drive to (x [m], y [m]) in the map frame; speed [m/s] and tolerance [m] default to the navigator's."""
-        return self._goal("nav/move_to_point", {"x": x, "y": y, "speed": speed, "tolerance": tolerance})
+    def move_to_point(
+        self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None, timeout: float | None = None
+    ) -> Goal:
+        """Drive to (x [m], y [m]) in the map frame; speed [m/s] and tolerance [m] default to the navigator's.
+
+        `timeout` [s] (every goal but move_straight): the move stops after this long, exit `timeout`.
+        """
+        return self._goal("nav/move_to_point", {"x": x, "y": y, "speed": speed, "tolerance": tolerance, "timeout": timeout})
 
     def move_to_pose(
         self,
@@ -237,29 +243,44 @@ class Robot:
         speed: float | None = None,
         tolerance: float | None = None,
         heading_tolerance: float | None = None,
+        lead: float | None = None,
+        timeout: float | None = None,
     ) -> Goal:
-        """Drive to (x [m], y [m]) and arrive with heading `theta` [rad]; tolerances [m] and [rad]."""
-        return self._goal(
-            "nav/move_to_pose",
-            {"x": x, "y": y, "theta": theta, "speed": speed, "tolerance": tolerance, "heading_tolerance": heading_tolerance},
-        )
+        """Drive to (x [m], y [m]) and arrive with heading `theta` [rad]; tolerances [m] and [rad];
+        `lead` [0..1] how far the boomerang's carrot sits before the point, per metre to it."""
+        fields = {"speed": speed, "tolerance": tolerance, "heading_tolerance": heading_tolerance, "lead": lead, "timeout": timeout}
+        return self._goal("nav/move_to_pose", {"x": x, "y": y, "theta": theta, **fields})
 
-    def turn_to_heading(self, heading: float, *, speed: float | None = None, tolerance: float | None = None) -> Goal:
+    def turn_to_heading(
+        self, heading: float, *, speed: float | None = None, tolerance: float | None = None, timeout: float | None = None
+    ) -> Goal:
         """Turn in place to `heading` [rad, CCW from +x]; speed [rad/s], tolerance [rad]."""
-        return self._goal("nav/turn_to_heading", {"heading": heading, "speed": speed, "tolerance": tolerance})
+        return self._goal("nav/turn_to_heading", {"heading": heading, "speed": speed, "tolerance": tolerance, "timeout": timeout})
 
-    def turn_to_point(self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None) -> Goal:
+    def turn_to_point(
+        self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None, timeout: float | None = None
+    ) -> Goal:
         """Turn in place to face (x [m], y [m]); speed [rad/s], tolerance [rad]."""
-        return self._goal("nav/turn_to_point", {"x": x, "y": y, "speed": speed, "tolerance": tolerance})
+        return self._goal("nav/turn_to_point", {"x": x, "y": y, "speed": speed, "tolerance": tolerance, "timeout": timeout})
 
     def move_straight(self, speed: float, *, distance: float | None = None) -> Goal:
         """Drive on the current heading at `speed` [m/s, negative reverses], for `distance` [m] or until stopped."""
         return self._goal("nav/move_straight", {"speed": speed, "distance": distance})
 
-    def follow_path(self, points: Iterable[Sequence[float]], *, speed: float | None = None, tolerance: float | None = None) -> Goal:
-        """Drive through the (x [m], y [m]) points in order; nav/state's next_point says which is next."""
+    def follow_path(
+        self,
+        points: Iterable[Sequence[float]],
+        *,
+        speed: float | None = None,
+        tolerance: float | None = None,
+        waypoint_tolerance: float | None = None,
+        timeout: float | None = None,
+    ) -> Goal:
+        """Drive through the points in order, (x [m], y [m]) or (x, y, tolerance [m]); nav/state's next_point says
+        which is next. `tolerance` is the last point's, `waypoint_tolerance` the others' that name none."""
         pts = [list(p) for p in points]
-        return self._goal("nav/follow_path", {"points": pts, "speed": speed, "tolerance": tolerance})
+        fields = {"speed": speed, "tolerance": tolerance, "waypoint_tolerance": waypoint_tolerance, "timeout": timeout}
+        return self._goal("nav/follow_path", {"points": pts, **fields})
 
     def stop(self) -> str:
         """Cancel whatever goal runs and command zero at once; the navigator's state."""
@@ -369,7 +390,7 @@ class Robot:
         if goal.done():
             return
         elapsed = time.monotonic() - goal._sent if end.elapsed is None else end.elapsed
-        goal._result = Result(goal.id, end.result, end.message, self._poses.msg, elapsed)
+        goal._result = Result(goal.id, end.result, end.message, self._poses.msg, elapsed, end.exit)
         self._open.pop(goal.id, None)
 
     def _reconcile(self, goal: Goal) -> None:
@@ -380,7 +401,7 @@ class Robot:
             return
         with self._cond:
             if st.goal_id == goal.id and st.result is not None:
-                self._finish(goal, GoalEnd(st.result, "", None))
+                self._finish(goal, GoalEnd(st.result, "", None, st.exit))
             elif st.goal_id > goal.id:
                 self._finish(goal, GoalEnd("cancelled", f"ended unseen; the navigator has run goal {st.goal_id} since", None))
             self._cond.notify_all()

@@ -1,11 +1,13 @@
 """The robot library against the real navigator on the in-memory bus, with a manual clock and a kinematic robot."""
 
+import inspect
 import math
 import threading
 
 import pytest
 
 from tests.support.navigator import MAX_STEPS, World
+from zenav import aio
 from zenav.common import codec
 from zenav.common import messages as m
 from zenav.robot import InvalidArgument, Robot, Unavailable, ZenavError
@@ -46,6 +48,37 @@ def test_every_goal_kind(world, bot):
         ["lease", "points", "speed"],
     ]
     assert world.goals_sent()[3]["points"] == [[0.1, -0.1], [0.2, -0.1]]
+
+
+def test_a_goal_s_own_timeout_lead_and_waypoint_tolerance_reach_the_navigator_and_the_result_says_why_it_ended(world, bot):
+    goal = bot.move_to_point(0.5, 0.0, speed=0.1, timeout=1.0)  # 5 s of driving cut at 1 s
+    world.drive(goal.done)
+    res = goal.result()
+    assert res.result == "aborted" and res.exit == "timeout" and "exit timeout" in res.message and res.elapsed < 2.0
+    goal = bot.move_to_pose(0.3, 0.2, math.pi / 2, lead=0.3, heading_tolerance=0.05, timeout=20.0)
+    world.drive(goal.done)
+    assert goal.result().succeeded and goal.result().exit in ("within_tolerance", "settled"), goal.result()
+    goal = bot.follow_path([(0.4, 0.2), (0.4, 0.0, 0.02)], waypoint_tolerance=0.03, timeout=30.0)
+    world.drive(goal.done)
+    assert goal.result().succeeded, goal.result()
+    first = bot.turn_to_heading(0.0, timeout=10.0)
+    second = bot.turn_to_point(0.0, 0.0, timeout=10.0)
+    world.drive(second.done)
+    assert (first.result().result, first.result().exit) == ("cancelled", "cancelled") and second.result().succeeded
+    sent = world.goals_sent()
+    assert [r["timeout"] for r in sent] == [1.0, 20.0, 30.0, 10.0, 10.0]
+    assert (sent[1]["lead"], sent[1]["heading_tolerance"], sent[2]["waypoint_tolerance"]) == (0.3, 0.05, 0.03)
+    assert sent[2]["points"] == [[0.4, 0.2], [0.4, 0.0, 0.02]]
+
+
+def test_the_asyncio_robot_has_every_method_of_the_robot_with_the_same_parameters():
+    for name in ("wait_ready", "move_to_point", "move_to_pose", "turn_to_heading", "turn_to_point", "move_straight", "follow_path"):
+        sync, coro = getattr(Robot, name), getattr(aio.Robot, name)
+        assert inspect.iscoroutinefunction(coro), name
+        assert list(inspect.signature(sync).parameters.items()) == list(inspect.signature(coro).parameters.items()), name
+    for name in ("stop", "is_moving", "pose", "set_pose", "status"):
+        assert inspect.iscoroutinefunction(getattr(aio.Robot, name)), name
+        assert list(inspect.signature(getattr(Robot, name)).parameters) == list(inspect.signature(getattr(aio.Robot, name)).parameters)
 
 
 def test_updates_yield_each_new_state_until_the_end(world, bot):
