@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
+import re
 from collections.abc import Mapping
 from typing import Any, TypeVar
 
@@ -20,13 +22,23 @@ class BadInput(ValueError):
 
 
 def invalid(typ: type, error: Exception, value: Any = None) -> str:
-    """What is wrong with `value` as a `typ`: msgspec's error, and the value where it is a nan or infinity."""
+    """What is wrong with `value` as a `typ`: msgspec's error, and the value where it is a nan or infinity,
+    or the field an unknown one was a typo of."""
     try:
         found = _nonfinite(value)
     except RecursionError:
         found = None
     note = f" (`{found[0]}` is {found[1]}: a number must be finite)" if found and f"at `{found[0]}`" in str(error) else ""
-    return f"{typ.__name__}: {error}{note}"
+    return f"{typ.__name__}: {error}{note}{nearest_field(typ, str(error))}"
+
+
+def nearest_field(typ: type, error: str) -> str:
+    """` (did you mean `tolerance`?)` when msgspec's error is an unknown field of `typ` itself that is a typo of one of its own."""
+    unknown = re.fullmatch(r"Object contains unknown field `([^`]*)`", error)
+    if unknown is None or not (isinstance(typ, type) and issubclass(typ, msgspec.Struct)):
+        return ""
+    near = difflib.get_close_matches(unknown.group(1), [f.encode_name for f in msgspec.structs.fields(typ)], n=1)
+    return f" (did you mean `{near[0]}`?)" if near else ""
 
 
 def _nonfinite(value: Any, path: str = "$") -> tuple[str, float] | None:

@@ -9,6 +9,7 @@ accepted range: `config: [motor] watchdog: Expected `float` > 0.0`.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import functools
 import re
 import tomllib
@@ -19,6 +20,7 @@ from typing import Annotated, Any, Literal, TypeVar
 import msgspec
 from msgspec import Meta, Struct
 
+from zenav.common import codec
 from zenav.common import messages as m
 from zenav.common.keys import DEFAULT_CONNECT, SERVICES
 from zenav.common.scenarios import Scenario, scenario
@@ -134,7 +136,7 @@ def _convert(raw: Any, typ: type[T], where: str) -> T:
         return msgspec.convert(raw, typ)
     except msgspec.ValidationError as e:
         text = re.sub(r"`\$\.?([^`]*)`", lambda g: f"`{where}.{g.group(1)}`".rstrip("."), str(e))
-        raise ConfigError(f"config [{where}]: {text}") from None
+        raise ConfigError(f"config [{where}]: {text}{codec.nearest_field(typ, str(e))}") from None
 
 
 @dataclass(frozen=True)
@@ -177,7 +179,9 @@ class Settings:
                 raise ConfigError(f"config: `{name}` must be a [section], not a value")
         unknown = [name for name in raw if name not in known_sections()]
         if unknown:
-            raise ConfigError(f"config: unknown section [{unknown[0]}] (known: {', '.join(known_sections())})")
+            near = difflib.get_close_matches(unknown[0], known_sections(), n=1)
+            hint = f"did you mean [{near[0]}]? " if near else ""
+            raise ConfigError(f"config: unknown section [{unknown[0]}] ({hint}known: {', '.join(known_sections())})")
         deployment = _convert(raw.get("deployment", {}), Deployment, "deployment")
         try:
             scen = scenario(deployment.scenario, raw.get("scenario"))

@@ -12,6 +12,7 @@ from zenav import services
 from zenav.cli.main import build_parser, main
 from zenav.common import app
 from zenav.common.config import OWN_SECTIONS, ConfigError, Settings, known_sections
+from zenav.services.navigator.params import Params
 
 DEFAULT_TOML = Path(__file__).resolve().parents[2] / "config" / "default.toml"
 
@@ -38,8 +39,22 @@ def test_unknown_section_is_an_error_naming_the_known_ones():
 def test_unknown_section_in_a_file(tmp_path):
     path = tmp_path / "robot.toml"
     path.write_text("[navigator]\nmax_speed = 0.2\n[navigatr]\nmax_speed = 0.1\n")
-    with pytest.raises(ConfigError, match=r"unknown section \[navigatr\].*navigator"):
+    with pytest.raises(ConfigError, match=re.escape("unknown section [navigatr] (did you mean [navigator]? known: deployment,")):
         Settings.load(str(path))
+
+
+def test_an_unknown_key_names_the_key_it_is_a_typo_of():
+    with pytest.raises(
+        ConfigError, match=re.escape("config [robot]: Object contains unknown field `track_widht` (did you mean `track_width`?)")
+    ):
+        Settings.load(None, robot={"track_widht": 0.1})
+    with pytest.raises(
+        ConfigError, match=re.escape("config [navigator]: Object contains unknown field `max_sped` (did you mean `max_speed`?)")
+    ):
+        Settings.load(None, navigator={"max_sped": 0.1}).section("navigator", Params)
+    with pytest.raises(ConfigError) as e:
+        Settings.load(None, navigator={"zzzz": 1}).section("navigator", Params)
+    assert str(e.value) == "config [navigator]: Object contains unknown field `zzzz`"  # nothing near: no guess
 
 
 def test_every_section_read_is_known():
