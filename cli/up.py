@@ -201,7 +201,7 @@ def run(args: argparse.Namespace) -> int:
     names = [n.strip() for n in args.services.split(",") if n.strip()] if args.services else list(profile.services)
     unknown = set(names) - set(services.ALL)
     if unknown:
-        print(f"zenav up: unknown service(s): {', '.join(sorted(unknown))}", file=sys.stderr)
+        print(f"zenav up: unknown service(s): {', '.join(sorted(unknown))} (the services: {', '.join(services.ALL)})", file=sys.stderr)
         return 2
     if args.demo and not profile.demo:
         print(

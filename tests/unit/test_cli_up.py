@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from zenav import services
 from zenav.cli import up
+from zenav.cli.main import main
 from zenav.common import keys
 from zenav.common import messages as m
 from zenav.common.client import Latest
@@ -110,3 +111,8 @@ def test_the_demo_pauses_while_an_operator_drives_and_resumes_after_the_quiet(mo
     assert 3.0 + up.DEMO_QUIET - 0.25 <= times[2] <= 3.0 + up.DEMO_QUIET + 0.25
     assert any(line.startswith("demo: paused: someone else is driving (goal 3)") for line in lines), lines
     assert "demo: resuming the square" in lines
+
+
+def test_an_unknown_service_is_refused_naming_the_services(capsys):
+    assert main(["up", "--services", "odometry,localizr"]) == 2
+    assert capsys.readouterr().err == f"zenav up: unknown service(s): localizr (the services: {', '.join(services.ALL)})\n"
