@@ -132,7 +132,7 @@ def drive_runs(client: Client, args: argparse.Namespace, robot: Robot, nominal: 
     for clockwise in (True, False):
         for i in range(args.runs):
             way = "clockwise" if clockwise else "counter-clockwise"
-            input(f"run {i + 1}/{args.runs} {way}: put the robot on the start mark, facing along the first leg; Enter to drive ")
+            ask(f"run {i + 1}/{args.runs} {way}: put the robot on the start mark, facing along the first leg; Enter to drive ")
             start = mean_pose(vps, since=fresh_t(encoders)) if args.measure == "vps" else (0.0, 0.0, 0.0)
             sq = u.Square(args.side, clockwise, nominal, robot.ticks_per_rev or 1, speed=args.speed)
             still = drive_square(client, sq)
@@ -204,10 +204,21 @@ def mean_pose(vps: queue.Queue[m.VpsPose], since: float) -> tuple[float, float, 
     return sum(p.x for p in got) / len(got), sum(p.y for p in got) / len(got), math.atan2(s, c)
 
 
+def ask(prompt: str) -> str:
+    """A line the user typed; RuntimeError when there is no one to type it (stdin closed)."""
+    try:
+        return input(prompt)
+    except EOFError:
+        raise RuntimeError(
+            "\nstdin is closed: calibrate waits for Enter before each square (and asks for the end position with"
+            " --measure manual); run it in a terminal, or give errors measured before with --cw and --ccw"
+        ) from None
+
+
 def typed_end() -> tuple[float, float, float]:
     """The end position the user measured from the start mark (x along the first leg, y to its left) [m]."""
     while True:
-        text = input("  end position from the start mark, along the first leg and to its left [m], e.g. 0.031,-0.120: ")
+        text = ask("  end position from the start mark, along the first leg and to its left [m], e.g. 0.031,-0.120: ")
         try:
             x, y = point(text)
             return x, y, 0.0

@@ -5,7 +5,10 @@ from __future__ import annotations
 import argparse
 import math
 
+import pytest
+
 from zenav.cli import calibrate
+from zenav.common.config import Settings
 from zenav.services.driver import umbmark as u
 
 RTF = 2.0
@@ -45,3 +48,14 @@ def test_calibrate_squares_on_the_sim_recover_the_track_width(make_stack, client
     fit = u.fit(runs, nominal)
     assert math.isclose(fit.geometry.track, robot.track_width * (1.0 + TRACK_ERR), rel_tol=0.001), fit
     assert math.isclose(fit.ratio, 1.0, abs_tol=0.001), fit
+
+
+def test_calibrate_without_anyone_at_the_keyboard_says_so(client, monkeypatch):
+    def closed(prompt: str) -> str:
+        raise EOFError
+
+    monkeypatch.setattr("builtins.input", closed)
+    robot = Settings.load(None).robot
+    args = argparse.Namespace(side=SIDE, runs=1, speed=0.15, measure="vps")
+    with pytest.raises(RuntimeError, match="stdin is closed: calibrate waits for Enter before each square"):
+        calibrate.drive_runs(client, args, robot, u.Geometry(robot.track_width, robot.wheel_radius, robot.wheel_radius))
