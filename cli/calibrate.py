@@ -22,7 +22,7 @@ from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_UNAVAILABLE, EXIT_USAGE
 from zenav.cli.nav import finite, point
 from zenav.common import messages as m
 from zenav.common.app import deployment_args, settings_from_args
-from zenav.common.client import Client, Latest, ZenavError
+from zenav.common.client import Client, ZenavError
 from zenav.common.config import ConfigError, Robot
 from zenav.services.driver import umbmark as u
 
@@ -128,27 +128,64 @@ def drive_runs(client: Client, args: argparse.Namespace, robot: Robot, nominal: 
     vps: queue.Queue[m.VpsPose] = queue.Queue()
     if args.measure == "vps":
         client.subscribe("vps/pose", vps.put)
-    encoders = client.latest("sensors/encoders")
     for clockwise in (True, False):
         for i in range(args.runs):
             way = "clockwise" if clockwise else "counter-clockwise"
             ask(f"run {i + 1}/{args.runs} {way}: put the robot on the start mark, facing along the first leg; Enter to drive ")
-            start = mean_pose(vps, since=fresh_t(encoders)) if args.measure == "vps" else (0.0, 0.0, 0.0)
-            sq = u.Square(args.side, clockwise, nominal, robot.ticks_per_rev or 1, speed=args.speed)
-            still = drive_square(client, sq)
-            end = mean_pose(vps, since=still) if args.measure == "vps" else typed_end()
+            if "navigator" in client.alive():
+                client.query("nav/stop")  # the robot is calibrate's alone: a goal running now would fight the square
+            with Encoders(client) as encoders:
+                rest = encoders.still(time.monotonic() + SQUARE_TIMEOUT)
+                start = mean_pose(vps, since=rest) if args.measure == "vps" else (0.0, 0.0, 0.0)
+                sq = u.Square(args.side, clockwise, nominal, robot.ticks_per_rev or 1, speed=args.speed)
+                rest = drive_square(client, encoders, sq)
+            end = mean_pose(vps, since=rest) if args.measure == "vps" else typed_end()
             x, y = start_frame(start, end)
             runs.append(u.Run(clockwise, sq.trace, (x - sq.pose[0], y - sq.pose[1])))
             print(f"  end error {runs[-1].error[0] * 1e3:+.1f}, {runs[-1].error[1] * 1e3:+.1f} mm")
     return runs
 
 
-def drive_square(client: Client, sq: u.Square) -> float:
+class Encoders:
+    """The robot's encoder samples, queued from the subscription on, while in a `with` block."""
+
+    def __init__(self, client: Client) -> None:
+        self.samples: queue.Queue[m.Encoders] = queue.Queue()
+        self._handle = client.subscribe("sensors/encoders", self.samples.put)
+
+    def __enter__(self) -> Encoders:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._handle.undeclare()
+
+    def next(self) -> m.Encoders:
+        try:
+            return self.samples.get(timeout=SAMPLE_TIMEOUT)
+        except queue.Empty:
+            raise RuntimeError(f"no sensors/encoders for {SAMPLE_TIMEOUT:g} s: is the driver up?") from None
+
+    def still(self, deadline: float, sq: u.Square | None = None) -> float:
+        """Follow the counts (into `sq`, so its pose includes any coasting) until STILL_SAMPLES samples in a row
+        show no tick; the stack time [s] the wheels stood still from."""
+        still, last, since = -1, None, 0.0
+        while still < STILL_SAMPLES:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"the wheels did not stop within {SQUARE_TIMEOUT:g} s: is something else driving?")
+            e = self.next()
+            if sq is not None:
+                sq.step(e.left, e.right)
+            if (e.left, e.right) == last:
+                still += 1
+            else:
+                still, last, since = 0, (e.left, e.right), e.t
+        return since
+
+
+def drive_square(client: Client, encoders: Encoders, sq: u.Square) -> float:
     """Drive `sq` on the encoders' samples through cmd_vel; stop at the end (or on any failure), and
     follow the counts until the wheels stand still, so `sq.pose` includes the coasting.
     Returns the stack time [s] the wheels stood still from."""
-    samples: queue.Queue[m.Encoders] = queue.Queue()
-    handle = client.subscribe("sensors/encoders", samples.put)
 
     def send(v: float, omega: float) -> None:
         client.publish("cmd_vel", m.CmdVel(t=0.0, v=v, omega=omega))
@@ -158,34 +195,12 @@ def drive_square(client: Client, sq: u.Square) -> float:
         while not sq.done:
             if time.monotonic() > deadline:
                 raise RuntimeError(f"the square took over {SQUARE_TIMEOUT:g} s: stopped")
-            e = samples.get(timeout=SAMPLE_TIMEOUT)
+            e = encoders.next()
             send(*sq.step(e.left, e.right))
         send(0.0, 0.0)
-        still, last, since = 0, (e.left, e.right), e.t
-        while still < STILL_SAMPLES:
-            if time.monotonic() > deadline:
-                raise RuntimeError(f"the wheels did not stop within {SQUARE_TIMEOUT:g} s")
-            e = samples.get(timeout=SAMPLE_TIMEOUT)
-            sq.step(e.left, e.right)
-            if (e.left, e.right) == last:
-                still += 1
-            else:
-                still, last, since = 0, (e.left, e.right), e.t
-        return since
-    except queue.Empty:
-        raise RuntimeError(f"no sensors/encoders for {SAMPLE_TIMEOUT:g} s: is the driver up?") from None
+        return encoders.still(deadline, sq)
     finally:
         send(0.0, 0.0)
-        handle.undeclare()
-
-
-def fresh_t(encoders: Latest) -> float:
-    """The stack time [s] of the next encoder sample: a time at which the robot stood where it stands now."""
-    seen = encoders.count
-    try:
-        return encoders.wait(lambda _: encoders.count > seen, timeout=SAMPLE_TIMEOUT).t
-    except TimeoutError:
-        raise RuntimeError(f"no sensors/encoders for {SAMPLE_TIMEOUT:g} s: is the driver up?") from None
 
 
 def mean_pose(vps: queue.Queue[m.VpsPose], since: float) -> tuple[float, float, float]:

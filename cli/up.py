@@ -19,6 +19,7 @@ from zenav.common.app import deployment_args, settings_from_args, stop_on_signal
 from zenav.common.bus import ZenohBus, zenoh_config
 from zenav.common.client import Client, Latest, ZenavError
 from zenav.common.config import ConfigError, Settings
+from zenav.common.navgoals import STOPPED
 from zenav.common.scenarios import SQUARE
 from zenav.robot import Goal, Result, Robot
 from zenav.services.sim.service import SimConfig
@@ -124,35 +125,44 @@ def navigator_ready(bot: Robot, done: threading.Event, say=lambda line: None) ->
 
 
 class DemoGate:
-    """Whether the demo may send its next goal: not while a goal it did not send runs,
-    nor until DEMO_QUIET after it (or after one of the demo's goals was cancelled) ended."""
+    """Whether the demo may send its next goal: not while a goal it did not send runs, nor
+    while someone drives by cmd_vel (teleop, calibrate), nor until DEMO_QUIET after either
+    (or after one of the demo's goals was cancelled) ended."""
 
     def __init__(self, quiet: float = DEMO_QUIET) -> None:
         self.quiet = quiet  # [s]
         self.mine: set[int] = set()  # goal ids the demo sent
         self.other: int | None = None  # id of the newest goal seen that the demo did not send
         self.busy_at: float | None = None  # [s] when someone else was last seen driving
+        self.who = ""  # how they drive: "goal N", "cmd_vel"
 
     def interrupted(self, now: float) -> None:
         """One of the demo's goals was cancelled: someone else acted."""
         self.busy_at = now
 
+    def commanded(self, cmd: m.CmdVel, nav: m.NavState | None, now: float) -> None:
+        """A cmd_vel was heard (on Zenoh's thread): one that moves while the navigator runs no goal is someone driving by hand."""
+        if (cmd.v or cmd.omega) and (nav is None or nav.state == STOPPED):
+            self.busy_at, self.who = now, "cmd_vel"
+
     def update(self, nav: m.NavState | None, now: float) -> bool:
         """Take the newest nav/state; True if the demo may drive now."""
         if nav is not None and nav.goal_id and nav.goal_id not in self.mine:
             if nav.result is None or nav.goal_id != self.other:  # running, or ended before it was ever seen
-                self.busy_at = now
+                self.busy_at, self.who = now, f"goal {nav.goal_id}"
             self.other = nav.goal_id
         return self.busy_at is None or now - self.busy_at >= self.quiet
 
 
 def demo_loop(bot: Robot, done: threading.Event, say, now=time.monotonic) -> None:
     """Drive the square corner by corner until `done`, each goal to its end; while someone
-    else drives (a goal the demo did not send), pause, and resume DEMO_QUIET after it ended."""
+    else drives (a goal the demo did not send, or cmd_vel by hand), pause, and resume
+    DEMO_QUIET after they stopped."""
     if not navigator_ready(bot, done, say):
         return
     say("demo: driving a 1 m square, corner by corner")
     gate, state = DemoGate(), bot.client.latest("nav/state")
+    bot.client.subscribe("cmd_vel", lambda cmd: gate.commanded(cmd, state.msg, now()))
     i = 0
     while not done.is_set():
         if not gate.update(state.msg, now()):
@@ -188,8 +198,8 @@ def _wait(goal: Goal, done: threading.Event) -> Result | None:
 
 def _pause(gate: DemoGate, state: Latest, done: threading.Event, say, now) -> None:
     """Wait until the gate lets the demo drive again, saying so."""
-    goal = f" (goal {gate.other})" if gate.other is not None else ""
-    say(f"demo: paused: someone else is driving{goal}; the square resumes {gate.quiet:g} s after their goal ends")
+    who = f" ({gate.who})" if gate.who else ""
+    say(f"demo: paused: someone else is driving{who}; the square resumes {gate.quiet:g} s after they stop")
     while not done.is_set() and not gate.update(state.msg, now()):
         done.wait(0.2)
     if not done.is_set():

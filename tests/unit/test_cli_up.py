@@ -39,6 +39,19 @@ def test_the_gate_waits_for_a_quiet_period_after_someone_else_s_goal():
     assert not gate.update(state(3, "cancelled"), 24.0) and gate.update(state(3, "cancelled"), 25.0)
 
 
+def test_the_gate_waits_while_someone_drives_by_cmd_vel_with_the_navigator_idle():
+    gate = up.DemoGate(quiet=5.0)
+    gate.mine.add(1)
+    moving, zero = m.CmdVel(t=0.0, v=0.1, omega=0.0), m.CmdVel(t=0.0, v=0.0, omega=0.0)
+    gate.commanded(moving, state(1, None), 0.0)  # the navigator's own, while a goal runs
+    gate.commanded(zero, state(1, "cancelled"), 0.5)  # the zero of a stop
+    assert gate.update(state(1, "cancelled"), 1.0) and gate.who == ""
+    gate.commanded(moving, state(1, "cancelled"), 1.0)  # teleop
+    gate.commanded(m.CmdVel(t=0.0, v=0.0, omega=0.5), state(1, "cancelled"), 3.0)
+    assert not gate.update(state(1, "cancelled"), 7.9) and gate.who == "cmd_vel"
+    assert gate.update(state(1, "cancelled"), 8.0)
+
+
 class FakeDone:
     """`done` of the demo: its waits move a fake clock on, the test's script runs on each."""
 
@@ -75,6 +88,9 @@ class FakeRobot:
     def latest(self, suffix: str) -> Latest:
         assert suffix == "nav/state"
         return self.nav
+
+    def subscribe(self, suffix: str, callback) -> None:
+        assert suffix == "cmd_vel"  # nobody drives by hand here
 
     def wait_ready(self, timeout: float) -> None:
         pass
