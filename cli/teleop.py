@@ -2,8 +2,8 @@
 
 Hold an arrow key (or W A S D) to drive, space stops, q or Ctrl-C quits. With no key
 for --deadman ms the command drops to zero (a key held down repeats). While no key is
-held, nothing is sent, so a goal sent from elsewhere can drive; a teleop command
-while a goal runs fights the navigator's (`zenav stop` first).
+held, nothing is sent, so a goal sent from elsewhere can drive; a key that drives while
+a goal runs stops that goal first (`nav/stop`): the hand has the robot, not the goal.
 Exit codes: 0 quit, 2 no terminal or bad arguments, 3 no router.
 """
 
@@ -25,8 +25,11 @@ from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.app import connection_args
 from zenav.common.bus import ZenohBus
+from zenav.common.client import Client, ZenavError
+from zenav.common.navgoals import STOPPED
 
 PERIOD = 0.05  # [s] a held key's command is sent this often (20 Hz, inside the motor's watchdog)
+STOP_TIMEOUT = 1.0  # [s] for the navigator to answer the nav/stop of a key that drives while a goal runs
 HELP = "arrows/WASD drive, space stops, q quits"
 
 
@@ -52,7 +55,8 @@ def run(args: argparse.Namespace) -> int:
     saved = termios.tcgetattr(fd)
     try:
         tty.setcbreak(fd)  # keys one by one, not echoed; Ctrl-C still interrupts
-        drive_loop(bus, keys.key(robot, "cmd_vel"), Drive(args.speed, args.turn, args.deadman / 1000.0), fd)
+        with Client(robot, bus=bus) as client:
+            drive_loop(bus, keys.key(robot, "cmd_vel"), Drive(args.speed, args.turn, args.deadman / 1000.0), fd, Override(client))
     except KeyboardInterrupt:
         pass
     finally:
@@ -63,7 +67,27 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def drive_loop(bus: ZenohBus, key: str, drive: Drive, fd: int) -> None:
+class Override:
+    """Stops the goal the navigator runs when the keys drive, so the two do not fight."""
+
+    def __init__(self, client: Client) -> None:
+        self.client, self.state = client, client.latest("nav/state")
+        self.stopped = 0  # the goal id stopped last
+
+    def take(self) -> int | None:
+        """Stop the running goal, if nav/state shows one not stopped yet; its id."""
+        st = self.state.msg
+        if st is None or st.state == STOPPED or st.goal_id == self.stopped:
+            return None
+        self.stopped = st.goal_id
+        try:
+            self.client.query("nav/stop", timeout=STOP_TIMEOUT)
+        except ZenavError:
+            return None  # no navigator to answer: nothing drives but the keys
+        return st.goal_id
+
+
+def drive_loop(bus: ZenohBus, key: str, drive: Drive, fd: int, override: Override | None = None) -> None:
     """Read keys and publish their command until q: while a key drives, and once on each stop."""
     sent = (0.0, 0.0)
     print(f"teleop on {key}: {HELP}")
@@ -78,6 +102,9 @@ def drive_loop(bus: ZenohBus, key: str, drive: Drive, fd: int) -> None:
                 return
             drive = press(drive, name, now)
         cmd = command(drive, now)
+        stopped = override.take() if override is not None and cmd != (0.0, 0.0) else None
+        if stopped is not None:
+            print(f"\rteleop: stopped goal {stopped} to drive by hand", flush=True)
         if cmd != (0.0, 0.0) or sent != (0.0, 0.0):
             bus.publish(key, codec.encode(m.CmdVel(t=0.0, v=cmd[0], omega=cmd[1])))
             print(f"\rv {cmd[0]:+.2f} m/s  omega {cmd[1]:+.2f} rad/s   ", end="", flush=True)

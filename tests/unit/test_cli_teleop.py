@@ -2,9 +2,11 @@
 
 import pytest
 
+from tests.support.navigator import World
 from zenav.cli import teleop
 from zenav.cli.keymap import Drive, command, press, split_keys
 from zenav.cli.main import EXIT_USAGE, build_parser
+from zenav.common.client import Client
 
 
 @pytest.mark.parametrize(
@@ -58,3 +60,21 @@ def test_teleop_options():
     assert (args.speed, args.turn, args.deadman) == (0.3, 2.0, 250.0)
     with pytest.raises(SystemExit):
         build_parser().parse_args(["teleop", "--deadman", "0"])
+
+
+def test_a_key_that_drives_stops_the_running_goal_once():
+    world = World()
+    world.pose()
+    client = Client("r1", bus=world)
+    override = teleop.Override(client)
+    assert override.take() is None  # no nav/state yet: nothing to stop
+    client.query("nav/move_straight", {"speed": 0.2})
+    world.step(3)
+    assert world.nav.machine.state == "MOVING_STRAIGHT"
+    assert override.take() == 1 and world.nav.machine.state == "STOPPED" and world.sent[-1][0] == "nav/stop"
+    world.step(3)
+    assert override.take() is None and len(world.sent) == 2  # stopped: nothing more to stop
+    client.query("nav/turn_to_heading", {"heading": 1.0})
+    world.step(3)
+    assert override.take() == 2 and world.nav.machine.state == "STOPPED"
+    client.close()
