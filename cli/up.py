@@ -138,7 +138,7 @@ class DemoGate:
 
     def interrupted(self, now: float) -> None:
         """One of the demo's goals was cancelled: someone else acted."""
-        self.busy_at = now
+        self.busy_at, self.who = now, ""
 
     def commanded(self, cmd: m.CmdVel, nav: m.NavState | None, now: float) -> None:
         """A cmd_vel was heard (on Zenoh's thread): one that moves while the navigator runs no goal is someone driving by hand."""
