@@ -14,6 +14,7 @@ import zenoh
 
 from zenav import services
 from zenav.cli.screen import render
+from zenav.common import keys
 from zenav.common import messages as m
 from zenav.common.app import deployment_args, settings_from_args, stop_on_signals
 from zenav.common.bus import ZenohBus, zenoh_config
@@ -28,6 +29,7 @@ from zenav.stack.logs import LOG_BYTES, LOG_FILES
 from zenav.stack.router import DEFAULT_LISTEN, open_router
 
 READY_STEP = 2.0  # [s] the demo asks whether the navigator is ready, saying why not, this often
+FIELD_LISTEN = 1.0  # [s] `zenav up --connect` listens this long for camera frames from another robot's sim
 DEMO_QUIET = 5.0  # [s] wall after someone else's goal ended before the demo drives again
 HANG_AFTER = 3.0  # [s] wall without a service's diag (at rtf >= 1) before it is restarted as hung
 ESSENTIAL = ("driver", "motor", "navigator")  # if one cannot run, the robot stops: zero command, whole stack stopped
@@ -206,6 +208,19 @@ def _pause(gate: DemoGate, state: Latest, done: threading.Event, say, now) -> No
         say("demo: resuming the square")
 
 
+def frames_elsewhere(session: zenoh.Session, robot: str, wait: float = FIELD_LISTEN) -> bool:
+    """Whether the field's camera frames already come from another robot's sim (frames heard within `wait`
+    seconds while this robot's own sim is not up: a second instance of it is refused by its own check)."""
+    if list(session.liveliness().get(keys.alive(robot, "sim"), timeout=wait)):
+        return False
+    heard = threading.Event()
+    sub = session.declare_subscriber(keys.field_key("camera/frame"), lambda sample: heard.set())
+    try:
+        return heard.wait(wait)
+    finally:
+        sub.undeclare()
+
+
 def run(args: argparse.Namespace) -> int:
     profile = services.PROFILES[args.profile]
     names = [n.strip() for n in args.services.split(",") if n.strip()] if args.services else list(profile.services)
@@ -245,6 +260,15 @@ def run(args: argparse.Namespace) -> int:
         if args.connect
         else open_router(args.listen, priority=settings.deployment.realtime)
     )
+    if args.connect and "sim" in names and settings.section("sim", SimConfig).camera and frames_elsewhere(session, robot):
+        session.close()
+        print(
+            "zenav up: frames already come on zenav/field/camera/frame (another robot's sim renders the field's camera):"
+            f" {robot}'s sim would be a second camera on that key, on a clock of its own, and spoil every robot's"
+            ' fixes. Run this robot with its own synthetic camera: --set sim.camera=false --set vps.source="synthetic"',
+            file=sys.stderr,
+        )
+        return 2
     log_dir = args.log_dir or default_log_dir()
     events: list[str] = []
     tty = sys.stdout.isatty()
