@@ -265,7 +265,7 @@ def run(args: argparse.Namespace) -> int:
         print(
             "zenav up: frames already come on zenav/field/camera/frame (another robot's sim renders the field's camera):"
             f" {robot}'s sim would be a second camera on that key, on a clock of its own, and spoil every robot's"
-            ' fixes. Run this robot with its own synthetic camera: --set sim.camera=false --set vps.source="synthetic"',
+            " fixes. Run this robot with its own synthetic camera: --set sim.camera=false --set vps.source=synthetic",
             file=sys.stderr,
         )
         return 2
