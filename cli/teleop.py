@@ -87,7 +87,7 @@ class Override:
         return st.goal_id
 
 
-def drive_loop(bus: ZenohBus, key: str, drive: Drive, fd: int, override: Override | None = None) -> None:
+def drive_loop(bus: ZenohBus, key: str, drive: Drive, fd: int, override: Override) -> None:
     """Read keys and publish their command until q: while a key drives, and once on each stop."""
     sent = (0.0, 0.0)
     print(f"teleop on {key}: {HELP}")
@@ -102,7 +102,7 @@ def drive_loop(bus: ZenohBus, key: str, drive: Drive, fd: int, override: Overrid
                 return
             drive = press(drive, name, now)
         cmd = command(drive, now)
-        stopped = override.take() if override is not None and cmd != (0.0, 0.0) else None
+        stopped = override.take() if cmd != (0.0, 0.0) else None
         if stopped is not None:
             print(f"\rteleop: stopped goal {stopped} to drive by hand", flush=True)
         if cmd != (0.0, 0.0) or sent != (0.0, 0.0):
