@@ -39,11 +39,19 @@ def topic_type(full: str) -> type | None:
     return keys.FIELD_TOPICS.get(where[1]) if where[0] == keys.FIELD else keys.TOPICS.get(where[1])
 
 
+TOKENS = ("alive/", "instance/", "lease/")  # a robot's liveliness tokens: no samples come on them
+
+
 def unknown_topic(full: str) -> str | None:
-    """A note for a key without wildcards that names no contract topic under zenav/ (a typo?), with the nearest name; else None."""
+    """A note for a key without wildcards that names no contract topic under zenav/ (a typo? a token or a
+    query, which send no samples?), with the nearest name; else None."""
     where = keys.split(full)
     if where is None or "*" in full or topic_type(full) is not None:
         return None
+    if where[1].startswith(TOKENS):
+        return f"{where[1]} is a liveliness token, which sends no messages: `zenav topics` lists the tokens; listening anyway"
+    if where[1] in keys.QUERIES:
+        return f"{where[1]} is a query, which sends no messages: `zenav query {where[1]}`; listening anyway"
     names = keys.FIELD_TOPICS if where[0] == keys.FIELD else keys.TOPICS
     near = difflib.get_close_matches(where[1], names, n=1)
     return f"{where[1]} is no topic of the contract{f' (did you mean {near[0]}?)' if near else ''}; listening anyway"

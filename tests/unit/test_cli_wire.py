@@ -50,6 +50,8 @@ def test_a_key_that_names_no_topic_is_noted_with_the_nearest_name():
     assert wire.unknown_topic("zenav/r2/sensor/imu").startswith("sensor/imu is no topic of the contract (did you mean sensors/imu?)")
     assert "(did you mean camera/frame?)" in wire.unknown_topic("zenav/field/camera/frames")
     assert wire.unknown_topic("zenav/r1/xyzzy") == "xyzzy is no topic of the contract; listening anyway"
+    assert wire.unknown_topic("zenav/r1/alive/sim").startswith("alive/sim is a liveliness token, which sends no messages")
+    assert wire.unknown_topic("zenav/r1/nav/status").startswith("nav/status is a query, which sends no messages: `zenav query nav/status`")
     for key in ("zenav/r1/odom", "zenav/r1/diag/motor", "zenav/r1/diag/*", "zenav/r1/**", "zenav/field/camera/frame", "other/k", "@/x"):
         assert wire.unknown_topic(key) is None, key
 
