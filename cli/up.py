@@ -164,11 +164,10 @@ def demo_loop(bot: Robot, done: threading.Event, say, now=time.monotonic) -> Non
         return
     say("demo: driving a 1 m square, corner by corner")
     gate, state = DemoGate(), bot.client.latest("nav/state")
-    bot.client.subscribe("cmd_vel", lambda cmd: gate.commanded(cmd, state.msg, now()))
     i = 0
     while not done.is_set():
         if not gate.update(state.msg, now()):
-            _pause(gate, state, done, say, now)
+            _pause(bot.client, gate, state, done, say, now)
             continue
         x, y = SQUARE[i % len(SQUARE)]
         try:
@@ -198,12 +197,17 @@ def _wait(goal: Goal, done: threading.Event) -> Result | None:
     return None
 
 
-def _pause(gate: DemoGate, state: Latest, done: threading.Event, say, now) -> None:
-    """Wait until the gate lets the demo drive again, saying so."""
+def _pause(client: Client, gate: DemoGate, state: Latest, done: threading.Event, say, now) -> None:
+    """Wait until the gate lets the demo drive again, saying so; meanwhile cmd_vel by hand keeps it waiting
+    (followed only here: while a goal runs, the navigator's own 100 Hz cmd_vel would be decoded for nothing)."""
     who = f" ({gate.who})" if gate.who else ""
     say(f"demo: paused: someone else is driving{who}; the square resumes {gate.quiet:g} s after they stop")
-    while not done.is_set() and not gate.update(state.msg, now()):
-        done.wait(0.2)
+    hand = client.subscribe("cmd_vel", lambda cmd: gate.commanded(cmd, state.msg, now()))
+    try:
+        while not done.is_set() and not gate.update(state.msg, now()):
+            done.wait(0.2)
+    finally:
+        hand.undeclare()
     if not done.is_set():
         say("demo: resuming the square")
 

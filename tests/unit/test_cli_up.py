@@ -89,8 +89,12 @@ class FakeRobot:
         assert suffix == "nav/state"
         return self.nav
 
-    def subscribe(self, suffix: str, callback) -> None:
+    def subscribe(self, suffix: str, callback) -> FakeRobot:
         assert suffix == "cmd_vel"  # nobody drives by hand here
+        return self
+
+    def undeclare(self) -> None:
+        pass
 
     def wait_ready(self, timeout: float) -> None:
         pass
