@@ -209,7 +209,7 @@ class Robot:
     ) -> Goal:
         """Drive through the points in order, (x [m], y [m]) or (x, y, tolerance [m])."""
         options = {"speed": speed, "tolerance": tolerance, "waypoint_tolerance": waypoint_tolerance, "timeout": timeout}
-        return await self._goal(self.sync.follow_path, [list(p) for p in points], **options)
+        return await self._goal(self.sync.follow_path, points, **options)  # the robot makes the points lists
 
     async def stop(self) -> str:
         """Cancel whatever goal runs and command zero at once; the navigator's state."""
