@@ -100,14 +100,17 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     turn.add_argument("--tolerance", type=finite, help="heading tolerance [rad, deg with --deg]")
     turn.add_argument("--deg", action="store_true", help="angles in degrees instead of radians")
 
-    p = sub.add_parser("goto", parents=[goal, move], help="move to a point (map frame, metres)")
+    back = argparse.ArgumentParser(add_help=False)
+    back.add_argument("--backwards", action="store_true", help="the robot's back leads (the request's forwards = false)")
+
+    p = sub.add_parser("goto", parents=[goal, move, back], help="move to a point (map frame, metres)")
     p.add_argument("x", type=finite, help="[m]")
     p.add_argument("y", type=finite, help="[m]")
     p.set_defaults(func=run, query="nav/move_to_point")
     p = sub.add_parser("turn", parents=[goal, turn], help="turn in place to a heading (radians, CCW from +x; --deg for degrees)")
     p.add_argument("heading", type=finite, help="[rad] in [-2 pi, 2 pi] (degrees with --deg)")
     p.set_defaults(func=run, query="nav/turn_to_heading")
-    p = sub.add_parser("face", parents=[goal, turn], help="turn in place to face a point (map frame, metres)")
+    p = sub.add_parser("face", parents=[goal, turn, back], help="turn in place to face a point, or the back to it with --backwards")
     p.add_argument("x", type=finite, help="[m]")
     p.add_argument("y", type=finite, help="[m]")
     p.set_defaults(func=run, query="nav/turn_to_point")
@@ -116,7 +119,7 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--distance", type=finite, help="stop after this far [m] (default: until `zenav stop`)")
     p.set_defaults(func=run, query="nav/move_straight")
     path_help = "follow points in order: zenav path 1,0 1,1 (put -- before a first point with a negative x)"
-    p = sub.add_parser("path", parents=[goal, move], help=path_help)
+    p = sub.add_parser("path", parents=[goal, move, back], help=path_help)
     p.add_argument("points", type=point, nargs="+", metavar="X,Y", help="[m]")
     p.set_defaults(func=run, query="nav/follow_path")
     p = sub.add_parser("stop", parents=[common], help="cancel the goal and stop the robot now")
@@ -136,13 +139,14 @@ def send(bot: Robot, args: argparse.Namespace) -> Goal:
         return bot.move_straight(args.speed, distance=args.distance)
     speed = None if args.speed is None else args.speed * scale
     tolerance = None if args.tolerance is None else args.tolerance * scale
-    if args.query == "nav/move_to_point":
-        return bot.move_to_point(args.x, args.y, speed=speed, tolerance=tolerance)
-    if args.query == "nav/turn_to_point":
-        return bot.turn_to_point(args.x, args.y, speed=speed, tolerance=tolerance)
     if args.query == "nav/turn_to_heading":
         return bot.turn_to_heading(args.heading * scale, speed=speed, tolerance=tolerance)
-    return bot.follow_path(args.points, speed=speed, tolerance=tolerance)
+    forwards = not args.backwards
+    if args.query == "nav/move_to_point":
+        return bot.move_to_point(args.x, args.y, speed=speed, tolerance=tolerance, forwards=forwards)
+    if args.query == "nav/turn_to_point":
+        return bot.turn_to_point(args.x, args.y, speed=speed, tolerance=tolerance, forwards=forwards)
+    return bot.follow_path(args.points, speed=speed, tolerance=tolerance, forwards=forwards)
 
 
 def run(args: argparse.Namespace, connect: Callable[[argparse.Namespace], AbstractContextManager[Robot]] = open_robot) -> int:

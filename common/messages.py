@@ -194,6 +194,7 @@ class GoalOptions(Request, frozen=True, kw_only=True):
 class MoveToPoint(GoalOptions, frozen=True, kw_only=True):
     x: Coord
     y: Coord
+    forwards: bool = True  # False: drive there backwards (LemLib's forwards)
 
 
 class MoveToPose(GoalOptions, frozen=True, kw_only=True):
@@ -202,6 +203,7 @@ class MoveToPose(GoalOptions, frozen=True, kw_only=True):
     theta: Angle  # [rad] heading to arrive with
     heading_tolerance: Tolerance | None = None  # [rad]
     lead: Annotated[float, Meta(ge=0.0, le=1.0)] | None = None  # [-] boomerang carrot distance per metre to the goal
+    forwards: bool = True  # False: back in (theta is still the heading of the robot's front)
 
 
 class TurnToHeading(GoalOptions, frozen=True, kw_only=True):
@@ -211,6 +213,7 @@ class TurnToHeading(GoalOptions, frozen=True, kw_only=True):
 class TurnToPoint(GoalOptions, frozen=True, kw_only=True):
     x: Coord
     y: Coord
+    forwards: bool = True  # False: face the point with the robot's back
 
 
 class MoveStraight(Request, frozen=True, kw_only=True):
@@ -226,6 +229,7 @@ Point = Annotated[tuple[Coord, ...], Meta(min_length=2, max_length=3)]  # [x, y]
 class FollowPath(GoalOptions, frozen=True, kw_only=True):
     points: Annotated[list[Point], Meta(min_length=1, max_length=10_000)]
     waypoint_tolerance: Tolerance | None = None  # [m] of the points before the last that name none
+    forwards: bool = True  # False: drive the path backwards
 
 
 class SetPose(Request, frozen=True, kw_only=True):

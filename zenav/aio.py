@@ -161,10 +161,17 @@ class Robot:
         await asyncio.to_thread(self.sync.wait_ready, timeout, tuple(services))
 
     async def move_to_point(
-        self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None, timeout: float | None = None
+        self,
+        x: float,
+        y: float,
+        *,
+        speed: float | None = None,
+        tolerance: float | None = None,
+        timeout: float | None = None,
+        forwards: bool = True,
     ) -> Goal:
-        """Drive to (x [m], y [m]) in the map frame."""
-        return await self._goal(self.sync.move_to_point, x, y, speed=speed, tolerance=tolerance, timeout=timeout)
+        """Drive to (x [m], y [m]) in the map frame (backwards with `forwards=False`)."""
+        return await self._goal(self.sync.move_to_point, x, y, speed=speed, tolerance=tolerance, timeout=timeout, forwards=forwards)
 
     async def move_to_pose(
         self,
@@ -177,10 +184,11 @@ class Robot:
         heading_tolerance: float | None = None,
         lead: float | None = None,
         timeout: float | None = None,
+        forwards: bool = True,
     ) -> Goal:
         """Drive to (x [m], y [m]) and arrive with heading `theta` [rad]."""
         options = {"speed": speed, "tolerance": tolerance, "heading_tolerance": heading_tolerance, "lead": lead, "timeout": timeout}
-        return await self._goal(self.sync.move_to_pose, x, y, theta, **options)
+        return await self._goal(self.sync.move_to_pose, x, y, theta, **options, forwards=forwards)
 
     async def turn_to_heading(
         self, heading: float, *, speed: float | None = None, tolerance: float | None = None, timeout: float | None = None
@@ -189,10 +197,17 @@ class Robot:
         return await self._goal(self.sync.turn_to_heading, heading, speed=speed, tolerance=tolerance, timeout=timeout)
 
     async def turn_to_point(
-        self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None, timeout: float | None = None
+        self,
+        x: float,
+        y: float,
+        *,
+        speed: float | None = None,
+        tolerance: float | None = None,
+        timeout: float | None = None,
+        forwards: bool = True,
     ) -> Goal:
-        """Turn in place to face (x [m], y [m])."""
-        return await self._goal(self.sync.turn_to_point, x, y, speed=speed, tolerance=tolerance, timeout=timeout)
+        """Turn in place to face (x [m], y [m]), or to turn the back to it."""
+        return await self._goal(self.sync.turn_to_point, x, y, speed=speed, tolerance=tolerance, timeout=timeout, forwards=forwards)
 
     async def move_straight(self, speed: float, *, distance: float | None = None) -> Goal:
         """Drive on the current heading at `speed` [m/s], for `distance` [m] or until stopped."""
@@ -206,10 +221,11 @@ class Robot:
         tolerance: float | None = None,
         waypoint_tolerance: float | None = None,
         timeout: float | None = None,
+        forwards: bool = True,
     ) -> Goal:
         """Drive through the points in order, (x [m], y [m]) or (x, y, tolerance [m])."""
         options = {"speed": speed, "tolerance": tolerance, "waypoint_tolerance": waypoint_tolerance, "timeout": timeout}
-        return await self._goal(self.sync.follow_path, points, **options)  # the robot makes the points lists
+        return await self._goal(self.sync.follow_path, points, **options, forwards=forwards)  # the robot makes the points lists
 
     async def stop(self) -> str:
         """Cancel whatever goal runs and command zero at once; the navigator's state."""

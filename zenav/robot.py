@@ -226,13 +226,22 @@ class Robot:
 
     # ------------------------------------------------------------ goals
     def move_to_point(
-        self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None, timeout: float | None = None
+        self,
+        x: float,
+        y: float,
+        *,
+        speed: float | None = None,
+        tolerance: float | None = None,
+        timeout: float | None = None,
+        forwards: bool = True,
     ) -> Goal:
         """Drive to (x [m], y [m]) in the map frame; speed [m/s] and tolerance [m] default to the navigator's.
 
         `timeout` [s] (every goal but move_straight): the move stops after this long, exit `timeout`.
+        `forwards=False` (move_to_point, move_to_pose, turn_to_point, follow_path): the robot's back leads.
         """
-        return self._goal("nav/move_to_point", {"x": x, "y": y, "speed": speed, "tolerance": tolerance, "timeout": timeout})
+        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "forwards": _backwards(forwards)}
+        return self._goal("nav/move_to_point", {"x": x, "y": y, **fields})
 
     def move_to_pose(
         self,
@@ -245,11 +254,12 @@ class Robot:
         heading_tolerance: float | None = None,
         lead: float | None = None,
         timeout: float | None = None,
+        forwards: bool = True,
     ) -> Goal:
-        """Drive to (x [m], y [m]) and arrive with heading `theta` [rad]; tolerances [m] and [rad];
-        `lead` [0..1] how far the boomerang's carrot sits before the point, per metre to it."""
+        """Drive to (x [m], y [m]) and arrive with heading `theta` [rad] (of the robot's front, backing in too);
+        tolerances [m] and [rad]; `lead` [0..1] how far the boomerang's carrot sits before the point, per metre to it."""
         fields = {"speed": speed, "tolerance": tolerance, "heading_tolerance": heading_tolerance, "lead": lead, "timeout": timeout}
-        return self._goal("nav/move_to_pose", {"x": x, "y": y, "theta": theta, **fields})
+        return self._goal("nav/move_to_pose", {"x": x, "y": y, "theta": theta, **fields, "forwards": _backwards(forwards)})
 
     def turn_to_heading(
         self, heading: float, *, speed: float | None = None, tolerance: float | None = None, timeout: float | None = None
@@ -258,10 +268,18 @@ class Robot:
         return self._goal("nav/turn_to_heading", {"heading": heading, "speed": speed, "tolerance": tolerance, "timeout": timeout})
 
     def turn_to_point(
-        self, x: float, y: float, *, speed: float | None = None, tolerance: float | None = None, timeout: float | None = None
+        self,
+        x: float,
+        y: float,
+        *,
+        speed: float | None = None,
+        tolerance: float | None = None,
+        timeout: float | None = None,
+        forwards: bool = True,
     ) -> Goal:
-        """Turn in place to face (x [m], y [m]); speed [rad/s], tolerance [rad]."""
-        return self._goal("nav/turn_to_point", {"x": x, "y": y, "speed": speed, "tolerance": tolerance, "timeout": timeout})
+        """Turn in place to face (x [m], y [m]), or to turn the back to it; speed [rad/s], tolerance [rad]."""
+        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "forwards": _backwards(forwards)}
+        return self._goal("nav/turn_to_point", {"x": x, "y": y, **fields})
 
     def move_straight(self, speed: float, *, distance: float | None = None) -> Goal:
         """Drive on the current heading at `speed` [m/s, negative reverses], for `distance` [m] or until stopped."""
@@ -275,12 +293,13 @@ class Robot:
         tolerance: float | None = None,
         waypoint_tolerance: float | None = None,
         timeout: float | None = None,
+        forwards: bool = True,
     ) -> Goal:
         """Drive through the points in order, (x [m], y [m]) or (x, y, tolerance [m]); nav/state's next_point says
         which is next. `tolerance` is the last point's, `waypoint_tolerance` the others' that name none."""
         pts = [list(p) for p in points]
         fields = {"speed": speed, "tolerance": tolerance, "waypoint_tolerance": waypoint_tolerance, "timeout": timeout}
-        return self._goal("nav/follow_path", {"points": pts, **fields})
+        return self._goal("nav/follow_path", {"points": pts, **fields, "forwards": _backwards(forwards)})
 
     def stop(self) -> str:
         """Cancel whatever goal runs and command zero at once; the navigator's state."""
@@ -413,6 +432,11 @@ class Robot:
         if running:
             self.stop()
         return running
+
+
+def _backwards(forwards: bool) -> bool | None:
+    """The request's `forwards`: sent only when False (a navigator that predates it accepts every forward goal)."""
+    return None if forwards else False
 
 
 def _shut(client: Client, handles: list[Handle], own: ZenohBus | None) -> None:

@@ -11,6 +11,9 @@ swing on arrival) and drives straight on, braking to reach the tolerance's edge 
 speed whose coast ends on the point. A move_to_pose then turns in place to its heading.
 follow_path passes its intermediate points, each within its own tolerance, without
 stopping (no slower than `through_speed`, but for the turn limit).
+A backwards goal (LemLib's `forwards = false`) runs the same machine on the robot seen
+from behind: its pose turned half a turn and its speed negated, a move_to_pose's heading
+likewise, and the commanded speed negated back; every controller drives it unchanged.
 Every end but a handover to a new goal asks for zero velocity at once (`End.stop`).
 The robot stays in the field: a goal whose target lies outside is refused
 (`outside`), and a running goal aborts when the pose leaves it. A move_straight
@@ -21,7 +24,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from operator import itemgetter
 
 from zenav.common.config import Field
@@ -65,6 +68,7 @@ class Goal:
     point_tolerances: tuple[float, ...] = ()  # [m] follow_path: of each point ((): waypoint_tolerance, the last `tolerance`)
     lead: float = 0.0  # [-] move_to_pose with the boomerang: carrot distance per metre to the goal
     timeout: float = 0.0  # [s] stop after this long (exit timeout); 0: [navigator] goal_timeout
+    backwards: bool = False  # move_to_point, move_to_pose, follow_path: drive with the robot's back ahead
 
 
 @dataclass(frozen=True)
@@ -94,7 +98,7 @@ class Feedback:
 class _Run:
     goal: Goal
     start_t: float  # [s] clock time the goal started
-    origin: PoseSample  # pose when it started
+    origin: PoseSample  # pose when it started (as the run sees it: from behind when backwards)
     beyond: float  # [m] how far outside the field the goal may take the robot (0: it started inside)
     small: Hold  # the settle_error band
     big: Hold  # the big_error band
@@ -115,6 +119,16 @@ class _Run:
     remaining: float | None = None
     heading_error: float | None = None
     cross_track: float | None = None
+
+    @property
+    def sign(self) -> float:
+        """-1.0 for a backwards goal (driven on the robot seen from `behind`), else 1.0: the commanded speed's sign."""
+        return -1.0 if self.goal.backwards else 1.0
+
+
+def behind(pose: PoseSample) -> PoseSample:
+    """The robot seen from behind: its back as its front (heading half a turn on, forward speed negated)."""
+    return pose._replace(theta=wrap_angle(pose.theta + math.pi), v=-pose.v)
 
 
 def outside(goal: Goal, pose: PoseSample, area: Field) -> str | None:
@@ -239,7 +253,10 @@ class GoalMachine:
         timeout = goal.timeout or p.goal_timeout
         out = self.area.beyond(pose.x, pose.y)
         beyond = out + FIELD_SLACK if out > 0 else 0.0  # started outside: it may bring the robot back in
-        run = self._run = _Run(goal, now, pose, beyond, Hold(p.settle_time), Hold(p.big_time), now + timeout if timeout > 0 else math.inf)
+        deadline = now + timeout if timeout > 0 else math.inf
+        if goal.backwards:  # the run drives the robot seen from behind, to the heading its back arrives with
+            goal, pose = replace(goal, heading=wrap_angle(goal.heading + math.pi)), behind(pose)
+        run = self._run = _Run(goal, now, pose, beyond, Hold(p.settle_time), Hold(p.big_time), deadline)
         if goal.points:
             run.rest = path_rest(goal.points)
             self._aim(run, pose)
@@ -276,10 +293,12 @@ class GoalMachine:
             return (0.0, 0.0), self.abort(f"left the field: {self.area.outside(pose.x, pose.y)}{farther}")
         if out == 0.0:
             run.beyond = 0.0  # inside (again): the field's bounds hold
+        if run.sign < 0.0:
+            pose = behind(pose)
         if run.settle_from is None:
             cmd = self._step(run, pose)
             if cmd is not None:
-                self._cmd = controllers.limit(*cmd, self.params.max_turn_speed, self.wheels)
+                self._cmd = controllers.limit(run.sign * cmd[0], cmd[1], self.params.max_turn_speed, self.wheels)
                 return self._cmd, None
             self._stop(run, pose.t)
         assert run.settle_from is not None and run.exit is not None  # stopped
@@ -287,7 +306,7 @@ class GoalMachine:
             result, message = verdict(run.goal, run.origin, pose, run.exit)
             if result == SUCCEEDED or not self._retry(run, pose):
                 return (0.0, 0.0), self._end(result, message, stop=True, exit=run.exit)
-            return self.on_pose(pose)
+            return self.on_pose(self.pose)
         return (0.0, 0.0), None
 
     def check(self, now: float) -> End | None:
@@ -390,7 +409,7 @@ class GoalMachine:
             run.target = Target(x, y, run.goal.heading, run.goal.speed, lead=run.goal.lead)
             run.controller = controllers.make(self.params.pose_controller)
         else:
-            reverse_ok = self.params.controller == "polar"
+            reverse_ok = self.params.controller == "polar" and run.sign > 0.0  # backwards was asked for: no turning round
             run.target = controllers.make_target(pose, x, y, run.goal.speed, reverse_ok)
             run.controller = controllers.make(self.params.controller)
         run.best = None
@@ -427,7 +446,7 @@ class GoalMachine:
         return goal.tolerance if i + 1 == len(goal.points) else self.params.waypoint_tolerance
 
     def _step_points(self, run: _Run, pose: PoseSample) -> tuple[float, float] | None:
-        p, goal, v = self.params, run.goal, self._rate[0]
+        p, goal, v = self.params, run.goal, run.sign * self._rate[0]
         px = pose.x + v * math.cos(pose.theta) * p.stop_lead  # [m] position predicted at the stop
         py = pose.y + v * math.sin(pose.theta) * p.stop_lead
         last = len(goal.points) - 1
@@ -491,8 +510,8 @@ class GoalMachine:
         """Close to the final point: drive straight on, not turning toward the point, braking into it abeam."""
         p, goal = self.params, run.goal
         along = (target.x - pose.x) * math.cos(pose.theta) + (target.y - pose.y) * math.sin(pose.theta)  # [m]
-        ahead = along - self._rate[0] * p.stop_lead  # [m] predicted along-track error at the stop
-        if ahead * (self._cmd[0] or along) <= 0.0:  # the stop is predicted at or past the point abeam: stop now
+        ahead = along - run.sign * self._rate[0] * p.stop_lead  # [m] predicted along-track error at the stop
+        if ahead * (run.sign * self._cmd[0] or along) <= 0.0:  # the stop is predicted at or past the point abeam: stop now
             lateral = _lateral(pose.x, pose.y, pose.theta, target.x, target.y)  # [m]
             inside = math.hypot(ahead, lateral) <= goal.tolerance  # the predicted stop
             if goal.state != MOVING_TO_POSE:

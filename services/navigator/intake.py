@@ -36,8 +36,10 @@ def _timeout(req: m.GoalOptions, cfg: Params) -> float:
 def move_to_point(req: m.MoveToPoint, cfg: Params) -> Resolved:
     """Drive to (x, y)."""
     speed, tol = _speed(req.speed, cfg), req.tolerance or cfg.tolerance
-    goal = Goal(goals.MOVING_TO_POINT, points=((req.x, req.y),), speed=speed, tolerance=tol, timeout=_timeout(req, cfg))
-    return goal, {"type": "move_to_point", "x": req.x, "y": req.y, "speed": speed, "tolerance": tol}
+    goal = Goal(
+        goals.MOVING_TO_POINT, points=((req.x, req.y),), speed=speed, tolerance=tol, timeout=_timeout(req, cfg), backwards=not req.forwards
+    )
+    return goal, {"type": "move_to_point", "x": req.x, "y": req.y, "speed": speed, "tolerance": tol, "forwards": req.forwards}
 
 
 def move_to_pose(req: m.MoveToPose, cfg: Params) -> Resolved:
@@ -59,9 +61,10 @@ def move_to_pose(req: m.MoveToPose, cfg: Params) -> Resolved:
         heading_tolerance=heading_tol,
         lead=lead,
         timeout=_timeout(req, cfg),
+        backwards=not req.forwards,
     )
     info = {"type": "move_to_pose", "x": req.x, "y": req.y, "theta": heading, "speed": speed, "tolerance": tol}
-    return goal, {**info, "heading_tolerance": heading_tol, "controller": cfg.pose_controller, "lead": lead}
+    return goal, {**info, "heading_tolerance": heading_tol, "controller": cfg.pose_controller, "lead": lead, "forwards": req.forwards}
 
 
 def turn_to_heading(req: m.TurnToHeading, cfg: Params) -> Resolved:
@@ -70,11 +73,13 @@ def turn_to_heading(req: m.TurnToHeading, cfg: Params) -> Resolved:
 
 
 def turn_to_point(req: m.TurnToPoint, cfg: Params, pose: PoseSample) -> Resolved:
-    """Turn in place to face (x, y), the heading fixed from the pose at the start (as seed 003's turnToPoint)."""
+    """Turn in place to face (x, y), or to turn the back to it, the heading fixed from the pose at the start (as seed 003's turnToPoint)."""
     if math.hypot(req.x - pose.x, req.y - pose.y) < 1e-3:
         raise Invalid("x, y: the point is where the robot is, it has no heading")
     heading = math.atan2(req.y - pose.y, req.x - pose.x)
-    return _turn(heading, req, cfg, {"type": "turn_to_point", "x": req.x, "y": req.y, "heading": heading})
+    if not req.forwards:
+        heading = wrap_angle(heading + math.pi)
+    return _turn(heading, req, cfg, {"type": "turn_to_point", "x": req.x, "y": req.y, "heading": heading, "forwards": req.forwards})
 
 
 def move_straight(req: m.MoveStraight, cfg: Params) -> Resolved:
@@ -104,8 +109,23 @@ def follow_path(req: m.FollowPath, cfg: Params) -> Resolved:
             raise Invalid(f"points[{bad}]: the tolerance (third value) must be > 0")
         points = tuple((p[0], p[1]) for p in pts)
         tols = tuple(p[2] if len(p) == 3 else through for p in pts[:-1]) + (pts[-1][2] if len(pts[-1]) == 3 else tol,)
-    goal = Goal(goals.FOLLOWING_PATH, points=points, speed=speed, tolerance=tols[-1], point_tolerances=tols, timeout=_timeout(req, cfg))
-    info = {"type": "follow_path", "points": req.points, "speed": speed, "tolerance": tols[-1], "waypoint_tolerance": through}
+    goal = Goal(
+        goals.FOLLOWING_PATH,
+        points=points,
+        speed=speed,
+        tolerance=tols[-1],
+        point_tolerances=tols,
+        timeout=_timeout(req, cfg),
+        backwards=not req.forwards,
+    )
+    info = {
+        "type": "follow_path",
+        "points": req.points,
+        "speed": speed,
+        "tolerance": tols[-1],
+        "waypoint_tolerance": through,
+        "forwards": req.forwards,
+    }
     return goal, info
 
 

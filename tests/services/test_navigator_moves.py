@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from tests.support.navigator import reply
+from tests.support.navigator import Rig, reply
 from zenav.common import messages as m
 from zenav.common.bus import MemoryBus
 from zenav.common.clock import ManualClock
@@ -48,3 +48,61 @@ def test_a_path_with_point_tolerances_passes_its_points_without_stopping(rig):
     speeds = [c.v for c in rig.published("cmd_vel") if c.t > 0]
     first_zero = speeds.index(0.0)
     assert first_zero > 500 and set(speeds[first_zero:]) == {0.0}  # forward all the way, zero only once it ended
+
+
+def _drive(start_theta, suffix, request, **cfg):
+    """Run one goal to its end from (0, 0, start_theta): (reply, final (x, y, theta), the commands)."""
+    rig = Rig(**cfg)
+    rig.theta = start_theta
+    rig.pose()
+    rep = rig.run_until(rig.query(suffix, {**request, "wait": True}))
+    cmds = [(c.v, c.omega) for c in rig.published("cmd_vel")]
+    rig.nav.close()
+    return rep, (rig.x, rig.y, rig.theta), cmds
+
+
+MIRRORED = [
+    ("nav/move_to_point", {"x": 0.5, "y": 0.3}, {"controller": "pid"}),
+    ("nav/move_to_point", {"x": 0.5, "y": 0.3}, {"controller": "polar"}),
+    ("nav/move_to_point", {"x": 0.5, "y": 0.3}, {"controller": "proportional"}),
+    ("nav/move_to_point", {"x": 0.2, "y": 0.0, "tolerance": 0.02}, {"controller": "pid"}),  # short: locked on at once
+    ("nav/move_to_pose", {"x": 0.6, "y": -0.3, "theta": -1.0}, {"pose_controller": "boomerang"}),
+    ("nav/move_to_pose", {"x": 0.6, "y": -0.3, "theta": -1.0}, {"pose_controller": "polar"}),
+    ("nav/follow_path", {"points": [[0.4, 0.1], [0.5, 0.5], [0.1, 0.6]]}, {"controller": "pid"}),
+]
+
+
+@pytest.mark.parametrize("suffix, request_, cfg", MIRRORED, ids=lambda v: str(v)[:40])
+def test_a_backwards_goal_is_the_forward_goal_driven_with_the_back_ahead(suffix, request_, cfg):
+    """On the ideal robot a backwards goal from heading th + pi is the forward goal from th, mirrored: the same track
+    and the same turn rates, every speed negated, the heading half a turn on (a move_to_pose's theta, the front's)."""
+    ahead, (fx, fy, fth), forward = _drive(0.3, suffix, request_, **cfg)
+    theta = {"theta": request_["theta"] + math.pi} if "theta" in request_ else {}
+    back, (bx, by, bth), backward = _drive(0.3 + math.pi, suffix, {**request_, **theta, "forwards": False}, **cfg)
+    assert ahead.result == back.result == "succeeded" and ahead.exit == back.exit, (ahead.message, back.message)
+    assert len(forward) == len(backward) > 100
+    assert max(abs(f[0] + b[0]) + abs(f[1] - b[1]) for f, b in zip(forward, backward, strict=True)) < 1e-9
+    assert math.hypot(fx - bx, fy - by) < 1e-9 and abs(math.remainder(bth - fth - math.pi, math.tau)) < 1e-9
+    assert min(v for v, _ in backward) < -0.1  # it drove, backwards
+
+
+@pytest.mark.parametrize("controller", ["pid", "polar", "proportional"])
+@pytest.mark.parametrize("x, y", [(0.5, 0.0), (-0.4, 0.4), (0.3, -0.6)])
+def test_a_backwards_move_to_point_backs_onto_the_point_with_every_controller(controller, x, y):
+    rig = Rig(controller=controller)
+    rig.pose()
+    rep = rig.run_until(rig.query("nav/move_to_point", {"x": x, "y": y, "forwards": False, "wait": True}))
+    assert rep.result == "succeeded", rep.message
+    assert math.hypot(rig.x - x, rig.y - y) <= 0.01
+    speeds = [c.v for c in rig.published("cmd_vel")]
+    assert max(speeds) <= 0.0 and min(speeds) < -0.1  # backed all the way, at speed
+    back = math.atan2(y, x) + math.pi  # the robot's heading when its back points along the way it came
+    assert abs(math.remainder(rig.theta - back, math.tau)) < math.radians(30)
+    assert rig.published("nav/state")[-1].goal["forwards"] is False
+    rig.nav.close()
+
+
+def test_turn_to_point_backwards_turns_the_back_to_the_point(rig):
+    rep = rig.run_until(rig.query("nav/turn_to_point", {"x": 1.0, "y": 1.0, "forwards": False, "wait": True}))
+    assert rep.result == "succeeded"
+    assert abs(math.remainder(rig.theta - math.radians(-135), math.tau)) <= 0.0087

@@ -106,6 +106,9 @@ ACCEPTED = m.GoalReply(goal_id=7, state="MOVING_TO_POINT", speed=0.2)
         (["straight", "0.2", "--distance", "0.5"], "nav/move_straight", {"speed": 0.2, "distance": 0.5}),
         (["path", "1,0", "1,1", "--speed", "0.15"], "nav/follow_path", {"points": [[1.0, 0.0], [1.0, 1.0]], "speed": 0.15}),
         (["path", "--", "-1,0", "0,-1.5"], "nav/follow_path", {"points": [[-1.0, 0.0], [0.0, -1.5]]}),
+        (["goto", "1", "0", "--backwards"], "nav/move_to_point", {"x": 1.0, "y": 0.0, "forwards": False}),
+        (["face", "0", "1", "--backwards"], "nav/turn_to_point", {"x": 0.0, "y": 1.0, "forwards": False}),
+        (["path", "1,0", "1,1", "--backwards"], "nav/follow_path", {"points": [[1.0, 0.0], [1.0, 1.0]], "forwards": False}),
     ],
 )
 def test_commands_send_the_contract_request(argv, suffix, request_, capsys):

@@ -162,6 +162,21 @@ def test_a_recheck_over_the_tolerance_moves_again_a_bounded_number_of_times():
     assert end.result == goals.ABORTED and end.exit == exits.WITHIN_TOLERANCE and "3.00 cm from the goal" in end.message
 
 
+def test_a_backwards_move_corrects_backwards():
+    """The re-check of a backwards move finds it 2 cm short: it backs on, and the next re-check ends it."""
+    mc = machine(rest_time=0.1, retries=1)
+    mc.on_pose(PoseSample(0.0, 0.0, 0.0, math.pi))  # facing -x: (1, 0) is behind it
+    mc.start(to_point(1.0, 0.0, backwards=True), 0.0)
+    cmd, _ = mc.on_pose(PoseSample(0.005, 0.5, 0.0, math.pi))
+    assert cmd[0] < 0.0  # backing
+    assert mc.on_pose(PoseSample(0.01, 0.995, 0.0, math.pi)) == ((0.0, 0.0), None)  # within: the move stops
+    cmd, end = mc.on_pose(PoseSample(0.12, 0.98, 0.0, math.pi))  # the re-check finds it 2 cm short
+    assert end is None and cmd[0] < 0.0 and cmd[1] == 0.0  # backing on, straight
+    assert mc.on_pose(PoseSample(0.13, 0.998, 0.0, math.pi)) == ((0.0, 0.0), None)
+    _, end = mc.on_pose(PoseSample(0.24, 0.998, 0.0, math.pi))
+    assert end.result == goals.SUCCEEDED
+
+
 def test_a_recheck_finding_the_point_sideways_turns_to_face_it_then_drives_onto_it():
     """A late fix moves the pose 2 cm sideways after the stop: straight on cannot reach it; a turn in place then a drive does."""
     mc = machine(rest_time=0.1, retries=1)

@@ -15,7 +15,7 @@ CFG = Params(max_path_points=3)
 def test_defaults_and_clamps():
     goal, info = intake.move_to_point(m.MoveToPoint(x=1.0, y=2.0, speed=9.0), CFG)
     assert goal.points == ((1.0, 2.0),) and goal.speed == CFG.max_speed and goal.tolerance == CFG.tolerance
-    assert info == {"type": "move_to_point", "x": 1.0, "y": 2.0, "speed": CFG.max_speed, "tolerance": CFG.tolerance}
+    assert info == {"type": "move_to_point", "x": 1.0, "y": 2.0, "speed": CFG.max_speed, "tolerance": CFG.tolerance, "forwards": True}
     goal, _ = intake.move_straight(m.MoveStraight(speed=-9.0), CFG)
     assert goal.speed == -CFG.max_speed and goal.distance is None
     goal, info = intake.turn_to_heading(m.TurnToHeading(heading=4.0), CFG)

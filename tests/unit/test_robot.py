@@ -71,6 +71,20 @@ def test_a_goal_s_own_timeout_lead_and_waypoint_tolerance_reach_the_navigator_an
     assert sent[2]["points"] == [[0.4, 0.2], [0.4, 0.0, 0.02]]
 
 
+def test_forwards_false_backs_the_robot_and_is_sent_only_when_false(world, bot):
+    goal = bot.move_to_point(-0.3, 0.0, forwards=False)  # behind the robot, which faces +x
+    world.drive(goal.done)
+    assert goal.result().succeeded and world.theta == pytest.approx(0.0, abs=0.05)  # backed straight there
+    x, y = world.x, world.y
+    goal = bot.turn_to_point(0.0, 1.0, forwards=False)
+    world.drive(goal.done)
+    assert goal.result().succeeded and world.theta == pytest.approx(math.atan2(1.0 - y, -x) - math.pi, abs=0.01)  # the back to it
+    bot.follow_path([(-0.3, -0.3)], forwards=False).cancel()
+    bot.move_to_pose(0.0, 0.0, 0.0, forwards=False).cancel()
+    bot.move_to_point(0.0, 0.0).cancel()
+    assert [r.get("forwards") for r in world.goals_sent()] == [False, False, False, False, None]
+
+
 def test_the_asyncio_robot_has_every_method_of_the_robot_with_the_same_parameters():
     for name in ("wait_ready", "move_to_point", "move_to_pose", "turn_to_heading", "turn_to_point", "move_straight", "follow_path"):
         sync, coro = getattr(Robot, name), getattr(aio.Robot, name)
