@@ -17,6 +17,7 @@ final turn in place to the heading).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 from collections import Counter
 from collections.abc import Sequence
@@ -72,6 +73,7 @@ def moves(p: Params) -> list[Move]:
     return [
         Move("point 0.3 m", point(0.3, 0.0)),
         Move("point 1.5 m", point(1.5, 0.0)),
+        Move("point 1.5 m backwards", dataclasses.replace(point(-1.5, 0.0), backwards=True)),
         Move(f"pose 0.4 m, 90 deg, {p.pose_controller}", pose(0.3, 0.3, deg(90))),
         Move(f"pose 1.3 m, 90 deg, {p.pose_controller}", pose(1.2, 0.6, deg(90))),
         Move(f"pose 1.3 m, 90 deg, {other}", pose(1.2, 0.6, deg(90)), (("pose_controller", other),)),

@@ -59,6 +59,25 @@ class Goal:
         """The newest nav/state of this goal; None before the first."""
         return self._goal.feedback()
 
+    @property
+    def travelled(self) -> float:
+        """How far the robot has travelled since the goal started [m] (a turn: turned [rad])."""
+        return self._goal.travelled
+
+    async def wait_until(self, distance: float, timeout: float | None = None) -> bool:
+        """True once the robot has travelled `distance` [m] (a turn: turned [rad]) in this goal; False if the goal
+        ended short of it; TimeoutError if neither happened in `timeout` seconds."""
+        try:
+            async with asyncio.timeout(timeout):
+                with self._goal._marked(distance):
+                    await self._robot._until(functools.partial(self._goal._reached, distance))
+        except TimeoutError:
+            try:
+                return await asyncio.to_thread(self._goal.wait_until, distance, 0.0)  # asks nav/status whether it ended unseen
+            except TimeoutError:
+                raise TimeoutError(f"goal {self.id} travelled {self.travelled:.3f} of {distance:.3f} in {timeout} s") from None
+        return self._goal.wait_until(distance, 0.0)
+
     async def cancel(self) -> bool:
         """Stop the robot if this goal is still the running one; whether it was."""
         return await asyncio.to_thread(self._goal.cancel)

@@ -8,7 +8,9 @@
         print(result.result, result.pose)
 
 A goal is sent without `wait` and followed on `nav/state`: its handle (`Goal`) knows
-its progress and its end, also when nobody was waiting on it. A newer goal preempts
+its progress and its end, also when nobody was waiting on it, and how far the robot
+has travelled since it started (summed over the poses, as LemLib's and EZ-Template's
+"wait until" count it: `goal.wait_until(0.3)` returns once 30 cm are behind it). A newer goal preempts
 it (result `cancelled`); a navigator that goes away aborts it. The robot holds a
 liveliness token and names it as every goal's lease, so when the program ends, dies,
 freezes or loses the router, the navigator stops the robot (`lease=False` opts out:
@@ -20,6 +22,7 @@ Error replies raise `ZenavError`s named by the contract's error code.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import os
@@ -36,9 +39,10 @@ import zenoh
 from zenav.common import keys
 from zenav.common import messages as m
 from zenav.common.bus import Handle, ZenohBus, undeclare_all
-from zenav.common.client import Client, Internal, InvalidArgument, QueryBus, Unavailable, ZenavError
+from zenav.common.client import Client, Internal, InvalidArgument, Latest, QueryBus, Unavailable, ZenavError
+from zenav.common.geometry import wrap_angle
 from zenav.common.keys import DEFAULT_CONNECT
-from zenav.common.navgoals import STOPPED, GoalEnd, GoalTracker
+from zenav.common.navgoals import STOPPED, TURNING_TO_HEADING, GoalEnd, GoalTracker
 
 __all__ = ["Goal", "Internal", "InvalidArgument", "Result", "Robot", "Unavailable", "ZenavError"]
 
@@ -84,6 +88,10 @@ class Goal:
         self._seq = 0  # nav/state messages of this goal seen
         self._result: Result | None = None
         self._sent = time.monotonic()
+        self._turn = reply.state == TURNING_TO_HEADING  # travelled in radians turned, not metres
+        self._travelled = 0.0  # [m] or [rad] since the goal started, summed over the poses seen
+        self._last: m.Pose | None = None  # the pose the sum has reached
+        self._marks: list[float] = []  # travelled distances someone waits for: reaching one wakes them
 
     def __repr__(self) -> str:
         return f"Goal({self.id}, {self.reply.state}, {self._result.result if self._result else 'running'})"
@@ -99,6 +107,26 @@ class Goal:
     def feedback(self) -> m.NavState | None:
         """The newest nav/state of this goal (distance_remaining, eta, elapsed, next_point...); None before the first."""
         return self._state
+
+    @property
+    def travelled(self) -> float:
+        """How far the robot has travelled since the goal started [m] (a turn: how far it turned [rad]),
+        summed over the poses this program sees; it stops counting when the goal ends."""
+        return self._travelled
+
+    def wait_until(self, distance: float, timeout: float | None = None) -> bool:
+        """Block until the robot has travelled `distance` [m] (a turn: turned [rad]) in this goal: True; or until the goal
+        ended short of it: False (LemLib's waitUntil). TimeoutError if neither happened in `timeout` seconds."""
+        with self._marked(distance), self._robot._cond:
+            self._robot._cond.wait_for(functools.partial(self._reached, distance), timeout)
+            if self._travelled >= distance:
+                return True
+        if self.done():
+            return False
+        self._robot._reconcile(self)
+        if self.done():
+            return self._travelled >= distance
+        raise TimeoutError(f"goal {self.id} travelled {self._travelled:.3f} of {distance:.3f} in {timeout} s")
 
     def cancel(self) -> bool:
         """Stop the robot if this goal is still the running one; whether it was."""
@@ -139,6 +167,29 @@ class Goal:
     def _news(self, seq: int) -> bool:
         """Whether a nav/state came after the `seq`-th, or the goal ended."""
         return self._seq > seq or self.done()
+
+    def _reached(self, distance: float) -> bool:
+        return self._travelled >= distance or self.done()
+
+    @contextlib.contextmanager
+    def _marked(self, distance: float) -> Iterator[None]:
+        """While inside, reaching `distance` wakes the waiters."""
+        with self._robot._cond:
+            self._marks.append(distance)
+        try:
+            yield
+        finally:
+            with self._robot._cond:
+                self._marks.remove(distance)
+
+    def _step(self, pose: m.Pose) -> bool:
+        """Add the way from the last pose to `pose` (lock held); whether a mark someone waits for was reached."""
+        last, self._last = self._last, pose
+        if last is None or pose.t <= last.t:  # the first, or a restarted clock: start from here
+            return False
+        before = self._travelled
+        self._travelled += abs(wrap_angle(pose.theta - last.theta)) if self._turn else math.hypot(pose.x - last.x, pose.y - last.y)
+        return any(before < mark <= self._travelled for mark in self._marks)
 
 
 class Robot:
@@ -184,7 +235,8 @@ class Robot:
         self._handles: list[Handle] = []  # the navigator watch, the lease token
         self.lease_key = keys.key(robot, f"lease/{os.getpid()}-{uuid.uuid4().hex[:8]}") if lease else None
         try:
-            self._poses = self.client.latest("pose")
+            self._poses = Latest()
+            self.client.subscribe("pose", self._on_pose)
             self.client.subscribe("nav/state", self._on_state)
             self._handles.append(self.client.bus.watch_tokens(keys.alive(robot, "navigator"), self._on_navigator))
             if self.lease_key is not None:
@@ -345,6 +397,7 @@ class Robot:
         with self._cond:
             self._settle(goal)
             if not goal.done():
+                goal._last = self._poses.msg  # travelled counts from here
                 self._open[goal.id] = goal
         return goal
 
@@ -367,6 +420,18 @@ class Robot:
     def _next_pose(self, seen: m.Pose | None, timeout: float, step: float = 0.0) -> None:
         """Block until a pose more than `step` seconds newer than `seen` (or from a restarted clock) arrives."""
         self._poses.wait(lambda p: seen is None or p.t > seen.t + step or p.t < seen.t, timeout)
+
+    def _on_pose(self, pose: m.Pose) -> None:
+        """A pose (on Zenoh's thread): the newest, and the open goals' travelled distance."""
+        self._poses.put(pose)
+        if not self._open:
+            return
+        with self._cond:
+            marked = [goal._step(pose) for goal in list(self._open.values())]
+            if any(marked):
+                self._cond.notify_all()
+        if any(marked):
+            self._changed()
 
     def _on_state(self, st: m.NavState) -> None:
         """A nav/state (on Zenoh's thread): update and end the goals it concerns."""

@@ -29,16 +29,15 @@ from operator import itemgetter
 
 from zenav.common.config import Field
 from zenav.common.geometry import wrap_angle
+from zenav.common.navgoals import STOPPED, TURNING_TO_HEADING
 from zenav.services.navigator import controllers, exits
 from zenav.services.navigator.controllers import PoseSample, Target, Wheelbase
 from zenav.services.navigator.exits import Hold
 from zenav.services.navigator.params import Params
 from zenav.services.navigator.turning import profile_speed, turn_command
 
-STOPPED = "STOPPED"
 MOVING_TO_POINT = "MOVING_TO_POINT"
 MOVING_TO_POSE = "MOVING_TO_POSE"
-TURNING_TO_HEADING = "TURNING_TO_HEADING"
 MOVING_STRAIGHT = "MOVING_STRAIGHT"
 FOLLOWING_PATH = "FOLLOWING_PATH"
 SUCCEEDED, CANCELLED, ABORTED = "succeeded", "cancelled", "aborted"

@@ -24,7 +24,7 @@ def run_example(name: str, router: str) -> subprocess.CompletedProcess:
 
 
 def test_every_example_is_tested():
-    assert sorted(p.name for p in EXAMPLES.glob("*.py")) == ["async_feedback.py", "path_callbacks.py", "square.py"]
+    assert sorted(p.name for p in EXAMPLES.glob("*.py")) == ["async_feedback.py", "autonomous.py", "path_callbacks.py", "square.py"]
 
 
 def test_the_examples_drive_the_robot(make_stack, router):
@@ -48,3 +48,11 @@ def test_the_examples_drive_the_robot(make_stack, router):
     remaining = [float(d) for d in re.findall(r"goal \d+: ([.\d]+) m to go", feedback.stdout)]
     assert len(remaining) >= 5 and max(remaining) > 0.3 and min(remaining) < 0.1
     assert feedback.stdout.count("succeeded: arrived") == 2
+
+    auto = run_example("autonomous.py", router)
+    assert auto.returncode == 0, (auto.stdout, auto.stderr)
+    assert re.findall(r"^(intake on|intake off|score)", auto.stdout, re.M) == ["intake on", "intake off", "score"]
+    travelled = float(re.search(r"after ([.\d]+) m of the move", auto.stdout)[1])
+    assert 0.25 <= travelled < 0.3  # woken by the pose that passed 0.25 m, not at the move's end (0.5 m)
+    home = re.findall(r"goal \d+ succeeded[^\n]* at x ([-+.\d]+) y ([-+.\d]+) th ([-+.\d]+) deg", auto.stdout)[-1]
+    assert abs(float(home[0])) < 0.04 and abs(float(home[1])) < 0.04 and abs(float(home[2])) < 2.0  # backed home, facing +x

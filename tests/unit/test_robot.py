@@ -85,6 +85,35 @@ def test_forwards_false_backs_the_robot_and_is_sent_only_when_false(world, bot):
     assert [r.get("forwards") for r in world.goals_sent()] == [False, False, False, False, None]
 
 
+def test_wait_until_returns_once_the_robot_has_travelled_that_far_and_false_when_the_goal_ends_short(world, bot):
+    goal = bot.follow_path([(0.3, 0.0), (0.3, 0.3)])  # round a corner: farther than the straight line
+    world.hide_state = True  # no nav/state: only the pose that takes it past the mark can wake the program
+    returned, woke = threading.Event(), []
+
+    def drive():  # the world runs in this thread, and stands still once past the mark
+        world.drive(lambda: goal.travelled >= 0.45)
+        woke.append(returned.wait(10.0))
+
+    driver = threading.Thread(target=drive)
+    driver.start()
+    assert goal.wait_until(0.45, timeout=30.0)
+    returned.set()
+    driver.join(30.0)
+    assert woke == [True]  # woken by that pose, not by the timeout
+    assert not goal.done() and 0.45 <= goal.travelled < 0.46 and world.y > 0.1  # 0.45 m of way, not of straight line
+    world.hide_state = False
+    world.drive(goal.done)
+    assert goal.result().succeeded and 0.5 < goal.travelled < 0.6  # the corner cut within the waypoint tolerance
+    assert not goal.wait_until(5.0, timeout=0.0) and goal.wait_until(0.3, timeout=0.0)  # ended short; passed long ago
+    turn, start = bot.turn_to_heading(0.0), world.theta  # from about +90 deg, after the path
+    world.drive(turn.done)
+    assert turn.travelled == pytest.approx(start, abs=0.02) and start > 1.3  # radians turned
+    held = bot.move_straight(0.1)
+    with pytest.raises(TimeoutError, match=f"goal {held.id} travelled 0.000 of 0.100"):
+        held.wait_until(0.1, timeout=0.01)
+    held.cancel()
+
+
 def test_the_asyncio_robot_has_every_method_of_the_robot_with_the_same_parameters():
     for name in ("wait_ready", "move_to_point", "move_to_pose", "turn_to_heading", "turn_to_point", "move_straight", "follow_path"):
         sync, coro = getattr(Robot, name), getattr(aio.Robot, name)

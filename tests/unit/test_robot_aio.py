@@ -40,6 +40,35 @@ def test_an_awaitable_goal_with_feedback(world):
     asyncio.run(main())
 
 
+def test_wait_until_in_asyncio(world):
+    async def main():
+        async with aio.Robot("r1", bus=world) as bot:
+            goal = await bot.move_to_point(0.4, 0.0)
+
+            async def drive(until):
+                for _ in range(MAX_STEPS):
+                    if until():
+                        return
+                    world.step()
+                    await asyncio.sleep(0)
+
+            world.hide_state = True  # no nav/state: only the pose that takes it past the mark can wake the program
+            driver = asyncio.create_task(drive(lambda: goal.travelled >= 0.25))
+            async with asyncio.timeout(10):  # woken by that pose, long before its own timeout
+                assert await goal.wait_until(0.25, timeout=30) and not goal.done()
+            await driver
+            world.hide_state = False
+            assert 0.25 <= goal.travelled < 0.26 and world.x == pytest.approx(goal.travelled, abs=0.01)
+            await drive(goal.done)
+            assert not await goal.wait_until(1.0, timeout=1)  # it ended at 0.4 m
+            held = await bot.move_straight(0.1)
+            with pytest.raises(TimeoutError, match="travelled 0.000 of 0.100 in 0.01 s"):
+                await held.wait_until(0.1, timeout=0.01)
+            await held.cancel()
+
+    asyncio.run(main())
+
+
 def test_updates_time_out(world):
     async def main():
         async with aio.Robot("r1", bus=world, lease=False) as bot:
