@@ -189,6 +189,8 @@ class GoalOptions(Request, frozen=True, kw_only=True):
     wait: bool = False
     lease: Lease | None = None
     timeout: Annotated[float, Meta(gt=0.0, le=1e4)] | None = None  # [s] the move stops after this long (exit timeout)
+    min_speed: Annotated[float, Meta(ge=0.0, le=1e3)] | None = None  # [m/s] (turns [rad/s]) > 0: chained, no slower than this
+    early_exit_range: Annotated[float, Meta(ge=0.0, le=1e3)] | None = None  # [m] (turns [rad]) a chained move ends this far before
 
 
 class MoveToPoint(GoalOptions, frozen=True, kw_only=True):

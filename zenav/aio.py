@@ -188,9 +188,12 @@ class Robot:
         tolerance: float | None = None,
         timeout: float | None = None,
         forwards: bool = True,
+        min_speed: float | None = None,
+        early_exit_range: float | None = None,
     ) -> Goal:
-        """Drive to (x [m], y [m]) in the map frame (backwards with `forwards=False`)."""
-        return await self._goal(self.sync.move_to_point, x, y, speed=speed, tolerance=tolerance, timeout=timeout, forwards=forwards)
+        """Drive to (x [m], y [m]) in the map frame (see `zenav.robot.Robot.move_to_point` for the options)."""
+        options = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "forwards": forwards}
+        return await self._goal(self.sync.move_to_point, x, y, **options, min_speed=min_speed, early_exit_range=early_exit_range)
 
     async def move_to_pose(
         self,
@@ -204,16 +207,27 @@ class Robot:
         lead: float | None = None,
         timeout: float | None = None,
         forwards: bool = True,
+        min_speed: float | None = None,
+        early_exit_range: float | None = None,
     ) -> Goal:
         """Drive to (x [m], y [m]) and arrive with heading `theta` [rad]."""
         options = {"speed": speed, "tolerance": tolerance, "heading_tolerance": heading_tolerance, "lead": lead, "timeout": timeout}
-        return await self._goal(self.sync.move_to_pose, x, y, theta, **options, forwards=forwards)
+        chain = {"forwards": forwards, "min_speed": min_speed, "early_exit_range": early_exit_range}
+        return await self._goal(self.sync.move_to_pose, x, y, theta, **options, **chain)
 
     async def turn_to_heading(
-        self, heading: float, *, speed: float | None = None, tolerance: float | None = None, timeout: float | None = None
+        self,
+        heading: float,
+        *,
+        speed: float | None = None,
+        tolerance: float | None = None,
+        timeout: float | None = None,
+        min_speed: float | None = None,
+        early_exit_range: float | None = None,
     ) -> Goal:
         """Turn in place to `heading` [rad]."""
-        return await self._goal(self.sync.turn_to_heading, heading, speed=speed, tolerance=tolerance, timeout=timeout)
+        options = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "min_speed": min_speed, "early_exit_range": early_exit_range}
+        return await self._goal(self.sync.turn_to_heading, heading, **options)
 
     async def turn_to_point(
         self,
@@ -224,9 +238,12 @@ class Robot:
         tolerance: float | None = None,
         timeout: float | None = None,
         forwards: bool = True,
+        min_speed: float | None = None,
+        early_exit_range: float | None = None,
     ) -> Goal:
         """Turn in place to face (x [m], y [m]), or to turn the back to it."""
-        return await self._goal(self.sync.turn_to_point, x, y, speed=speed, tolerance=tolerance, timeout=timeout, forwards=forwards)
+        options = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "forwards": forwards}
+        return await self._goal(self.sync.turn_to_point, x, y, **options, min_speed=min_speed, early_exit_range=early_exit_range)
 
     async def move_straight(self, speed: float, *, distance: float | None = None) -> Goal:
         """Drive on the current heading at `speed` [m/s], for `distance` [m] or until stopped."""
@@ -241,10 +258,13 @@ class Robot:
         waypoint_tolerance: float | None = None,
         timeout: float | None = None,
         forwards: bool = True,
+        min_speed: float | None = None,
+        early_exit_range: float | None = None,
     ) -> Goal:
         """Drive through the points in order, (x [m], y [m]) or (x, y, tolerance [m])."""
         options = {"speed": speed, "tolerance": tolerance, "waypoint_tolerance": waypoint_tolerance, "timeout": timeout}
-        return await self._goal(self.sync.follow_path, points, **options, forwards=forwards)  # the robot makes the points lists
+        chain = {"forwards": forwards, "min_speed": min_speed, "early_exit_range": early_exit_range}
+        return await self._goal(self.sync.follow_path, points, **options, **chain)  # the robot makes the points lists
 
     async def stop(self) -> str:
         """Cancel whatever goal runs and command zero at once; the navigator's state."""

@@ -286,14 +286,19 @@ class Robot:
         tolerance: float | None = None,
         timeout: float | None = None,
         forwards: bool = True,
+        min_speed: float | None = None,
+        early_exit_range: float | None = None,
     ) -> Goal:
         """Drive to (x [m], y [m]) in the map frame; speed [m/s] and tolerance [m] default to the navigator's.
 
-        `timeout` [s] (every goal but move_straight): the move stops after this long, exit `timeout`.
-        `forwards=False` (move_to_point, move_to_pose, turn_to_point, follow_path): the robot's back leads.
+        Every goal but move_straight also takes:
+        `timeout` [s]: the move stops after this long, exit `timeout`;
+        `min_speed` [m/s, rad/s for turns] > 0: a chained goal (LemLib's motion chaining) that never slows below it
+        and ends at speed (exit `chained`) `early_exit_range` [m, rad] before its target: send the next goal at once;
+        and but for turn_to_heading, `forwards=False`: the robot's back leads.
         """
-        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "forwards": _backwards(forwards)}
-        return self._goal("nav/move_to_point", {"x": x, "y": y, **fields})
+        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout}
+        return self._goal("nav/move_to_point", {"x": x, "y": y, **fields, **_options(forwards, min_speed, early_exit_range)})
 
     def move_to_pose(
         self,
@@ -307,17 +312,27 @@ class Robot:
         lead: float | None = None,
         timeout: float | None = None,
         forwards: bool = True,
+        min_speed: float | None = None,
+        early_exit_range: float | None = None,
     ) -> Goal:
         """Drive to (x [m], y [m]) and arrive with heading `theta` [rad] (of the robot's front, backing in too);
         tolerances [m] and [rad]; `lead` [0..1] how far the boomerang's carrot sits before the point, per metre to it."""
         fields = {"speed": speed, "tolerance": tolerance, "heading_tolerance": heading_tolerance, "lead": lead, "timeout": timeout}
-        return self._goal("nav/move_to_pose", {"x": x, "y": y, "theta": theta, **fields, "forwards": _backwards(forwards)})
+        return self._goal("nav/move_to_pose", {"x": x, "y": y, "theta": theta, **fields, **_options(forwards, min_speed, early_exit_range)})
 
     def turn_to_heading(
-        self, heading: float, *, speed: float | None = None, tolerance: float | None = None, timeout: float | None = None
+        self,
+        heading: float,
+        *,
+        speed: float | None = None,
+        tolerance: float | None = None,
+        timeout: float | None = None,
+        min_speed: float | None = None,
+        early_exit_range: float | None = None,
     ) -> Goal:
         """Turn in place to `heading` [rad, CCW from +x]; speed [rad/s], tolerance [rad]."""
-        return self._goal("nav/turn_to_heading", {"heading": heading, "speed": speed, "tolerance": tolerance, "timeout": timeout})
+        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout}
+        return self._goal("nav/turn_to_heading", {"heading": heading, **fields, **_options(True, min_speed, early_exit_range)})
 
     def turn_to_point(
         self,
@@ -328,10 +343,12 @@ class Robot:
         tolerance: float | None = None,
         timeout: float | None = None,
         forwards: bool = True,
+        min_speed: float | None = None,
+        early_exit_range: float | None = None,
     ) -> Goal:
         """Turn in place to face (x [m], y [m]), or to turn the back to it; speed [rad/s], tolerance [rad]."""
-        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "forwards": _backwards(forwards)}
-        return self._goal("nav/turn_to_point", {"x": x, "y": y, **fields})
+        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout}
+        return self._goal("nav/turn_to_point", {"x": x, "y": y, **fields, **_options(forwards, min_speed, early_exit_range)})
 
     def move_straight(self, speed: float, *, distance: float | None = None) -> Goal:
         """Drive on the current heading at `speed` [m/s, negative reverses], for `distance` [m] or until stopped."""
@@ -346,12 +363,14 @@ class Robot:
         waypoint_tolerance: float | None = None,
         timeout: float | None = None,
         forwards: bool = True,
+        min_speed: float | None = None,
+        early_exit_range: float | None = None,
     ) -> Goal:
         """Drive through the points in order, (x [m], y [m]) or (x, y, tolerance [m]); nav/state's next_point says
         which is next. `tolerance` is the last point's, `waypoint_tolerance` the others' that name none."""
         pts = [list(p) for p in points]
         fields = {"speed": speed, "tolerance": tolerance, "waypoint_tolerance": waypoint_tolerance, "timeout": timeout}
-        return self._goal("nav/follow_path", {"points": pts, **fields, "forwards": _backwards(forwards)})
+        return self._goal("nav/follow_path", {"points": pts, **fields, **_options(forwards, min_speed, early_exit_range)})
 
     def stop(self) -> str:
         """Cancel whatever goal runs and command zero at once; the navigator's state."""
@@ -499,9 +518,10 @@ class Robot:
         return running
 
 
-def _backwards(forwards: bool) -> bool | None:
-    """The request's `forwards`: sent only when False (a navigator that predates it accepts every forward goal)."""
-    return None if forwards else False
+def _options(forwards: bool, min_speed: float | None, early_exit_range: float | None) -> dict[str, Any]:
+    """A goal's `forwards`, `min_speed` and `early_exit_range`, each sent only when it asks for something (a navigator
+    that predates them takes every goal that does not)."""
+    return {"forwards": None if forwards else False, "min_speed": min_speed, "early_exit_range": early_exit_range}
 
 
 def _shut(client: Client, handles: list[Handle], own: ZenohBus | None) -> None:

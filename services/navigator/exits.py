@@ -7,7 +7,10 @@ Pure: times come in as arguments. A move ends on the first of:
 - `big_error`: the error stayed under `big_error` for `big_time` (near, and stuck there);
 - `timeout`: the goal's time-out ran out;
 - `stalled`: no progress for `progress_timeout` (aborted at once);
-- `cancelled` (nav/stop, a newer goal, the lease) or `aborted` (the pose or a service was lost).
+- `cancelled` (nav/stop, a newer goal, the lease) or `aborted` (the pose or a service was lost);
+- `chained`: a chained move (`min_speed` > 0, LemLib's motion chaining) crossed the line across its
+  approach `early_exit_range` before its target, at speed: it succeeds at once, and the robot holds
+  its last command for `chain_time`, for the next goal to take over without stopping.
 After the first four and `timeout` the robot holds zero for `rest_time`, then the error is
 re-checked: `succeeded` only if it is within the tolerance. A move that stopped at its target
 (`within_tolerance`, `passed`) but is found over it (a late VPS fix moved the pose) moves again,
@@ -27,7 +30,8 @@ TIMEOUT = "timeout"
 STALLED = "stalled"
 CANCELLED = "cancelled"
 ABORTED = "aborted"
-EXITS = (WITHIN_TOLERANCE, PASSED, SETTLED, BIG_ERROR, TIMEOUT, STALLED, CANCELLED, ABORTED)
+CHAINED = "chained"
+EXITS = (WITHIN_TOLERANCE, PASSED, SETTLED, BIG_ERROR, TIMEOUT, STALLED, CANCELLED, ABORTED, CHAINED)
 
 
 @dataclass

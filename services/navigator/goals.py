@@ -14,7 +14,11 @@ stopping (no slower than `through_speed`, but for the turn limit).
 A backwards goal (LemLib's `forwards = false`) runs the same machine on the robot seen
 from behind: its pose turned half a turn and its speed negated, a move_to_pose's heading
 likewise, and the commanded speed negated back; every controller drives it unchanged.
-Every end but a handover to a new goal asks for zero velocity at once (`End.stop`).
+A chained goal (`min_speed` > 0: LemLib's motion chaining) never slows below min_speed
+and ends, `chained`, once the robot crosses the line across its approach (a turn: its
+heading) `early_exit_range` before the target; its last command is then held for
+`chain_time`, so that the next goal takes over at speed (`coasting`).
+Every end but a handover to a new goal or a chained end asks for zero velocity at once (`End.stop`).
 The robot stays in the field: a goal whose target lies outside is refused
 (`outside`), and a running goal aborts when the pose leaves it. A move_straight
 without a distance aborts after `straight_max_time`.
@@ -68,6 +72,8 @@ class Goal:
     lead: float = 0.0  # [-] move_to_pose with the boomerang: carrot distance per metre to the goal
     timeout: float = 0.0  # [s] stop after this long (exit timeout); 0: [navigator] goal_timeout
     backwards: bool = False  # move_to_point, move_to_pose, follow_path: drive with the robot's back ahead
+    min_speed: float = 0.0  # [m/s] ([rad/s] for turns) > 0: a chained goal, no slower than this, ending at speed
+    early_exit_range: float = 0.0  # [m] ([rad] for turns) a chained goal ends this far before its target
 
 
 @dataclass(frozen=True)
@@ -118,6 +124,7 @@ class _Run:
     remaining: float | None = None
     heading_error: float | None = None
     cross_track: float | None = None
+    along: float | None = None  # [m] or [rad] a chained goal: how far before the target's line it was on the last pose
 
     @property
     def sign(self) -> float:
@@ -209,6 +216,7 @@ class GoalMachine:
         self.pose: PoseSample | None = None  # newest pose
         self._cmd = (0.0, 0.0)  # (v [m/s], omega [rad/s]) last commanded
         self._rate = (0.0, 0.0)  # (v [m/s], omega [rad/s]) the commands through a first-order lag of stop_lead
+        self._coast: float | None = None  # [s] pose t until which a chained goal's last command is held
         self._run: _Run | None = None
 
     @property
@@ -246,6 +254,7 @@ class GoalMachine:
         pose = self.pose
         assert pose is not None  # no refusal: there is a pose
         preempted = self._end(CANCELLED, f"preempted by goal {self.goal_id + 1}", stop=False, exit=exits.CANCELLED)
+        self._coast = None  # the new goal takes over from a chained one's held command
         self.goal_id += 1
         self.goal, self.state, self.result, self.exit, self.message = goal, goal.state, None, None, ""
         p = self.params
@@ -266,12 +275,19 @@ class GoalMachine:
         return preempted
 
     def cancel(self, message: str) -> End | None:
-        """Cancel the running goal (stop, lease...); None if there is none."""
+        """Cancel the running goal (stop, lease...), and a chained goal's held command; None if there is no goal."""
+        self._coast = None
         return self._end(CANCELLED, message, stop=True, exit=exits.CANCELLED)
 
     def abort(self, message: str, exit: str = exits.ABORTED) -> End | None:
-        """Abort the running goal; None if there is none."""
+        """Abort the running goal, and a chained goal's held command; None if there is no goal."""
+        self._coast = None
         return self._end(ABORTED, message, stop=True, exit=exit)
+
+    @property
+    def coasting(self) -> bool:
+        """Whether a chained goal's last command is still held (no goal runs)."""
+        return self._coast is not None
 
     def reset(self, message: str) -> End | None:
         """Time started again (sim restart): abort the goal and forget the pose."""
@@ -285,7 +301,7 @@ class GoalMachine:
         self.pose = pose
         run = self._run
         if run is None:
-            return None, None
+            return self._held(pose.t), None
         out = self.area.beyond(pose.x, pose.y)
         if out > run.beyond:
             farther = f", farther out than the goal's start allows ({run.beyond:.3f} m)" if run.beyond else ""
@@ -299,6 +315,8 @@ class GoalMachine:
             if cmd is not None:
                 self._cmd = controllers.limit(run.sign * cmd[0], cmd[1], self.params.max_turn_speed, self.wheels)
                 return self._cmd, None
+            if run.exit == exits.CHAINED:
+                return self._chained(run, pose)
             self._stop(run, pose.t)
         assert run.settle_from is not None and run.exit is not None  # stopped
         if pose.t - run.settle_from >= self.params.rest_time:
@@ -370,6 +388,29 @@ class GoalMachine:
         self.state, self.result, self.exit, self.message = STOPPED, result, exit, message
         return End(self.goal_id, result, message, stop, exit)
 
+    def _chained(self, run: _Run, pose: PoseSample) -> tuple[tuple[float, float], End | None]:
+        """A chained goal crossed its exit line: it succeeds at once, its last command held for chain_time."""
+        self._coast = pose.t + self.params.chain_time
+        dist, turn = final_error(run.goal, run.origin, pose)
+        off = f"{math.degrees(turn):.1f} deg" if run.goal.state == TURNING_TO_HEADING else f"{dist * 100:.1f} cm"
+        return self._cmd, self._end(SUCCEEDED, f"chained {off} from the target, at speed", stop=False, exit=exits.CHAINED)
+
+    def _held(self, t: float) -> tuple[float, float] | None:
+        """No goal runs: a chained goal's last command until chain_time has passed, then zero once; else None."""
+        if self._coast is None:
+            return None
+        if t >= self._coast:
+            self._coast, self._cmd = None, (0.0, 0.0)
+        return self._cmd
+
+    def _crossed(self, run: _Run, along: float) -> bool:
+        """Whether a chained goal, `along` before its target's line now, has just crossed early_exit_range before it."""
+        before, run.along = run.along, along
+        if before is not None and before > run.goal.early_exit_range >= along:
+            run.exit = exits.CHAINED
+            return True
+        return False
+
     def _stop(self, run: _Run, t: float) -> None:
         """The move ends (run.exit says why): zero from now on, the error re-checked after rest_time."""
         run.settle_from, self._cmd = t, (0.0, 0.0)
@@ -421,6 +462,8 @@ class GoalMachine:
         if goal.state == MOVING_STRAIGHT:
             return self._step_straight(run, pose)
         if goal.state == TURNING_TO_HEADING:
+            if goal.min_speed > 0.0:
+                return self._chained_turn(run, pose)
             cmd = self._step_turn(run, pose, goal.heading, goal.tolerance, goal.speed)
         else:
             cmd = self._step_points(run, pose)
@@ -468,6 +511,10 @@ class GoalMachine:
         if run.index < last:
             run.progress = -dist
             return self._through(run, pose, target, dist)
+        if goal.min_speed > 0.0:
+            run.progress = -dist
+            approach = goal.heading if goal.state == MOVING_TO_POSE else seg_heading
+            return self._chained_point(run, pose, target, approach)
         if run.turning:
             return self._step_turn(run, pose, goal.heading, goal.heading_tolerance, p.turn_speed)
         run.progress = -dist
@@ -493,6 +540,37 @@ class GoalMachine:
             # A path's last leg: the turn onto it blends in, as at the points before.
             v = math.copysign(max(abs(v), p.through_speed), -1.0 if target.reverse else 1.0)
         return v, omega
+
+    def _chained_point(self, run: _Run, pose: PoseSample, target: Target, approach: float) -> tuple[float, float] | None:
+        """A chained goal's final point: steered by the controller, no slower than min_speed while it drives toward
+        the point, until the robot crosses the line across the approach (a pose: its heading) early_exit_range before it.
+
+        Within lock_distance it no longer turns toward the point (a pose: it steers to its heading), as LemLib once
+        `close`, and brakes to cross the line at min_speed: the next goal starts from a steady command.
+        """
+        p, goal = self.params, run.goal
+        along = (target.x - pose.x) * math.cos(approach) + (target.y - pose.y) * math.sin(approach)  # [m]
+        if self._crossed(run, along):
+            return None
+        ahead = -1.0 if target.reverse else 1.0
+        if math.hypot(target.x - pose.x, target.y - pose.y) <= p.lock_distance:
+            omega = p.prop_heading_gain * wrap_angle(goal.heading - pose.theta) if goal.state == MOVING_TO_POSE else 0.0
+            return ahead * profile_speed(along - goal.early_exit_range, p.decel, goal.min_speed, goal.speed), omega
+        assert run.controller is not None  # made with the target
+        v, omega = run.controller(pose, target, p)
+        if v * ahead > 0.0:  # a controller that has slowed to turn in place first is not pushed on
+            v = ahead * min(max(abs(v), goal.min_speed), goal.speed)
+        return v, omega
+
+    def _chained_turn(self, run: _Run, pose: PoseSample) -> tuple[float, float] | None:
+        """A chained turn: no slower than min_speed, until the heading is within early_exit_range (or passed)."""
+        goal = run.goal
+        err = wrap_angle(goal.heading - pose.theta)
+        direction = math.copysign(1.0, wrap_angle(goal.heading - run.origin.theta))  # the way it turns
+        run.heading_error, run.progress, run.remaining = err, -abs(err), abs(err)
+        if self._crossed(run, err * direction):
+            return None
+        return 0.0, direction * profile_speed(err * direction - goal.early_exit_range, self.params.turn_decel, goal.min_speed, goal.speed)
 
     def _face(self, run: _Run, pose: PoseSample, bearing: float, dist: float) -> tuple[float, float] | None:
         """A correction's turn in place until the point lies within half the tolerance of the heading line; None when done."""

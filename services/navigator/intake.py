@@ -7,7 +7,7 @@ that cannot be driven raises `Invalid`, naming the field (an invalid_argument re
 from __future__ import annotations
 
 import math
-from typing import Any, cast
+from typing import Any, TypedDict, cast
 
 from zenav.common import messages as m
 from zenav.common.geometry import wrap_angle
@@ -33,13 +33,28 @@ def _timeout(req: m.GoalOptions, cfg: Params) -> float:
     return req.timeout or cfg.goal_timeout
 
 
+class Chain(TypedDict, total=False):
+    """A chained goal's fields (none for a goal that stops)."""
+
+    min_speed: float
+    early_exit_range: float
+
+
+def _chain(req: m.GoalOptions, speed: float) -> Chain:
+    """A chained move's `min_speed` (at most the goal's speed) and `early_exit_range`; {} for a move that stops."""
+    if not req.min_speed:
+        if req.early_exit_range:
+            raise Invalid("early_exit_range: only a chained move (min_speed > 0) exits early; a move that stops ends at its tolerance")
+        return Chain()
+    return Chain(min_speed=min(req.min_speed, speed), early_exit_range=req.early_exit_range or 0.0)
+
+
 def move_to_point(req: m.MoveToPoint, cfg: Params) -> Resolved:
     """Drive to (x, y)."""
     speed, tol = _speed(req.speed, cfg), req.tolerance or cfg.tolerance
-    goal = Goal(
-        goals.MOVING_TO_POINT, points=((req.x, req.y),), speed=speed, tolerance=tol, timeout=_timeout(req, cfg), backwards=not req.forwards
-    )
-    return goal, {"type": "move_to_point", "x": req.x, "y": req.y, "speed": speed, "tolerance": tol, "forwards": req.forwards}
+    chain, backwards, timeout = _chain(req, speed), not req.forwards, _timeout(req, cfg)
+    goal = Goal(goals.MOVING_TO_POINT, ((req.x, req.y),), speed=speed, tolerance=tol, timeout=timeout, backwards=backwards, **chain)
+    return goal, {"type": "move_to_point", "x": req.x, "y": req.y, "speed": speed, "tolerance": tol, "forwards": req.forwards, **chain}
 
 
 def move_to_pose(req: m.MoveToPose, cfg: Params) -> Resolved:
@@ -51,7 +66,7 @@ def move_to_pose(req: m.MoveToPose, cfg: Params) -> Resolved:
             raise Invalid(f"[navigator] pose_controller = polar: {e}") from None
     speed, tol = _speed(req.speed, cfg), req.tolerance or cfg.tolerance
     heading, heading_tol = wrap_angle(req.theta), req.heading_tolerance or cfg.heading_tolerance
-    lead = cfg.lead if req.lead is None else req.lead
+    lead, chain = cfg.lead if req.lead is None else req.lead, _chain(req, speed)
     goal = Goal(
         goals.MOVING_TO_POSE,
         points=((req.x, req.y),),
@@ -62,9 +77,11 @@ def move_to_pose(req: m.MoveToPose, cfg: Params) -> Resolved:
         lead=lead,
         timeout=_timeout(req, cfg),
         backwards=not req.forwards,
+        **chain,
     )
     info = {"type": "move_to_pose", "x": req.x, "y": req.y, "theta": heading, "speed": speed, "tolerance": tol}
-    return goal, {**info, "heading_tolerance": heading_tol, "controller": cfg.pose_controller, "lead": lead, "forwards": req.forwards}
+    info |= {"heading_tolerance": heading_tol, "controller": cfg.pose_controller, "lead": lead, "forwards": req.forwards}
+    return goal, info | chain
 
 
 def turn_to_heading(req: m.TurnToHeading, cfg: Params) -> Resolved:
@@ -100,7 +117,7 @@ def follow_path(req: m.FollowPath, cfg: Params) -> Resolved:
     if len(pts) > cfg.max_path_points:
         raise Invalid(f"points: {len(pts)} is over [navigator] max_path_points = {cfg.max_path_points}")
     speed, tol = _speed(req.speed, cfg), req.tolerance or cfg.tolerance
-    through = req.waypoint_tolerance or cfg.waypoint_tolerance
+    through, chain = req.waypoint_tolerance or cfg.waypoint_tolerance, _chain(req, speed)
     if max(map(len, pts)) == 2:  # no point names its tolerance: no loop in Python (a stop may wait on this)
         points, tols = cast(tuple[tuple[float, float], ...], tuple(pts)), (through,) * (len(pts) - 1) + (tol,)
     else:
@@ -117,20 +134,14 @@ def follow_path(req: m.FollowPath, cfg: Params) -> Resolved:
         point_tolerances=tols,
         timeout=_timeout(req, cfg),
         backwards=not req.forwards,
+        **chain,
     )
-    info = {
-        "type": "follow_path",
-        "points": req.points,
-        "speed": speed,
-        "tolerance": tols[-1],
-        "waypoint_tolerance": through,
-        "forwards": req.forwards,
-    }
-    return goal, info
+    info = {"type": "follow_path", "points": req.points, "speed": speed, "tolerance": tols[-1], "waypoint_tolerance": through}
+    return goal, info | {"forwards": req.forwards} | chain
 
 
 def _turn(heading: float, req: m.TurnToHeading | m.TurnToPoint, cfg: Params, info: dict[str, Any]) -> Resolved:
     speed = min(req.speed or cfg.turn_speed, cfg.max_turn_speed)
-    tol = req.tolerance or cfg.heading_tolerance
-    goal = Goal(goals.TURNING_TO_HEADING, heading=heading, speed=speed, tolerance=tol, timeout=_timeout(req, cfg))
-    return goal, {**info, "speed": speed, "tolerance": tol}
+    tol, chain = req.tolerance or cfg.heading_tolerance, _chain(req, speed)
+    goal = Goal(goals.TURNING_TO_HEADING, heading=heading, speed=speed, tolerance=tol, timeout=_timeout(req, cfg), **chain)
+    return goal, {**info, "speed": speed, "tolerance": tol, **chain}

@@ -53,6 +53,7 @@ def test_the_examples_drive_the_robot(make_stack, router):
     assert auto.returncode == 0, (auto.stdout, auto.stderr)
     assert re.findall(r"^(intake on|intake off|score)", auto.stdout, re.M) == ["intake on", "intake off", "score"]
     travelled = float(re.search(r"after ([.\d]+) m of the move", auto.stdout)[1])
-    assert 0.25 <= travelled < 0.3  # woken by the pose that passed 0.25 m, not at the move's end (0.5 m)
+    assert 0.25 <= travelled < 0.3  # woken by the pose that passed 0.25 m, not at the move's end (0.4 m)
+    assert re.search(r"^goal \d+ succeeded: chained [.\d]+ cm from the target", auto.stdout, re.M)  # handed over at speed
     home = re.findall(r"goal \d+ succeeded[^\n]* at x ([-+.\d]+) y ([-+.\d]+) th ([-+.\d]+) deg", auto.stdout)[-1]
     assert abs(float(home[0])) < 0.04 and abs(float(home[1])) < 0.04 and abs(float(home[2])) < 2.0  # backed home, facing +x

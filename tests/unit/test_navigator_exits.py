@@ -259,6 +259,82 @@ def test_each_point_may_carry_its_own_tolerance():
         intake.follow_path(m.FollowPath(points=[(0.5, 0.0), (1.0, 0.0, -0.1)]), Params())
 
 
+def test_a_chained_move_ends_at_speed_on_its_exit_line_and_holds_its_command_for_the_next_goal():
+    """LemLib's motion chaining: min_speed 0.1 m/s, early_exit_range 3 cm; the next goal takes over at speed."""
+    bot = Unicycle()
+    mc = GoalMachine(Params(chain_time=0.2), WHEELS)
+    mc.on_pose(bot.sample())
+    mc.start(to_point(1.0, 0.0, min_speed=0.1, early_exit_range=0.03), bot.t)
+    speeds = []
+    for _ in range(round(20.0 / DT)):
+        cmd, end = mc.on_pose(bot.sample())
+        speeds.append(cmd[0])
+        if end is not None:
+            break
+        bot.step(cmd)
+    assert (end.result, end.exit, end.stop) == (goals.SUCCEEDED, exits.CHAINED, False)
+    assert 0.97 <= bot.x < 0.975  # on the line 3 cm before the point (one pose past it at most)
+    assert min(speeds[50:]) >= 0.1  # never below min_speed once under way, nor zeroed at the end
+    assert mc.state == goals.STOPPED and mc.coasting
+    bot.step(cmd)
+    held, _ = mc.on_pose(bot.sample())
+    assert held == cmd  # still driving, no goal running
+    mc.start(to_point(1.5, 0.0), bot.t)  # the next goal, within chain_time
+    nxt, _ = mc.on_pose(bot.sample())
+    assert nxt[0] >= 0.1 and not mc.coasting  # it took over at speed
+
+
+def test_a_chained_move_with_no_next_goal_stops_after_chain_time_and_a_stop_ends_the_hold_at_once():
+    bot = Unicycle(x=0.9)
+    mc = GoalMachine(Params(chain_time=0.2), WHEELS)
+    mc.on_pose(bot.sample())
+    mc.start(to_point(1.0, 0.0, min_speed=0.1), bot.t)
+    for _ in range(round(10.0 / DT)):
+        cmd, end = mc.on_pose(bot.sample())
+        if end is not None:
+            break
+        bot.step(cmd)
+    assert end.exit == exits.CHAINED and cmd[0] >= 0.1
+    held = []
+    for _ in range(40):
+        bot.step(cmd or (0.0, 0.0))
+        cmd, _ = mc.on_pose(bot.sample())
+        held.append(cmd)
+    last, n = held[0], held.index((0.0, 0.0))
+    assert held[:n] == [last] * n and last[0] >= 0.1 and n in (19, 20)  # held chain_time (0.2 s: 19 or 20 poses, as t rounds)
+    assert held[n + 1] is None and not mc.coasting  # then zero, once: no goal, nothing more
+    mc.start(to_point(1.5, 0.0, min_speed=0.1), bot.t)
+    for _ in range(round(10.0 / DT)):
+        cmd, end = mc.on_pose(bot.sample())
+        if end is not None:
+            break
+        bot.step(cmd)
+    assert mc.coasting and mc.cancel("stopped") is None and not mc.coasting  # nav/stop: no goal, and the hold is gone
+
+
+def test_a_chained_turn_keeps_its_min_speed_and_ends_early_exit_range_before_the_heading():
+    bot = Unicycle()
+    mc = GoalMachine(Params(), WHEELS)
+    mc.on_pose(bot.sample())
+    mc.start(Goal(goals.TURNING_TO_HEADING, heading=1.5, speed=2.0, tolerance=0.0175, min_speed=1.0, early_exit_range=0.1), bot.t)
+    rates = []
+    for _ in range(round(10.0 / DT)):
+        cmd, end = mc.on_pose(bot.sample())
+        if end is not None:
+            break
+        rates.append(cmd[1])
+        bot.step(cmd)
+    assert end.exit == exits.CHAINED and end.result == goals.SUCCEEDED and not end.stop
+    assert 1.4 <= bot.theta <= 1.42 and min(rates) >= 1.0 and cmd == (0.0, rates[-1])  # one pose past 0.1 rad before, at most
+
+
+def test_early_exit_range_without_min_speed_is_refused():
+    with pytest.raises(intake.Invalid, match="early_exit_range: only a chained move"):
+        intake.move_to_point(m.MoveToPoint(x=1.0, y=0.0, early_exit_range=0.02), Params())
+    goal, info = intake.turn_to_heading(m.TurnToHeading(heading=1.0, min_speed=9.0), Params())
+    assert goal.min_speed == goal.speed == info["min_speed"] and info["early_exit_range"] == 0.0  # min_speed: at most the speed
+
+
 # ---------------------------------------------------------------- no heading swing on arrival
 @pytest.mark.parametrize("seed", range(5))
 def test_no_heading_swing_in_the_last_5_cm(seed):

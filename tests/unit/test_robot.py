@@ -114,6 +114,19 @@ def test_wait_until_returns_once_the_robot_has_travelled_that_far_and_false_when
     held.cancel()
 
 
+def test_chained_goals_hand_over_at_speed_as_lemlib_s_motion_chaining(world, bot):
+    first = bot.move_to_point(0.4, 0.0, min_speed=0.1, early_exit_range=0.02)
+    world.drive(first.done)
+    second = bot.move_to_point(0.7, 0.2)  # sent as soon as the first ends, as a program does
+    world.drive(second.done)
+    assert (first.result().result, first.result().exit) == ("succeeded", "chained") and second.result().succeeded
+    speeds = [c.v for c in world.published("cmd_vel")]
+    moving = [i for i, v in enumerate(speeds) if v > 0.0]
+    assert min(speeds[moving[0] : moving[-1] + 1]) > 0.0  # from the first goal's start to the second's last move, never a stop
+    sent = world.goals_sent()
+    assert (sent[0]["min_speed"], sent[0]["early_exit_range"]) == (0.1, 0.02) and "min_speed" not in sent[1]
+
+
 def test_the_asyncio_robot_has_every_method_of_the_robot_with_the_same_parameters():
     for name in ("wait_ready", "move_to_point", "move_to_pose", "turn_to_heading", "turn_to_point", "move_straight", "follow_path"):
         sync, coro = getattr(Robot, name), getattr(aio.Robot, name)
