@@ -269,7 +269,7 @@ class GoalMachine:
             run.rest = path_rest(goal.points)
             self._aim(run, pose)
         cmd = self._step(run, pose)  # feedback and progress from the start
-        if cmd is None:  # already there
+        if cmd is None and run.exit != exits.CHAINED:  # already there (a chained goal already there ends on the next pose)
             self._stop(run, pose.t)
         run.best, run.best_t = run.progress, now
         return preempted
@@ -311,7 +311,7 @@ class GoalMachine:
         if run.sign < 0.0:
             pose = behind(pose)
         if run.settle_from is None:
-            cmd = self._step(run, pose)
+            cmd = None if run.exit == exits.CHAINED else self._step(run, pose)
             if cmd is not None:
                 self._cmd = controllers.limit(run.sign * cmd[0], cmd[1], self.params.max_turn_speed, self.wheels)
                 return self._cmd, None
@@ -404,9 +404,14 @@ class GoalMachine:
         return self._cmd
 
     def _crossed(self, run: _Run, along: float) -> bool:
-        """Whether a chained goal, `along` before its target's line now, has just crossed early_exit_range before it."""
+        """Whether a chained goal, `along` before its target's line now, has just crossed early_exit_range before it.
+
+        A point or a turn that starts within early_exit_range of its target ends at once; a pose does not (the robot
+        may start past its target's line, and come round to cross it).
+        """
         before, run.along = run.along, along
-        if before is not None and before > run.goal.early_exit_range >= along:
+        start = before is None and run.goal.state != MOVING_TO_POSE
+        if along <= run.goal.early_exit_range and (start or (before is not None and before > run.goal.early_exit_range)):
             run.exit = exits.CHAINED
             return True
         return False
@@ -512,9 +517,12 @@ class GoalMachine:
             run.progress = -dist
             return self._through(run, pose, target, dist)
         if goal.min_speed > 0.0:
-            run.progress = -dist
             approach = goal.heading if goal.state == MOVING_TO_POSE else seg_heading
-            return self._chained_point(run, pose, target, approach)
+            along = (target.x - pose.x) * math.cos(approach) + (target.y - pose.y) * math.sin(approach)  # [m] before its line
+            if goal.state != MOVING_TO_POSE or dist > p.lock_distance or self._passing(run, pose, along):
+                run.progress = -dist
+                return self._chained_point(run, pose, target, along)
+            run.goal = goal = replace(goal, min_speed=0.0)  # close, and it cannot pass through its pose at speed: it ends unchained
         if run.turning:
             return self._step_turn(run, pose, goal.heading, goal.heading_tolerance, p.turn_speed)
         run.progress = -dist
@@ -541,15 +549,22 @@ class GoalMachine:
             v = math.copysign(max(abs(v), p.through_speed), -1.0 if target.reverse else 1.0)
         return v, omega
 
-    def _chained_point(self, run: _Run, pose: PoseSample, target: Target, approach: float) -> tuple[float, float] | None:
-        """A chained goal's final point: steered by the controller, no slower than min_speed while it drives toward
-        the point, until the robot crosses the line across the approach (a pose: its heading) early_exit_range before it.
+    def _passing(self, run: _Run, pose: PoseSample, along: float) -> bool:
+        """Whether a chained pose, close to its point, passes through it at speed: before its line and facing within 90 deg
+        of its heading, or just across the line. Else (past the line, or facing away) it ends as an unchained move."""
+        eer = run.goal.early_exit_range
+        facing = abs(wrap_angle(run.goal.heading - pose.theta)) <= math.pi / 2
+        return (along > eer and facing) or (run.along is not None and run.along > eer)
+
+    def _chained_point(self, run: _Run, pose: PoseSample, target: Target, along: float) -> tuple[float, float] | None:
+        """A chained goal's final point, `along` [m] before the line across its approach (a pose: its heading): steered
+        by the controller, no slower than min_speed while it drives toward the point, until the robot crosses that line
+        early_exit_range before the point.
 
         Within lock_distance it no longer turns toward the point (a pose: it steers to its heading), as LemLib once
         `close`, and brakes to cross the line at min_speed: the next goal starts from a steady command.
         """
         p, goal = self.params, run.goal
-        along = (target.x - pose.x) * math.cos(approach) + (target.y - pose.y) * math.sin(approach)  # [m]
         if self._crossed(run, along):
             return None
         ahead = -1.0 if target.reverse else 1.0

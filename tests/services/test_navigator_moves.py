@@ -69,6 +69,8 @@ MIRRORED = [
     ("nav/move_to_pose", {"x": 0.6, "y": -0.3, "theta": -1.0}, {"pose_controller": "boomerang"}),
     ("nav/move_to_pose", {"x": 0.6, "y": -0.3, "theta": -1.0}, {"pose_controller": "polar"}),
     ("nav/follow_path", {"points": [[0.4, 0.1], [0.5, 0.5], [0.1, 0.6]]}, {"controller": "pid"}),
+    ("nav/move_to_point", {"x": 0.5, "y": 0.3, "min_speed": 0.1, "early_exit_range": 0.02}, {"controller": "pid"}),  # chained
+    ("nav/move_to_pose", {"x": 0.6, "y": -0.3, "theta": -1.0, "min_speed": 0.1}, {"pose_controller": "boomerang"}),
 ]
 
 

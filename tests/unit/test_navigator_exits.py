@@ -328,6 +328,22 @@ def test_a_chained_turn_keeps_its_min_speed_and_ends_early_exit_range_before_the
     assert 1.4 <= bot.theta <= 1.42 and min(rates) >= 1.0 and cmd == (0.0, rates[-1])  # one pose past 0.1 rad before, at most
 
 
+def test_a_chained_goal_that_starts_within_its_early_exit_range_ends_on_the_next_pose_and_a_pose_reached_wrong_way_round_stops():
+    mc = machine()
+    mc.start(to_point(0.02, 0.0, min_speed=0.1, early_exit_range=0.03), 0.0)  # 2 cm ahead: within the 3 cm
+    cmd, end = mc.on_pose(PoseSample(0.01, 0.0, 0.0, 0.0))
+    assert (end.result, end.exit) == (goals.SUCCEEDED, exits.CHAINED) and cmd == (0.0, 0.0)  # it held what it had: nothing
+    turn = Goal(goals.TURNING_TO_HEADING, heading=0.05, speed=2.0, tolerance=0.0175, min_speed=1.0, early_exit_range=0.1)
+    mc.start(turn, 0.02)
+    assert mc.on_pose(PoseSample(0.03, 0.0, 0.0, 0.0))[1].exit == exits.CHAINED
+    # A pose at (0.5, 0) facing -x, from the origin facing +x: the robot reaches the point without crossing the line
+    # across that heading, so it cannot pass through the pose at speed: it ends as an unchained move (turn, stop, re-check).
+    pose = Goal(goals.MOVING_TO_POSE, ((0.5, 0.0),), math.pi, 0.2, 0.01, heading_tolerance=0.0175, lead=0.6, min_speed=0.1)
+    end, *_, bot = drive(pose)
+    assert (end.result, end.exit) == (goals.SUCCEEDED, exits.WITHIN_TOLERANCE) and end.stop
+    assert math.hypot(bot.x - 0.5, bot.y) <= 0.01 and abs(wrap_angle(bot.theta - math.pi)) <= 0.0175
+
+
 def test_early_exit_range_without_min_speed_is_refused():
     with pytest.raises(intake.Invalid, match="early_exit_range: only a chained move"):
         intake.move_to_point(m.MoveToPoint(x=1.0, y=0.0, early_exit_range=0.02), Params())
