@@ -10,8 +10,8 @@
 A goal is sent without `wait` and followed on `nav/state`: its handle (`Goal`) knows
 its progress and its end, also when nobody was waiting on it, and how far the robot
 has travelled since it started (summed over the poses, as LemLib's and EZ-Template's
-"wait until" count it: `goal.wait_until(0.3)` returns once 30 cm are behind it). A newer goal preempts
-it (result `cancelled`); a navigator that goes away aborts it. The robot holds a
+"wait until" count it: `goal.wait_until(0.3)` returns once 30 cm are behind it). A
+newer goal preempts it (result `cancelled`); a navigator that goes away aborts it. The robot holds a
 liveliness token and names it as every goal's lease, so when the program ends, dies,
 freezes or loses the router, the navigator stops the robot (`lease=False` opts out:
 such goals run on until they end). Its session announces a LEASE_TIMEOUT transport

@@ -79,6 +79,18 @@ def drive(goal, bot=None, max_s=40.0, **cfg):
     raise AssertionError("the goal did not end")
 
 
+def run_on(mc, bot, max_s=20.0):
+    """Drive the machine's running goal on `bot` until it ends (bounded): (the last command, the End, every command)."""
+    cmds = []
+    for _ in range(round(max_s / DT)):
+        cmd, end = mc.on_pose(bot.sample())
+        cmds.append(cmd)
+        if end is not None:
+            return cmd, end, cmds
+        bot.step(cmd)
+    raise AssertionError("the goal did not end")
+
+
 # ---------------------------------------------------------------- each exit reachable
 def test_within_tolerance_ends_the_move_and_the_recheck_passes():
     end, *_ = drive(to_point(1.0, 0.0))
@@ -265,16 +277,10 @@ def test_a_chained_move_ends_at_speed_on_its_exit_line_and_holds_its_command_for
     mc = GoalMachine(Params(chain_time=0.2), WHEELS)
     mc.on_pose(bot.sample())
     mc.start(to_point(1.0, 0.0, min_speed=0.1, early_exit_range=0.03), bot.t)
-    speeds = []
-    for _ in range(round(20.0 / DT)):
-        cmd, end = mc.on_pose(bot.sample())
-        speeds.append(cmd[0])
-        if end is not None:
-            break
-        bot.step(cmd)
+    cmd, end, cmds = run_on(mc, bot)
     assert (end.result, end.exit, end.stop) == (goals.SUCCEEDED, exits.CHAINED, False)
     assert 0.97 <= bot.x < 0.975  # on the line 3 cm before the point (one pose past it at most)
-    assert min(speeds[50:]) >= 0.1  # never below min_speed once under way, nor zeroed at the end
+    assert min(v for v, _ in cmds[50:]) >= 0.1  # never below min_speed once under way, nor zeroed at the end
     assert mc.state == goals.STOPPED and mc.coasting
     bot.step(cmd)
     held, _ = mc.on_pose(bot.sample())
@@ -289,11 +295,7 @@ def test_a_chained_move_with_no_next_goal_stops_after_chain_time_and_a_stop_ends
     mc = GoalMachine(Params(chain_time=0.2), WHEELS)
     mc.on_pose(bot.sample())
     mc.start(to_point(1.0, 0.0, min_speed=0.1), bot.t)
-    for _ in range(round(10.0 / DT)):
-        cmd, end = mc.on_pose(bot.sample())
-        if end is not None:
-            break
-        bot.step(cmd)
+    cmd, end, _ = run_on(mc, bot)
     assert end.exit == exits.CHAINED and cmd[0] >= 0.1
     held = []
     for _ in range(40):
@@ -304,11 +306,7 @@ def test_a_chained_move_with_no_next_goal_stops_after_chain_time_and_a_stop_ends
     assert held[:n] == [last] * n and last[0] >= 0.1 and n in (19, 20)  # held chain_time (0.2 s: 19 or 20 poses, as t rounds)
     assert held[n + 1] is None and not mc.coasting  # then zero, once: no goal, nothing more
     mc.start(to_point(1.5, 0.0, min_speed=0.1), bot.t)
-    for _ in range(round(10.0 / DT)):
-        cmd, end = mc.on_pose(bot.sample())
-        if end is not None:
-            break
-        bot.step(cmd)
+    run_on(mc, bot)
     assert mc.coasting and mc.cancel("stopped") is None and not mc.coasting  # nav/stop: no goal, and the hold is gone
 
 
@@ -317,15 +315,9 @@ def test_a_chained_turn_keeps_its_min_speed_and_ends_early_exit_range_before_the
     mc = GoalMachine(Params(), WHEELS)
     mc.on_pose(bot.sample())
     mc.start(Goal(goals.TURNING_TO_HEADING, heading=1.5, speed=2.0, tolerance=0.0175, min_speed=1.0, early_exit_range=0.1), bot.t)
-    rates = []
-    for _ in range(round(10.0 / DT)):
-        cmd, end = mc.on_pose(bot.sample())
-        if end is not None:
-            break
-        rates.append(cmd[1])
-        bot.step(cmd)
+    cmd, end, cmds = run_on(mc, bot)
     assert end.exit == exits.CHAINED and end.result == goals.SUCCEEDED and not end.stop
-    assert 1.4 <= bot.theta <= 1.42 and min(rates) >= 1.0 and cmd == (0.0, rates[-1])  # one pose past 0.1 rad before, at most
+    assert 1.4 <= bot.theta <= 1.42 and min(w for _, w in cmds) >= 1.0 and cmd == cmds[-2]  # one pose past 0.1 rad before, at most
 
 
 def test_a_chained_goal_that_starts_within_its_early_exit_range_ends_on_the_next_pose_and_a_pose_reached_wrong_way_round_stops():
