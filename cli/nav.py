@@ -99,6 +99,9 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     turn.add_argument("--speed", type=finite, help="turn rate [rad/s, deg/s with --deg]")
     turn.add_argument("--tolerance", type=finite, help="heading tolerance [rad, deg with --deg]")
     turn.add_argument("--deg", action="store_true", help="angles in degrees instead of radians")
+    turn.add_argument(
+        "--direction", choices=("auto", "cw", "ccw"), default="auto", help="cw / ccw: that way round (default: the shorter way)"
+    )
 
     back = argparse.ArgumentParser(add_help=False)
     back.add_argument("--backwards", action="store_true", help="the robot's back leads (the request's forwards = false)")
@@ -140,12 +143,12 @@ def send(bot: Robot, args: argparse.Namespace) -> Goal:
     speed = None if args.speed is None else args.speed * scale
     tolerance = None if args.tolerance is None else args.tolerance * scale
     if args.query == "nav/turn_to_heading":
-        return bot.turn_to_heading(args.heading * scale, speed=speed, tolerance=tolerance)
+        return bot.turn_to_heading(args.heading * scale, speed=speed, tolerance=tolerance, direction=args.direction)
     forwards = not args.backwards
     if args.query == "nav/move_to_point":
         return bot.move_to_point(args.x, args.y, speed=speed, tolerance=tolerance, forwards=forwards)
     if args.query == "nav/turn_to_point":
-        return bot.turn_to_point(args.x, args.y, speed=speed, tolerance=tolerance, forwards=forwards)
+        return bot.turn_to_point(args.x, args.y, speed=speed, tolerance=tolerance, forwards=forwards, direction=args.direction)
     return bot.follow_path(args.points, speed=speed, tolerance=tolerance, forwards=forwards)
 
 

@@ -208,14 +208,19 @@ class MoveToPose(GoalOptions, frozen=True, kw_only=True):
     forwards: bool = True  # False: back in (theta is still the heading of the robot's front)
 
 
+TurnDirection = Literal["auto", "cw", "ccw"]  # the shorter way, clockwise, counter-clockwise (LemLib's AngularDirection)
+
+
 class TurnToHeading(GoalOptions, frozen=True, kw_only=True):
     heading: Angle
+    direction: TurnDirection = "auto"  # cw / ccw: that way round, the long way if need be
 
 
 class TurnToPoint(GoalOptions, frozen=True, kw_only=True):
     x: Coord
     y: Coord
     forwards: bool = True  # False: face the point with the robot's back
+    direction: TurnDirection = "auto"  # cw / ccw: that way round, the long way if need be
 
 
 class MoveStraight(Request, frozen=True, kw_only=True):

@@ -222,12 +222,13 @@ class Robot:
         speed: float | None = None,
         tolerance: float | None = None,
         timeout: float | None = None,
+        direction: str = "auto",
         min_speed: float | None = None,
         early_exit_range: float | None = None,
     ) -> Goal:
         """Turn in place to `heading` [rad]."""
-        options = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "min_speed": min_speed, "early_exit_range": early_exit_range}
-        return await self._goal(self.sync.turn_to_heading, heading, **options)
+        options = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "direction": direction}
+        return await self._goal(self.sync.turn_to_heading, heading, **options, min_speed=min_speed, early_exit_range=early_exit_range)
 
     async def turn_to_point(
         self,
@@ -238,11 +239,12 @@ class Robot:
         tolerance: float | None = None,
         timeout: float | None = None,
         forwards: bool = True,
+        direction: str = "auto",
         min_speed: float | None = None,
         early_exit_range: float | None = None,
     ) -> Goal:
         """Turn in place to face (x [m], y [m]), or to turn the back to it."""
-        options = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "forwards": forwards}
+        options = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "forwards": forwards, "direction": direction}
         return await self._goal(self.sync.turn_to_point, x, y, **options, min_speed=min_speed, early_exit_range=early_exit_range)
 
     async def move_straight(self, speed: float, *, distance: float | None = None) -> Goal:

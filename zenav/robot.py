@@ -327,11 +327,13 @@ class Robot:
         speed: float | None = None,
         tolerance: float | None = None,
         timeout: float | None = None,
+        direction: str = "auto",
         min_speed: float | None = None,
         early_exit_range: float | None = None,
     ) -> Goal:
-        """Turn in place to `heading` [rad, CCW from +x]; speed [rad/s], tolerance [rad]."""
-        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout}
+        """Turn in place to `heading` [rad, CCW from +x]; speed [rad/s], tolerance [rad];
+        `direction` "cw" or "ccw": that way round, the long way if need be ("auto": the shorter way)."""
+        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "direction": _way(direction)}
         return self._goal("nav/turn_to_heading", {"heading": heading, **fields, **_options(True, min_speed, early_exit_range)})
 
     def turn_to_point(
@@ -343,11 +345,13 @@ class Robot:
         tolerance: float | None = None,
         timeout: float | None = None,
         forwards: bool = True,
+        direction: str = "auto",
         min_speed: float | None = None,
         early_exit_range: float | None = None,
     ) -> Goal:
-        """Turn in place to face (x [m], y [m]), or to turn the back to it; speed [rad/s], tolerance [rad]."""
-        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout}
+        """Turn in place to face (x [m], y [m]), or to turn the back to it; speed [rad/s], tolerance [rad]; `direction`
+        as turn_to_heading's."""
+        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "direction": _way(direction)}
         return self._goal("nav/turn_to_point", {"x": x, "y": y, **fields, **_options(forwards, min_speed, early_exit_range)})
 
     def move_straight(self, speed: float, *, distance: float | None = None) -> Goal:
@@ -516,6 +520,11 @@ class Robot:
         if running:
             self.stop()
         return running
+
+
+def _way(direction: str) -> str | None:
+    """A turn's `direction`, sent only when it is not the default (a navigator that predates it turns the shorter way)."""
+    return None if direction == "auto" else direction
 
 
 def _options(forwards: bool, min_speed: float | None, early_exit_range: float | None) -> dict[str, Any]:

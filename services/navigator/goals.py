@@ -51,6 +51,7 @@ FACE_OFF_LINE = 0.8  # [-] a correction turns to face its point first when it li
 FIELD_SLACK = 0.02  # [m] a goal started outside the field may take the robot this much farther out (a turn, the pose's noise)
 NOISE_SIGMAS = 2.0  # [-] plus this many position sigmas: an offset the estimate's noise explains is not chased by a turn
 MAX_SWITCHES = 256  # path points passed on one pose at most (bunched points: the rest on the next poses)
+RELEASE = math.pi / 4  # [rad] a turn told its direction turns the shorter way once this close (an overshoot is no full turn)
 
 
 class Refused(Exception):
@@ -74,6 +75,7 @@ class Goal:
     backwards: bool = False  # move_to_point, move_to_pose, follow_path: drive with the robot's back ahead
     min_speed: float = 0.0  # [m/s] ([rad/s] for turns) > 0: a chained goal, no slower than this, ending at speed
     early_exit_range: float = 0.0  # [m] ([rad] for turns) a chained goal ends this far before its target
+    direction: int = 0  # turns: +1 counter-clockwise, -1 clockwise (the long way round if need be), 0 the shorter way
 
 
 @dataclass(frozen=True)
@@ -125,6 +127,8 @@ class _Run:
     heading_error: float | None = None
     cross_track: float | None = None
     along: float | None = None  # [m] or [rad] a chained goal: how far before the target's line it was on the last pose
+    way: float = 0.0  # a turn: +1 counter-clockwise, -1 clockwise, as it started
+    forced: bool = False  # a turn told its direction, not yet within RELEASE of its heading
 
     @property
     def sign(self) -> float:
@@ -265,6 +269,10 @@ class GoalMachine:
         if goal.backwards:  # the run drives the robot seen from behind, to the heading its back arrives with
             goal, pose = replace(goal, heading=wrap_angle(goal.heading + math.pi)), behind(pose)
         run = self._run = _Run(goal, now, pose, beyond, Hold(p.settle_time), Hold(p.big_time), deadline)
+        if goal.state == TURNING_TO_HEADING:
+            err = wrap_angle(goal.heading - pose.theta)
+            run.forced = goal.direction != 0 and abs(err) > goal.tolerance  # told its way, and not there already
+            run.way = float(goal.direction) if run.forced else math.copysign(1.0, err)
         if goal.points:
             run.rest = path_rest(goal.points)
             self._aim(run, pose)
@@ -580,12 +588,22 @@ class GoalMachine:
     def _chained_turn(self, run: _Run, pose: PoseSample) -> tuple[float, float] | None:
         """A chained turn: no slower than min_speed, until the heading is within early_exit_range (or passed)."""
         goal = run.goal
-        err = wrap_angle(goal.heading - pose.theta)
-        direction = math.copysign(1.0, wrap_angle(goal.heading - run.origin.theta))  # the way it turns
+        err = self._turn_error(run, goal.heading, pose.theta)
         run.heading_error, run.progress, run.remaining = err, -abs(err), abs(err)
-        if self._crossed(run, err * direction):
+        if self._crossed(run, err * run.way):
             return None
-        return 0.0, direction * profile_speed(err * direction - goal.early_exit_range, self.params.turn_decel, goal.min_speed, goal.speed)
+        return 0.0, run.way * profile_speed(err * run.way - goal.early_exit_range, self.params.turn_decel, goal.min_speed, goal.speed)
+
+    @staticmethod
+    def _turn_error(run: _Run, heading: float, theta: float) -> float:
+        """[rad] `heading` - `theta`, the shorter way; a turn told its direction: that way round (up to a full turn),
+        until it comes within RELEASE of the heading."""
+        err = wrap_angle(heading - theta)
+        if run.forced:
+            if err * run.way < 0.0:
+                err += run.way * math.tau
+            run.forced = abs(err) >= RELEASE
+        return err
 
     def _face(self, run: _Run, pose: PoseSample, bearing: float, dist: float) -> tuple[float, float] | None:
         """A correction's turn in place until the point lies within half the tolerance of the heading line; None when done."""
@@ -632,7 +650,7 @@ class GoalMachine:
 
     def _step_turn(self, run: _Run, pose: PoseSample, heading: float, tolerance: float, speed: float) -> tuple[float, float] | None:
         p = self.params
-        err = wrap_angle(heading - pose.theta)
+        err = self._turn_error(run, heading, pose.theta)
         rate = self._rate[1]  # [rad/s]
         ahead = err - rate * p.stop_lead  # [rad] predicted error at the stop
         run.heading_error, run.progress = err, -abs(err)

@@ -140,8 +140,11 @@ def follow_path(req: m.FollowPath, cfg: Params) -> Resolved:
     return goal, info | {"forwards": req.forwards} | chain
 
 
+TURN_WAYS = {"auto": 0, "ccw": 1, "cw": -1}  # a turn request's direction -> the sign of its turn rate
+
+
 def _turn(heading: float, req: m.TurnToHeading | m.TurnToPoint, cfg: Params, info: dict[str, Any]) -> Resolved:
     speed = min(req.speed or cfg.turn_speed, cfg.max_turn_speed)
-    tol, chain = req.tolerance or cfg.heading_tolerance, _chain(req, speed)
-    goal = Goal(goals.TURNING_TO_HEADING, heading=heading, speed=speed, tolerance=tol, timeout=_timeout(req, cfg), **chain)
-    return goal, {**info, "speed": speed, "tolerance": tol, **chain}
+    tol, chain, way = req.tolerance or cfg.heading_tolerance, _chain(req, speed), TURN_WAYS[req.direction]
+    goal = Goal(goals.TURNING_TO_HEADING, heading=heading, speed=speed, tolerance=tol, timeout=_timeout(req, cfg), direction=way, **chain)
+    return goal, {**info, "speed": speed, "tolerance": tol, "direction": req.direction, **chain}

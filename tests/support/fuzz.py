@@ -60,6 +60,8 @@ def accepted_kinds(t: mi.Type) -> set[str]:
         return set(KINDS)
     if isinstance(t, mi.UnionType):
         return set().union(*(accepted_kinds(u) for u in t.types))
+    if isinstance(t, mi.LiteralType):
+        return {"str" if isinstance(v, str) else "int" for v in t.values}
     return {
         mi.FloatType: {"int", "float"},
         mi.IntType: {"int"},
@@ -104,6 +106,8 @@ def valid(t: mi.Type) -> st.SearchStrategy:
         return st.text(min_size=lo, max_size=max(lo, min(t.max_length or 8, 8)))
     if isinstance(t, mi.BoolType):
         return st.booleans()
+    if isinstance(t, mi.LiteralType):
+        return st.sampled_from(t.values)
     if isinstance(t, mi.NoneType):
         return st.none()
     if isinstance(t, mi.BytesType):
@@ -144,6 +148,8 @@ def out_of_range(t: mi.Type) -> list[st.SearchStrategy]:
             out.append(st.integers(int(hi) + 1, 2**64 - 1))
         if lo is not None and lo > -(2**63):
             out.append(st.integers(-(2**63), int(lo) - 1))
+    elif isinstance(t, mi.LiteralType):
+        out.append(st.text(max_size=8).filter(lambda v, values=t.values: v not in values))
     elif isinstance(t, mi.StrType):
         if t.max_length is not None:
             out.append(st.text(min_size=t.max_length + 1, max_size=t.max_length + 8))

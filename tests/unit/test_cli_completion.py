@@ -40,7 +40,7 @@ def complete(line):
 def test_bash_completes_subcommands_options_and_choices():
     assert complete("zenav go") == ["goto"]
     assert set(complete("zenav ")) >= {"goto", "topics", "completion"} and complete("zenav --") == ["--help", "--version"]
-    assert complete("zenav turn --d") == ["--deg"]
+    assert complete("zenav turn --de") == ["--deg"] and complete("zenav turn --direction ") == ["auto", "cw", "ccw"]
     assert complete("zenav echo --robot r2 --zenoh-mode ") == ["client", "peer"]
     assert complete("zenav camera s") == ["snapshot", "stream"]
     assert complete("zenav completion ") == ["bash", "zsh"]

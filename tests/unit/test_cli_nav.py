@@ -107,6 +107,8 @@ ACCEPTED = m.GoalReply(goal_id=7, state="MOVING_TO_POINT", speed=0.2)
         (["path", "1,0", "1,1", "--speed", "0.15"], "nav/follow_path", {"points": [[1.0, 0.0], [1.0, 1.0]], "speed": 0.15}),
         (["path", "--", "-1,0", "0,-1.5"], "nav/follow_path", {"points": [[-1.0, 0.0], [0.0, -1.5]]}),
         (["goto", "1", "0", "--backwards"], "nav/move_to_point", {"x": 1.0, "y": 0.0, "forwards": False}),
+        (["turn", "-90", "--deg", "--direction", "ccw"], "nav/turn_to_heading", {"heading": -math.pi / 2, "direction": "ccw"}),
+        (["face", "1", "1", "--direction", "cw"], "nav/turn_to_point", {"x": 1.0, "y": 1.0, "direction": "cw"}),
         (["face", "0", "1", "--backwards"], "nav/turn_to_point", {"x": 0.0, "y": 1.0, "forwards": False}),
         (["path", "1,0", "1,1", "--backwards"], "nav/follow_path", {"points": [[1.0, 0.0], [1.0, 1.0]], "forwards": False}),
     ],

@@ -26,6 +26,8 @@ def sample_value(t):
         return "x"
     if isinstance(t, msgspec.inspect.BoolType):
         return True
+    if isinstance(t, msgspec.inspect.LiteralType):
+        return t.values[0]
     if isinstance(t, (msgspec.inspect.VarTupleType, msgspec.inspect.ListType)):
         return [sample_value(t.item_type)] * max(t.min_length or 1, 1)
     if isinstance(t, msgspec.inspect.DictType):

@@ -336,6 +336,36 @@ def test_a_chained_goal_that_starts_within_its_early_exit_range_ends_on_the_next
     assert math.hypot(bot.x - 0.5, bot.y) <= 0.01 and abs(wrap_angle(bot.theta - math.pi)) <= 0.0175
 
 
+@pytest.mark.parametrize("way, heading", [(1, -math.pi / 2), (-1, math.pi / 2), (1, math.pi / 2), (-1, -2.0)])
+def test_a_turn_told_its_direction_turns_that_way_round_the_long_way_if_need_be(way, heading):
+    """LemLib's AngularDirection: ccw to -90 deg from 0 turns 270 deg counter-clockwise; near the end, the shorter way."""
+    bot = Unicycle()
+    mc = GoalMachine(Params(), WHEELS)
+    mc.on_pose(bot.sample())
+    mc.start(Goal(goals.TURNING_TO_HEADING, heading=heading, speed=2.0, tolerance=0.0175, direction=way), bot.t)
+    long_way = (heading * way) % math.tau  # [rad] how far round that way
+    assert mc.feedback(bot.t).distance_remaining == pytest.approx(long_way)
+    _, end, cmds = run_on(mc, bot)
+    turned = [w * way for _, w in cmds[:-1]]
+    assert end.result == goals.SUCCEEDED and abs(wrap_angle(bot.theta - heading)) <= 0.0175
+    assert min(turned[: round(0.8 * len(turned))]) > 0.0 and sum(turned) * DT == pytest.approx(long_way, abs=0.1)  # that way round
+
+
+def test_a_turn_told_its_direction_that_overshoots_turns_back_not_round_again():
+    mc = machine()
+    mc.start(Goal(goals.TURNING_TO_HEADING, heading=-math.pi / 2, speed=2.0, tolerance=0.0175, direction=1), 0.0)  # ccw, 270 deg
+    mc.on_pose(PoseSample(0.01, 0.0, 0.0, -math.pi / 2 - 0.5, omega=2.0))  # 0.5 rad to go, counter-clockwise
+    cmd, _ = mc.on_pose(PoseSample(0.02, 0.0, 0.0, -math.pi / 2 + 0.05, omega=2.0))  # 0.05 rad past it
+    assert cmd[1] <= 0.0 and mc.feedback(0.02).distance_remaining == pytest.approx(0.05)  # back the short way, not round again
+
+
+def test_a_turn_told_its_direction_but_already_there_does_not_go_round():
+    mc = machine()
+    mc.start(Goal(goals.TURNING_TO_HEADING, heading=-0.01, speed=2.0, tolerance=0.0175, direction=1), 0.0)
+    cmd, end = mc.on_pose(PoseSample(0.01, 0.0, 0.0, 0.0))
+    assert cmd == (0.0, 0.0) and mc.feedback(0.01).distance_remaining == pytest.approx(0.0)  # within its tolerance: stopped
+
+
 def test_early_exit_range_without_min_speed_is_refused():
     with pytest.raises(intake.Invalid, match="early_exit_range: only a chained move"):
         intake.move_to_point(m.MoveToPoint(x=1.0, y=0.0, early_exit_range=0.02), Params())
