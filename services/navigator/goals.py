@@ -18,6 +18,8 @@ A chained goal (`min_speed` > 0: LemLib's motion chaining) never slows below min
 and ends, `chained`, once the robot crosses the line across its approach (a turn: its
 heading) `early_exit_range` before the target; its last command is then held for
 `chain_time`, so that the next goal takes over at speed (`coasting`).
+A turn told its direction (LemLib's AngularDirection: +1 counter-clockwise, -1 clockwise)
+turns that way round, the long way if need be, and the shorter way once within RELEASE.
 Every end but a handover to a new goal or a chained end asks for zero velocity at once (`End.stop`).
 The robot stays in the field: a goal whose target lies outside is refused
 (`outside`), and a running goal aborts when the pose leaves it. A move_straight
