@@ -1,4 +1,4 @@
-"""`zenav goto | turn | face | straight | path | stop | set-pose`: drive the robot through the navigator.
+"""`zenav goto | turn | swing | face | straight | path | stop | set-pose`: drive the robot through the navigator.
 
 Without --wait a command returns once the navigator accepts the goal. With --wait it
 shows a progress line until the goal ends, and holds a liveliness token as the goal's
@@ -113,6 +113,10 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("turn", parents=[goal, turn], help="turn in place to a heading (radians, CCW from +x; --deg for degrees)")
     p.add_argument("heading", type=finite, help="[rad] in [-2 pi, 2 pi] (degrees with --deg)")
     p.set_defaults(func=run, query="nav/turn_to_heading")
+    p = sub.add_parser("swing", parents=[goal, turn], help="turn to a heading about one wheel, which stays still (a swing turn)")
+    p.add_argument("heading", type=finite, help="[rad] in [-2 pi, 2 pi] (degrees with --deg)")
+    p.add_argument("side", choices=("left", "right"), help="the wheel that stays still")
+    p.set_defaults(func=run, query="nav/swing_to_heading")
     p = sub.add_parser("face", parents=[goal, turn, back], help="turn in place to face a point, or the back to it with --backwards")
     p.add_argument("x", type=finite, help="[m]")
     p.add_argument("y", type=finite, help="[m]")
@@ -144,6 +148,8 @@ def send(bot: Robot, args: argparse.Namespace) -> Goal:
     tolerance = None if args.tolerance is None else args.tolerance * scale
     if args.query == "nav/turn_to_heading":
         return bot.turn_to_heading(args.heading * scale, speed=speed, tolerance=tolerance, direction=args.direction)
+    if args.query == "nav/swing_to_heading":
+        return bot.swing_to_heading(args.heading * scale, args.side, speed=speed, tolerance=tolerance, direction=args.direction)
     forwards = not args.backwards
     if args.query == "nav/move_to_point":
         return bot.move_to_point(args.x, args.y, speed=speed, tolerance=tolerance, forwards=forwards)
@@ -204,7 +210,7 @@ def speed_text(args: argparse.Namespace, speed: float | None) -> str:
     """The speed the navigator used, in the command's units."""
     if speed is None:
         return ""
-    if args.query in ("nav/turn_to_heading", "nav/turn_to_point"):
+    if args.query in ("nav/turn_to_heading", "nav/turn_to_point", "nav/swing_to_heading"):
         return f" at {math.degrees(speed):.0f} deg/s" if args.deg else f" at {speed:.2f} rad/s"
     return f" at {speed:.2f} m/s"
 

@@ -47,6 +47,7 @@ QUERIES: dict[str, tuple[type[m.Request], type[m.Reply]]] = {
     "nav/move_to_pose": (m.MoveToPose, m.GoalReply),
     "nav/turn_to_heading": (m.TurnToHeading, m.GoalReply),
     "nav/turn_to_point": (m.TurnToPoint, m.GoalReply),
+    "nav/swing_to_heading": (m.SwingToHeading, m.GoalReply),
     "nav/move_straight": (m.MoveStraight, m.GoalReply),
     "nav/follow_path": (m.FollowPath, m.GoalReply),
     "nav/stop": (m.Empty, m.StopReply),

@@ -216,6 +216,12 @@ class TurnToHeading(GoalOptions, frozen=True, kw_only=True):
     direction: TurnDirection = "auto"  # cw / ccw: that way round, the long way if need be
 
 
+class SwingToHeading(GoalOptions, frozen=True, kw_only=True):
+    heading: Angle
+    side: Literal["left", "right"]  # the wheel that stays still: the robot turns about it (LemLib's lockedSide)
+    direction: TurnDirection = "auto"  # cw / ccw: that way round, the long way if need be
+
+
 class TurnToPoint(GoalOptions, frozen=True, kw_only=True):
     x: Coord
     y: Coord

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from zenav.common import messages as m
 
 STOPPED = "STOPPED"  # nav/state's state with no goal running
-TURNING_TO_HEADING = "TURNING_TO_HEADING"  # the state of a turn in place (turn_to_heading, turn_to_point)
+TURNING_TO_HEADING = "TURNING_TO_HEADING"  # the state of a turn (turn_to_heading, turn_to_point, swing_to_heading)
 KEEP_GOALS = 64  # goal ids remembered below the newest
 
 

@@ -230,6 +230,22 @@ class Robot:
         options = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "direction": direction}
         return await self._goal(self.sync.turn_to_heading, heading, **options, min_speed=min_speed, early_exit_range=early_exit_range)
 
+    async def swing_to_heading(
+        self,
+        heading: float,
+        side: str,
+        *,
+        speed: float | None = None,
+        tolerance: float | None = None,
+        timeout: float | None = None,
+        direction: str = "auto",
+        min_speed: float | None = None,
+        early_exit_range: float | None = None,
+    ) -> Goal:
+        """Turn to `heading` [rad] about one wheel, `side` "left" or "right", which stays still."""
+        options = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "direction": direction}
+        return await self._goal(self.sync.swing_to_heading, heading, side, **options, min_speed=min_speed, early_exit_range=early_exit_range)
+
     async def turn_to_point(
         self,
         x: float,

@@ -336,6 +336,24 @@ class Robot:
         fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "direction": _way(direction)}
         return self._goal("nav/turn_to_heading", {"heading": heading, **fields, **_options(True, min_speed, early_exit_range)})
 
+    def swing_to_heading(
+        self,
+        heading: float,
+        side: str,
+        *,
+        speed: float | None = None,
+        tolerance: float | None = None,
+        timeout: float | None = None,
+        direction: str = "auto",
+        min_speed: float | None = None,
+        early_exit_range: float | None = None,
+    ) -> Goal:
+        """Turn to `heading` [rad] about one wheel, `side` "left" or "right", which stays still (LemLib's swingToHeading);
+        the options as turn_to_heading's."""
+        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "direction": _way(direction)}
+        request = {"heading": heading, "side": side, **fields, **_options(True, min_speed, early_exit_range)}
+        return self._goal("nav/swing_to_heading", request)
+
     def turn_to_point(
         self,
         x: float,

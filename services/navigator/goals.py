@@ -20,6 +20,7 @@ heading) `early_exit_range` before the target; its last command is then held for
 `chain_time`, so that the next goal takes over at speed (`coasting`).
 A turn told its direction (LemLib's AngularDirection: +1 counter-clockwise, -1 clockwise)
 turns that way round, the long way if need be, and the shorter way once within RELEASE.
+A swing (LemLib's swingToHeading) is a turn about one wheel, which is commanded to stand still.
 Every end but a handover to a new goal or a chained end asks for zero velocity at once (`End.stop`).
 The robot stays in the field: a goal whose target lies outside is refused
 (`outside`), and a running goal aborts when the pose leaves it. A move_straight
@@ -78,6 +79,7 @@ class Goal:
     min_speed: float = 0.0  # [m/s] ([rad/s] for turns) > 0: a chained goal, no slower than this, ending at speed
     early_exit_range: float = 0.0  # [m] ([rad] for turns) a chained goal ends this far before its target
     direction: int = 0  # turns: +1 counter-clockwise, -1 clockwise (the long way round if need be), 0 the shorter way
+    pivot: int = 0  # turns: 0 in place; a swing about its still wheel, +1 the left, -1 the right
 
 
 @dataclass(frozen=True)
@@ -477,9 +479,15 @@ class GoalMachine:
         if goal.state == MOVING_STRAIGHT:
             return self._step_straight(run, pose)
         if goal.state == TURNING_TO_HEADING:
+            cmd = (
+                self._chained_turn(run, pose)
+                if goal.min_speed > 0.0
+                else self._step_turn(run, pose, goal.heading, goal.tolerance, goal.speed)
+            )
+            if cmd is not None and goal.pivot:  # a swing: the still wheel's speed, v -/+ omega * track / 2, is zero
+                cmd = (goal.pivot * cmd[1] * self.wheels.track / 2.0, cmd[1])
             if goal.min_speed > 0.0:
-                return self._chained_turn(run, pose)
-            cmd = self._step_turn(run, pose, goal.heading, goal.tolerance, goal.speed)
+                return cmd
         else:
             cmd = self._step_points(run, pose)
             if run.index + 1 < len(goal.points):

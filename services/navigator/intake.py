@@ -7,6 +7,7 @@ that cannot be driven raises `Invalid`, naming the field (an invalid_argument re
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any, TypedDict, cast
 
 from zenav.common import messages as m
@@ -99,6 +100,12 @@ def turn_to_point(req: m.TurnToPoint, cfg: Params, pose: PoseSample) -> Resolved
     return _turn(heading, req, cfg, {"type": "turn_to_point", "x": req.x, "y": req.y, "heading": heading, "forwards": req.forwards})
 
 
+def swing_to_heading(req: m.SwingToHeading, cfg: Params) -> Resolved:
+    """Turn to a heading about one wheel, which stays still (LemLib's swingToHeading, EZ-Template's swing turns)."""
+    goal, info = _turn(wrap_angle(req.heading), req, cfg, {"type": "swing_to_heading", "heading": req.heading, "side": req.side})
+    return replace(goal, pivot=PIVOTS[req.side]), info
+
+
 def move_straight(req: m.MoveStraight, cfg: Params) -> Resolved:
     """Drive on the start heading; stop after `distance` if given (else after straight_max_time)."""
     if req.speed == 0.0:
@@ -141,9 +148,10 @@ def follow_path(req: m.FollowPath, cfg: Params) -> Resolved:
 
 
 TURN_WAYS = {"auto": 0, "ccw": 1, "cw": -1}  # a turn request's direction -> the sign of its turn rate
+PIVOTS = {"left": 1, "right": -1}  # a swing's locked side -> Goal.pivot
 
 
-def _turn(heading: float, req: m.TurnToHeading | m.TurnToPoint, cfg: Params, info: dict[str, Any]) -> Resolved:
+def _turn(heading: float, req: m.TurnToHeading | m.TurnToPoint | m.SwingToHeading, cfg: Params, info: dict[str, Any]) -> Resolved:
     speed = min(req.speed or cfg.turn_speed, cfg.max_turn_speed)
     tol, chain, way = req.tolerance or cfg.heading_tolerance, _chain(req, speed), TURN_WAYS[req.direction]
     goal = Goal(goals.TURNING_TO_HEADING, heading=heading, speed=speed, tolerance=tol, timeout=_timeout(req, cfg), direction=way, **chain)

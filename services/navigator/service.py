@@ -145,6 +145,11 @@ class Navigator(Service):
         """Turn in place to face (x, y), the heading taken from the pose at the start."""
         self._request(lambda r, cfg: intake.turn_to_point(r, cfg, self._pose_or_unavailable()), req, q)
 
+    @query("nav/swing_to_heading")
+    def swing_to_heading(self, req: m.SwingToHeading, q: Query) -> None:
+        """Turn to a heading about one locked wheel."""
+        self._request(intake.swing_to_heading, req, q)
+
     @query("nav/move_straight")
     def move_straight(self, req: m.MoveStraight, q: Query) -> None:
         """Drive on the start heading, steering out cross-track error; stop after `distance` if given."""

@@ -421,7 +421,7 @@ def test_a_wildcard_get_reaches_only_the_read_only_queries(rig):
     assert rig.nav.machine.state == "MOVING_TO_POINT" and replies == {True, False}
     [status] = [codec.decode(d, m.StatusReply) for ok, d in q.replies if ok]
     assert status.state == "MOVING_TO_POINT"
-    assert rig.nav.counters.values["wildcard_refused"] == 7  # six goals and stop
+    assert rig.nav.counters.values["wildcard_refused"] == 8  # seven goals and stop
     assert rig.cmd[0] > 0.0  # the stop it reached did not command zero either
 
 

@@ -104,6 +104,21 @@ def test_a_backwards_move_to_point_backs_onto_the_point_with_every_controller(co
     rig.nav.close()
 
 
+@pytest.mark.parametrize("side, pivot", [("left", 1), ("right", -1)])
+def test_a_swing_turns_about_the_wheel_that_stays_still(rig, side, pivot):
+    """LemLib's swingToHeading: the locked wheel's contact point is where it was, and the robot ends at the heading."""
+    half = rig.bot.robot.track_width / 2.0
+
+    def wheel():
+        return rig.x - pivot * half * math.sin(rig.theta), rig.y + pivot * half * math.cos(rig.theta)
+
+    before = wheel()
+    rep = rig.run_until(rig.query("nav/swing_to_heading", {"heading": math.pi / 2, "side": side, "direction": "ccw", "wait": True}))
+    assert rep.result == "succeeded" and abs(math.remainder(rig.theta - math.pi / 2, math.tau)) <= 0.0175
+    assert math.dist(wheel(), before) < 0.002 and math.hypot(rig.x, rig.y) > 0.05  # the still wheel stayed; the robot moved
+    assert rig.published("nav/state")[-1].goal["side"] == side
+
+
 def test_turn_to_point_backwards_turns_the_back_to_the_point(rig):
     rep = rig.run_until(rig.query("nav/turn_to_point", {"x": 1.0, "y": 1.0, "forwards": False, "wait": True}))
     assert rep.result == "succeeded"

@@ -305,6 +305,8 @@ def minimal(t: mi.Type) -> object:
         return "a" * (t.min_length or 0)
     if isinstance(t, mi.BoolType):
         return False
+    if isinstance(t, mi.LiteralType):
+        return t.values[0]
     if isinstance(t, (mi.NoneType, mi.AnyType)):
         return None
     if isinstance(t, mi.UnionType):

@@ -109,6 +109,7 @@ ACCEPTED = m.GoalReply(goal_id=7, state="MOVING_TO_POINT", speed=0.2)
         (["goto", "1", "0", "--backwards"], "nav/move_to_point", {"x": 1.0, "y": 0.0, "forwards": False}),
         (["turn", "-90", "--deg", "--direction", "ccw"], "nav/turn_to_heading", {"heading": -math.pi / 2, "direction": "ccw"}),
         (["face", "1", "1", "--direction", "cw"], "nav/turn_to_point", {"x": 1.0, "y": 1.0, "direction": "cw"}),
+        (["swing", "90", "left", "--deg"], "nav/swing_to_heading", {"heading": math.pi / 2, "side": "left"}),
         (["face", "0", "1", "--backwards"], "nav/turn_to_point", {"x": 0.0, "y": 1.0, "forwards": False}),
         (["path", "1,0", "1,1", "--backwards"], "nav/follow_path", {"points": [[1.0, 0.0], [1.0, 1.0]], "forwards": False}),
     ],
@@ -246,7 +247,7 @@ def test_progress_line():
     assert "0.500 rad" in nav.progress(turning)
 
 
-GOALS = (["goto", "1", "2"], ["turn", "1"], ["face", "1", "2"], ["straight", "0.1"], ["path", "1,2"])
+GOALS = (["goto", "1", "2"], ["turn", "1"], ["swing", "1", "left"], ["face", "1", "2"], ["straight", "0.1"], ["path", "1,2"])
 CLIENT_COMMANDS = (*GOALS, ["stop"], ["set-pose", "0", "0"], ["status"])
 
 

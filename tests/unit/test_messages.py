@@ -120,6 +120,7 @@ def test_every_contract_key_is_registered():
         "nav/move_to_point",
         "nav/move_to_pose",
         "nav/turn_to_heading",
+        "nav/swing_to_heading",
         "nav/turn_to_point",
         "nav/move_straight",
         "nav/follow_path",

@@ -128,7 +128,8 @@ def test_chained_goals_hand_over_at_speed_as_lemlib_s_motion_chaining(world, bot
 
 
 def test_the_asyncio_robot_has_every_method_of_the_robot_with_the_same_parameters():
-    for name in ("wait_ready", "move_to_point", "move_to_pose", "turn_to_heading", "turn_to_point", "move_straight", "follow_path"):
+    names = ("wait_ready", "move_to_point", "move_to_pose", "turn_to_heading", "turn_to_point", "swing_to_heading", "move_straight")
+    for name in (*names, "follow_path"):
         sync, coro = getattr(Robot, name), getattr(aio.Robot, name)
         assert inspect.iscoroutinefunction(coro), name
         assert list(inspect.signature(sync).parameters.items()) == list(inspect.signature(coro).parameters.items()), name
