@@ -11,12 +11,12 @@ A goal is sent without `wait` and followed on `nav/state`: its handle (`Goal`) k
 its progress and its end, also when nobody was waiting on it, and how far the robot
 has travelled since it started (summed over the poses, as LemLib's and EZ-Template's
 "wait until" count it: `goal.wait_until(0.3)` returns once 30 cm are behind it). A
-newer goal preempts it (result `cancelled`); a navigator that goes away aborts it. The robot holds a
-liveliness token and names it as every goal's lease, so when the program ends, dies,
-freezes or loses the router, the navigator stops the robot (`lease=False` opts out:
-such goals run on until they end). Its session announces a LEASE_TIMEOUT transport
-lease, so the router withdraws the token of a frozen program (SIGSTOP, a hung
-laptop, a dropped Wi-Fi link) within that time.
+newer goal preempts it (result `cancelled`); a navigator that goes away aborts it. The
+robot holds a liveliness token and names it as every goal's lease, so when the program
+ends, dies, freezes or loses the router, the navigator stops the robot (`lease=False`
+opts out: such goals run on until they end). Its session announces a LEASE_TIMEOUT
+transport lease, so the router withdraws the token of a frozen program (SIGSTOP, a
+hung laptop, a dropped Wi-Fi link) within that time.
 Error replies raise `ZenavError`s named by the contract's error code.
 """
 
@@ -468,10 +468,10 @@ class Robot:
         if not self._open:
             return
         with self._cond:
-            marked = [goal._step(pose) for goal in list(self._open.values())]
-            if any(marked):
+            marked = any([goal._step(pose) for goal in list(self._open.values())])  # every goal steps, then any
+            if marked:
                 self._cond.notify_all()
-        if any(marked):
+        if marked:
             self._changed()
 
     def _on_state(self, st: m.NavState) -> None:

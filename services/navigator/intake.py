@@ -7,7 +7,6 @@ that cannot be driven raises `Invalid`, naming the field (an invalid_argument re
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from typing import Any, TypedDict, cast
 
 from zenav.common import messages as m
@@ -102,8 +101,8 @@ def turn_to_point(req: m.TurnToPoint, cfg: Params, pose: PoseSample) -> Resolved
 
 def swing_to_heading(req: m.SwingToHeading, cfg: Params) -> Resolved:
     """Turn to a heading about one wheel, which stays still (LemLib's swingToHeading, EZ-Template's swing turns)."""
-    goal, info = _turn(wrap_angle(req.heading), req, cfg, {"type": "swing_to_heading", "heading": req.heading, "side": req.side})
-    return replace(goal, pivot=PIVOTS[req.side]), info
+    info = {"type": "swing_to_heading", "heading": req.heading, "side": req.side}
+    return _turn(wrap_angle(req.heading), req, cfg, info, pivot=PIVOTS[req.side])
 
 
 def move_straight(req: m.MoveStraight, cfg: Params) -> Resolved:
@@ -151,8 +150,12 @@ TURN_WAYS = {"auto": 0, "ccw": 1, "cw": -1}  # a turn request's direction -> the
 PIVOTS = {"left": 1, "right": -1}  # a swing's locked side -> Goal.pivot
 
 
-def _turn(heading: float, req: m.TurnToHeading | m.TurnToPoint | m.SwingToHeading, cfg: Params, info: dict[str, Any]) -> Resolved:
+def _turn(
+    heading: float, req: m.TurnToHeading | m.TurnToPoint | m.SwingToHeading, cfg: Params, info: dict[str, Any], pivot: int = 0
+) -> Resolved:
+    """A turn in place (`pivot` 0), or a swing about one wheel (Goal.pivot)."""
     speed = min(req.speed or cfg.turn_speed, cfg.max_turn_speed)
     tol, chain, way = req.tolerance or cfg.heading_tolerance, _chain(req, speed), TURN_WAYS[req.direction]
-    goal = Goal(goals.TURNING_TO_HEADING, heading=heading, speed=speed, tolerance=tol, timeout=_timeout(req, cfg), direction=way, **chain)
+    timeout = _timeout(req, cfg)
+    goal = Goal(goals.TURNING_TO_HEADING, heading=heading, speed=speed, tolerance=tol, timeout=timeout, direction=way, pivot=pivot, **chain)
     return goal, {**info, "speed": speed, "tolerance": tol, "direction": req.direction, **chain}
