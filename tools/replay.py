@@ -15,8 +15,10 @@ every FILL at most: a stack clock refuses a tick further ahead than a plausible 
 ([limits] clock_jump), and at rate 0 no wall time passes to make a longer one plausible.
 Where the stamps go back by more than RESTART_JUMP (the robot restarted, or its wall
 clock was set back), the made ticks start again from there, as a restarted sim's would:
-a stack clock takes such a tick as a restart. The ticks are the same at any rate, and so
-is the re-run.
+a stack clock takes such a tick as a restart. Only messages stamped when they were sent
+make ticks: a fix is stamped at its capture (CAPTURE_STAMPED), late by design and by
+however long its camera's link took, and must not take the clock back. The ticks are the
+same at any rate, and so is the re-run.
 
 To re-run the localizer on recorded sensors, replay `clock`, `odom`, `vps/pose` and
 `sensors/imu` into a stack that runs only the localizer, and compare its `pose` with the recorded one.
@@ -39,6 +41,7 @@ from zenav.tools import mcap_format as fmt
 
 TICK = 0.01  # [s] of stamps between the clock ticks made for a robot recorded without any (the sim's 100 Hz)
 FILL = 0.25  # [s] of stamps at most between such ticks across a gap (well under [limits] clock_jump's default 1 s)
+CAPTURE_STAMPED = frozenset({"vps/pose", "localizer/fixes"})  # stamped at a capture, not when sent: no tick made from them
 
 
 def replay(
@@ -76,7 +79,11 @@ def replay(
         msg, on = rec.msg, as_robot or rec.robot
         if isinstance(msg, m.Clock):
             msg = msgspec.structs.replace(msg, wall=time.time(), rtf=replayed_rtf(msg.rtf, rate))
-        elif rec.robot in ticks and not ticks[rec.robot] - RESTART_JUMP <= msg.t < ticks[rec.robot] + TICK:
+        elif (
+            rec.robot in ticks
+            and rec.suffix not in CAPTURE_STAMPED
+            and not ticks[rec.robot] - RESTART_JUMP <= msg.t < ticks[rec.robot] + TICK
+        ):
             for t in made_ticks(ticks[rec.robot], msg.t):
                 bus.publish(keys.key(on, "clock"), codec.encode(m.Clock(t=t, rtf=made_rtf, wall=time.time())))
             ticks[rec.robot] = msg.t

@@ -200,6 +200,41 @@ def test_ticks_made_from_stamps_start_again_where_the_robot_restarted(tmp_path):
     assert outcomes == [ACCEPTED] * 30 + [RESTARTED] + [ACCEPTED] * 29 and clock.tick() == after[-1]
 
 
+def test_a_fix_that_came_very_late_takes_the_made_ticks_back_not_at_all(tmp_path):
+    path = str(tmp_path / "slow_camera.mcap")
+    t0 = 1.8e9
+    stamps = [t0 + i * 0.01 for i in range(300)]
+    rows: list[tuple[str, m.Topic, float]] = [
+        (keys.key("r1", "odom"), m.Odom(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0), t - t0) for t in stamps
+    ]
+    # A camera whose link stalled: its fix comes 1.5 s after its capture, more than a restart's jump back.
+    fix = m.VpsPose(t=stamps[200] - 1.5, x=0.0, y=0.0, theta=0.0)
+    audit = m.Fix(
+        t=fix.t,
+        t_arrival=stamps[200],
+        latency=1.5,
+        replay_depth=0,
+        innovation=(0.0, 0.0, 0.0),
+        mahalanobis_d2=0.0,
+        accepted=False,
+        reason="too_old",
+    )
+    rows[201:201] = [(keys.key("r1", "vps/pose"), fix, 2.0), (keys.key("r1", "localizer/fixes"), audit, 2.0)]
+    write_recording(path, rows)
+    clock, outcomes, ticks = SimClock(), [], []
+
+    def follow(key: str, data: bytes) -> None:
+        tick = codec.decode(data, m.Clock)
+        ticks.append(tick.t)
+        outcomes.append(clock.update(tick))
+
+    bus = MemoryBus()
+    bus.subscribe(keys.key("r1", "clock"), follow)
+    assert replay(path, bus, rate=0.0) == 302
+    assert ticks == stamps  # the odometry's stamps only: the fixes, stamped at their capture, make none
+    assert set(outcomes) == {ACCEPTED}  # no restart, so a localizer re-run on it keeps its estimate
+
+
 def test_replay_stops_when_told(tmp_path):
     path = str(tmp_path / "clock.mcap")
     clock_recording(path)
