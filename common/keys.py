@@ -39,6 +39,7 @@ LOOP = frozenset(
 FIELD = "field"
 FIELD_TOPICS: dict[str, type[m.Topic]] = {
     "camera/frame": m.CameraFrame,
+    "sim/body": m.Body,
 }
 
 # Query suffix -> (request type, reply type).

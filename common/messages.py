@@ -99,6 +99,16 @@ class CameraFrame(Topic, frozen=True, kw_only=True):
     data: bytes
 
 
+class Body(Topic, frozen=True, kw_only=True):
+    """Where a simulated robot's body is on the field (zenav/field/sim/body): the other robots' sims keep out of it."""
+
+    t: Time  # the sending sim's time
+    robot: Annotated[str, Meta(pattern=ROBOT_ID_PATTERN, max_length=64)]  # whose body
+    x: Coord  # [m] map frame: the centre of the disc
+    y: Coord  # [m]
+    radius: Annotated[float, Meta(gt=0.0, le=10.0)]  # [m] the footprint, a disc
+
+
 class Odom(Topic, frozen=True, kw_only=True):
     t: Time  # encoder sample time
     x: Coord  # [m] odom frame

@@ -1,4 +1,5 @@
-"""The sim service: steps the world model (zenav.world) at the sensor rate, publishes clock, truth and sensors."""
+"""The sim service: steps the world model (zenav.world) at the sensor rate, publishes clock, truth and sensors,
+and where its robot's body is on the field, which the other robots' sims keep out of."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from zenav.common.config import Camera, Settings
 from zenav.common.runtime import Service, on_liveliness, query, subscribe, timer
 from zenav.services.sim.camera import FieldCamera, Shutter
 from zenav.world import faults, sensors
+from zenav.world.bodies import Disc
 from zenav.world.sim import SimRobot
 
 
@@ -33,9 +35,13 @@ class SimConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     camera: bool = False  # render the overhead camera's frames ([camera]) on zenav/field/camera/frame
     # [Hz] of sim time: clock ticks (at most one a step); at rtf 1 a tick at least every SimClock's 0.25 s of extrapolation
     clock_rate_hz: Annotated[float, Meta(ge=5.0, le=2000.0)] = 20.0
+    # [m] the robot's footprint, a disc other simulated robots on the field keep out of (and it out of theirs); 0: none
+    body_radius: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.1
 
 
 OVERRUN_HOLD = 5.0  # [s] of the scheduling clock a fall behind keeps the status degraded
+BODY_RATE_HZ = 20.0  # [Hz] of sim time: how often the sim tells the field where its robot's body is
+BODY_KEPT = 1.0  # [s] of sim time another robot's body is kept after its last report (its sim stopped: gone)
 
 
 class Sim(Service):
@@ -52,7 +58,8 @@ class Sim(Service):
         self.step_period = 1.0 / self.rate  # [s] of the scheduling clock: one physics step
         self.tick_period = self.step_period / 2  # [s] the tick timer's: a step, and half a step later what follows it
         c = self.cfg
-        self.bot = SimRobot(settings.robot, self.scen, settings.deployment.seed, c.x0, c.y0, c.theta0, c.encoder_start)
+        self.bot = SimRobot(settings.robot, self.scen, settings.deployment.seed, c.x0, c.y0, c.theta0, c.encoder_start, c.body_radius)
+        self.others: dict[str, tuple[float, Disc]] = {}  # robot -> (sim time heard, its body): what the bodies step among
         self.steps = 0  # steps taken: sim time is steps / rate, never read from the wall
         self.base = 0.0  # [s] scheduling-clock time of step 0 (moves forward on a resync)
         self.cmd = (0.0, 0.0)  # [rad/s] wheel commands (left, right)
@@ -65,8 +72,9 @@ class Sim(Service):
             self.shutter = Shutter(FieldCamera(cam, settings.deployment.seed, cam.robots.get(self.robot), hidden), self._send_frame)
         self.count("overruns", 0)
         self.count("command_timeouts", 0)
+        self.count("contacts", 0)
         self._behind: tuple[float, str] | None = None  # (scheduling-clock time, why) of the last fall behind
-        self._after: list[tuple[str, m.Clock | m.Truth]] = []  # the last steps' clock ticks and truth, sent on the next tick
+        self._after: list[tuple[str, m.Clock | m.Truth | m.Body]] = []  # the last steps' clock ticks and truth, sent on the next tick
 
     @classmethod
     def make_clock(cls, settings: Settings) -> Clock:
@@ -81,8 +89,27 @@ class Sim(Service):
         if self.shutter is not None:
             self.shutter.close()
 
+    def key(self, suffix: str) -> str:
+        """Field-level topics live under zenav/field/, the rest under this robot."""
+        return keys.field_key(suffix) if suffix in keys.FIELD_TOPICS else super().key(suffix)
+
     def on_start(self) -> None:
         self.base = self.clock.now()
+        if self.cfg.body_radius > 0.0:
+            self.subscribe("sim/body", m.Body, self.on_body)
+
+    def on_body(self, msg: m.Body) -> None:
+        """Another robot's body on the field (this robot's own comes back too: not kept)."""
+        if msg.robot != self.robot:
+            self.others[msg.robot] = (self.t, Disc(msg.x, msg.y, msg.radius))
+
+    def _bodies(self) -> dict[str, Disc]:
+        """The other robots' bodies heard within BODY_KEPT."""
+        if not self.others:
+            return {}
+        for robot in [r for r, (heard, _) in self.others.items() if self.t - heard > BODY_KEPT]:
+            del self.others[robot]
+        return {r: disc for r, (_, disc) in self.others.items()}
 
     @property
     def t(self) -> float:
@@ -138,8 +165,12 @@ class Sim(Service):
             # Like a real motor board: no command for a while, stop the wheels.
             self.cmd, self.cmd_t = (0.0, 0.0), None
             self.count("command_timeouts")
-        s = self.bot.step(*self.cmd, self.step_period)
+        was = self.bot.met
+        s = self.bot.step(*self.cmd, self.step_period, self._bodies())
         self.steps += 1
+        for robot in set(self.bot.met) - set(was):
+            self.count("contacts")
+            self.log.info("drove into robot %s at (%.3f, %.3f): stopped there, the wheels slipping", robot, s.x, s.y)
         fx = faults.at(self.scen, t)
         left, right = self.bot.encoders()
         encoders = m.Encoders(t=fx.stamp, left=self.hold.apply(fx, left), right=right)
@@ -165,6 +196,8 @@ class Sim(Service):
             self._after.append(("clock", m.Clock(t=t, rtf=self.cfg.rtf, wall=wall)))
         truth = m.Truth(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega, wall=wall)
         self._after.append(("sim/truth", truth))
+        if self.cfg.body_radius > 0.0 and sensors.due(self.steps - 1, BODY_RATE_HZ, self.rate):
+            self._after.append(("sim/body", m.Body(t=t, robot=self.robot, x=s.x, y=s.y, radius=self.cfg.body_radius)))
         if sensors.due(self.steps, self.scen.compass_rate_hz, self.rate):
             self.publish("sensors/compass", m.Compass(t=fx.stamp, heading=self.bot.compass()))
         if self.shutter is not None:

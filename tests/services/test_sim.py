@@ -275,3 +275,50 @@ def test_wheels_stop_at_once_when_the_motor_service_goes():
     rig.drain()
     assert rig.svc.cmd == (0.0, 0.0) and rig.svc.counters.values["motor_lost_stops"] == 1
     rig.close()
+
+
+def test_two_robots_on_one_field_keep_out_of_each_others_body():
+    rig = Rig(Sim, sim={"body_radius": 0.1})  # r1 at the origin
+    r2 = Sim(Settings.load(None, deployment={"robot": "r2"}, sim={"x0": 0.5, "body_radius": 0.1}), rig.bus, rig.clock)
+    r2.start()
+    sims = [rig.svc, r2]
+
+    def run(seconds: float, r1_cmd: float, r2_cmd: float = 0.0) -> None:
+        for _ in range(round(seconds / 0.01)):  # both sims step on one clock, commanded at 100 Hz
+            command(rig, r1_cmd, r1_cmd)
+            rig.bus.publish("zenav/r2/motors/wheels", codec.encode(m.Wheels(t=0.0, left=r2_cmd, right=r2_cmd)))
+            rig.clock.advance(0.01)
+            for sim in sims:
+                sim.drain()
+
+    run(3.0, 5.0)  # r1 at 0.17 m/s toward r2, which stands: 0.5 m in 3 s, but 0.3 m is all there is
+    bodies = [codec.decode(d, m.Body) for k, d in rig.bus.published if k == "zenav/field/sim/body"]
+    assert {b.robot for b in bodies} == {"r1", "r2"} and all(b.radius == 0.1 for b in bodies)
+    assert len([b for b in bodies if b.robot == "r1"]) == pytest.approx(60, abs=1)  # 20 Hz of sim time
+    truth = rig.got("sim/truth")
+    assert truth[-1].x == pytest.approx(0.3, abs=0.01) and abs(truth[-1].v) < 0.01  # at contact, stopped (sliding slowly round)
+    ticks = rig.got("sensors/encoders")[-1].left
+    assert ticks / 360 * 2 * math.pi * 0.0673 / 2 > 0.45  # its wheels turned the whole way: they slipped
+    assert rig.svc.counters.values["contacts"] == 1
+    assert codec.decode([d for k, d in rig.bus.published if k == "zenav/r2/sim/truth"][-1], m.Truth).x == 0.5  # not pushed
+
+    run(1.0, 5.0, 5.0)  # r2 drives away: r1 follows, the gap it keeps no more than its 50 ms of lag
+    gap = codec.decode([d for k, d in rig.bus.published if k == "zenav/r2/sim/truth"][-1], m.Truth).x - rig.got("sim/truth")[-1].x
+    assert 0.2 <= gap < 0.25
+    contacts = rig.svc.counters.values["contacts"]  # one more each time it caught up with r2's back
+
+    r2.close()  # its sim stops: r1 meets its last body once more, forgets it after BODY_KEPT and drives on through
+    sims.remove(r2)
+    run(2.5, 5.0)
+    assert rig.got("sim/truth")[-1].x > 0.7 and rig.svc.counters.values["contacts"] == contacts + 1
+
+
+def test_a_sim_without_a_body_tells_the_field_nothing_and_drives_through_others():
+    rig = Rig(Sim, sim={"body_radius": 0.0})
+    rig.bus.publish("zenav/field/sim/body", codec.encode(m.Body(t=0.0, robot="r2", x=0.3, y=0.0, radius=0.1)))
+    for _ in range(200):
+        command(rig, 5.0, 5.0)
+        rig.run(0.01)
+    bodies = [codec.decode(d, m.Body).robot for k, d in rig.bus.published if k == "zenav/field/sim/body"]
+    assert bodies == ["r2"]  # r2's only: r1 has no body to tell of
+    assert rig.got("sim/truth")[-1].x > 0.3 and rig.svc.counters.values["contacts"] == 0

@@ -1,0 +1,53 @@
+"""Robots' bodies as discs: a step into another body stops at contact, slides round it, and never pushes it."""
+
+import math
+
+import pytest
+
+from zenav.common.config import Robot
+from zenav.world.bodies import Disc, block
+from zenav.world.sim import SimRobot
+
+from .test_world_sim import IDEAL
+
+OTHER = {"r2": Disc(0.5, 0.0, 0.1)}
+
+
+def test_a_step_that_would_overlap_another_body_ends_at_contact():
+    assert block(0.25, 0.0, 0.35, 0.0, 0.1, OTHER) == (pytest.approx(0.3), pytest.approx(0.0), ["r2"])
+
+
+def test_a_step_that_clears_every_body_is_untouched():
+    assert block(0.1, 0.0, 0.2, 0.0, 0.1, OTHER) == (0.2, 0.0, [])
+    assert block(0.3, 0.3, 0.35, 0.3, 0.1, OTHER) == (0.35, 0.3, [])  # passing beside it
+    assert block(0.25, 0.0, 0.35, 0.0, 0.1, {}) == (0.35, 0.0, [])
+
+
+def test_a_step_at_an_angle_slides_round_the_body():
+    x, y, met = block(0.3, 0.02, 0.31, 0.04, 0.1, OTHER)
+    assert met == ["r2"]
+    assert math.hypot(x - 0.5, y) == pytest.approx(0.2)  # on the contact circle
+    assert y > 0.02  # it went on across the line between the centres
+
+
+def test_a_step_away_from_a_body_it_overlaps_is_free_and_none_goes_deeper():
+    assert block(0.45, 0.0, 0.40, 0.0, 0.1, OTHER) == (0.40, 0.0, [])  # put down on it: it may back out
+    x, y, met = block(0.40, 0.0, 0.45, 0.0, 0.1, OTHER)
+    assert (x, y, met) == (pytest.approx(0.40), pytest.approx(0.0), ["r2"])  # not deeper, and not thrown out either
+    assert block(0.45, 0.0, 0.5, 0.0, 0.1, OTHER)[:2] == (0.45, 0.0)  # onto its centre: back where it was
+
+
+def test_a_robot_that_drives_into_another_stops_there_while_its_wheels_turn_on():
+    free, held = (SimRobot(Robot(), IDEAL, seed=1, body_radius=0.1) for _ in range(2))
+    for _ in range(200):  # 2 s at 0.2 m/s: 0.4 m
+        free.drive(0.2, 0.0, 0.01)
+        held.step(*held.wheels(0.2, 0.0), 0.01, OTHER)
+    assert free.state.x == pytest.approx(0.4)
+    assert held.state.x == pytest.approx(0.3) and held.met == ["r2"] and held.state.v == pytest.approx(0.0)
+    assert held.encoders() == free.encoders()  # the wheels slipped: the encoders counted the whole way
+    held.step(*held.wheels(-0.2, 0.0), 0.01, OTHER)
+    assert held.state.x == pytest.approx(0.298) and held.met == []  # backing away is free
+    ghost = SimRobot(Robot(), IDEAL, seed=1)  # no body of its own (body_radius 0): drives through
+    for _ in range(200):
+        ghost.step(*ghost.wheels(0.2, 0.0), 0.01, OTHER)
+    assert ghost.state.x == pytest.approx(0.4)
