@@ -19,11 +19,15 @@ ABSOLUTE = ("zenav/", "@/")  # keys typed with these prefixes are taken as they 
 
 
 def resolve(robot: str, key: str) -> str:
-    """A key as typed -> its key expression: `pose` -> zenav/<robot>/pose, `zenav/...` and `@/...` as they are.
+    """A key as typed -> its key expression: `pose` -> zenav/<robot>/pose, a field topic (`sim/body`) ->
+    zenav/field/sim/body, `zenav/...` and `@/...` as they are.
 
     ValueError if it is not a valid Zenoh key expression.
     """
-    full = key if key.startswith(ABSOLUTE) else f"{keys.prefix(robot)}/{key}"
+    if key.startswith(ABSOLUTE):
+        full = key
+    else:
+        full = keys.field_key(key) if key in keys.FIELD_TOPICS else f"{keys.prefix(robot)}/{key}"
     try:
         zenoh.KeyExpr(full)
     except zenoh.ZError:

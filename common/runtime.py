@@ -53,7 +53,8 @@ decode is counted (`bad_input`), logged and dropped; a bad query gets an
 `invalid_argument` reply. A handler that raises is logged and counted (`errors`) and
 the service keeps going. A message stamped past the stack clock's horizon is counted
 (`dropped_future`), logged and dropped: one bad stamp must not make every later
-sample look stale.
+sample look stale (but for an input subscribed `other_clock`: another robot's sim stamps
+its body on its own clock, which may be far ahead of this one's).
 
 A query that acts (the default; read-only ones declare `acts=False`) runs only when
 asked on its exact key: a wildcard get (`zenav/r1/**`) is answered `invalid_argument`
@@ -306,6 +307,7 @@ class Service:
         # (sample it waits for, wall time, tick and stack time it came, item), oldest first
         self._held: list[tuple[int, float, float, float, tuple]] = []
         self._arrived: float | None = None  # stack time a held input being served arrived
+        self._other_clock: set[str] = set()  # suffixes stamped on another stack's clock: not held to this one's horizon
 
     # ------------------------------------------------------------ helpers
     def key(self, suffix: str) -> str:
@@ -402,9 +404,13 @@ class Service:
             return SimClock(future=lim.future_stamp, jump=lim.clock_jump)
         return WallClock(future=lim.future_stamp)
 
-    def subscribe(self, suffix: str, typ: type, fn: Callable[[Any], Any], latest: bool = False) -> None:
+    def subscribe(self, suffix: str, typ: type, fn: Callable[[Any], Any], latest: bool = False, other_clock: bool = False) -> None:
         """Subscribe `fn` to a topic at start-up, for subscriptions that depend on config
-        (the @subscribe decorator covers the rest). `fn` may carry @publish; `latest` as @subscribe's."""
+        (the @subscribe decorator covers the rest). `fn` may carry @publish; `latest` as @subscribe's.
+        `other_clock`: the messages are stamped on another stack's clock (another robot's sim, on
+        a field topic), so a stamp ahead of this one's is no reason to drop them."""
+        if other_clock:
+            self._other_clock.add(suffix)
         self._handles.append(self.bus.subscribe(self.key(suffix), self._enqueuer(fn, suffix, typ, latest)))
 
     def watch(self, key: str, fn: Callable[[bool], Any]) -> Handle:
@@ -718,7 +724,7 @@ class Service:
             self.warn(f"bad:{suffix}", f"dropped bad input on {suffix}: {e}")
             return
         t = getattr(msg, "t", None)
-        if t is not None and kind != "clock" and not self.clock.admits(t):
+        if t is not None and kind != "clock" and not self.clock.admits(t) and suffix not in self._other_clock:
             self.counters.inc("dropped_future")
             self.warn(f"future:{suffix}", f"dropped {suffix} stamped t={t:.3f}, {t - self.clock.now():.3f} s ahead of the clock")
             return

@@ -96,7 +96,7 @@ class Sim(Service):
     def on_start(self) -> None:
         self.base = self.clock.now()
         if self.cfg.body_radius > 0.0:
-            self.subscribe("sim/body", m.Body, self.on_body)
+            self.subscribe("sim/body", m.Body, self.on_body, other_clock=True)  # each sim stamps on its own
 
     def on_body(self, msg: m.Body) -> None:
         """Another robot's body on the field (this robot's own comes back too: not kept)."""

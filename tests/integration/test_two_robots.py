@@ -39,7 +39,7 @@ def test_a_robot_without_a_camera_on_the_field_is_not_held_up(make_stack, router
 
 def test_a_simulated_robot_that_drives_into_another_stops_at_its_body(make_stack, router, client):
     make_stack(["sim"], sim={"camera": False})  # r1 at the origin; each a body of [sim] body_radius, 0.1 m
-    make_stack(["sim"], deployment={"robot": "r2"}, sim={"camera": False, "x0": 0.5})
+    make_stack(["sim"], deployment={"robot": "r2"}, sim={"camera": False, "x0": 0.5, "rtf": 2.0})  # its clock runs ahead of r1's
     client.wait_alive(["sim"], timeout=20.0)
     with Client("r2", router) as r2:
         r2.wait_alive(["sim"], timeout=20.0)

@@ -21,6 +21,8 @@ from zenav.stack.inprocess import free_port
         ("**", "zenav/r1/**"),
         ("zenav/r2/odom", "zenav/r2/odom"),
         ("zenav/field/camera/frame", "zenav/field/camera/frame"),
+        ("camera/frame", "zenav/field/camera/frame"),  # a field topic: the field's, whichever robot
+        ("sim/body", "zenav/field/sim/body"),
         ("@/*/router", "@/*/router"),
     ],
 )
