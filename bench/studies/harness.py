@@ -13,7 +13,7 @@ the scenario's scheduled faults. Pure and seeded: time is steps / sensor rate.
 from __future__ import annotations
 
 import bisect
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import msgspec
@@ -24,10 +24,12 @@ from zenav.common.scenarios import Scenario
 from zenav.services.odometry import odometry as od
 from zenav.services.odometry.service import OdometryConfig, params
 from zenav.world import faults, sensors
+from zenav.world.bodies import Disc
 from zenav.world.sim import SimRobot
 from zenav.world.vps import Camera, make_rng
 
 Command = tuple[float, float]  # [rad/s] wheel commands (left, right)
+BODY_RADIUS = 0.1  # [m] the robot's footprint among `others` ([sim] body_radius's default)
 
 
 def arrival(fix: tuple[float, m.VpsPose]) -> float:
@@ -64,11 +66,13 @@ class Trial:
         x: float = 0.0,  # [m]
         y: float = 0.0,  # [m]
         theta: float = 0.0,  # [rad]
+        others: Mapping[str, Disc] | None = None,  # other robots' bodies on the field, standing (the robot's own: 0.1 m)
     ) -> None:
         if robot.ticks_per_rev is None:  # the encoders are known: take the scenario's
             robot = msgspec.structs.replace(robot, ticks_per_rev=scenario.ticks_per_rev)
         self.scenario = scenario
-        self.bot = SimRobot(robot, scenario, seed, x, y, theta)
+        self.bot = SimRobot(robot, scenario, seed, x, y, theta, body_radius=BODY_RADIUS)
+        self.others = others
         self.rate = scenario.sensor_rate_hz  # [Hz]
         self.dt = 1.0 / self.rate  # [s]
         self.params = params(robot, odometry or odometry_config(heading_source="encoders"))
@@ -88,7 +92,7 @@ class Trial:
     def step(self, left: float, right: float) -> None:
         """One sensor period under wheel commands [rad/s], then the sample at its end."""
         self.odometry = od.command(self.odometry, left, right)
-        self.bot.step(left, right, self.dt)
+        self.bot.step(left, right, self.dt, self.others)
         self.steps += 1
         self._sample()
 

@@ -16,6 +16,12 @@ compares instead fixes with their capture stamps against fixes stamped on arriva
 (a VPS that sends none: [vps] stamp = "none"), used as they are or with the latency
 estimated online ([localizer] latency = "estimate"): RMSE, the final estimate and
 its sigma, and the time it takes to settle within 20 ms of its final value.
+
+    python -m zenav.bench.studies.localizer --pushed --seeds 5 --scenarios default coarse
+
+runs the ekf on the square with another robot standing on its first side, which the
+robot pushes against, its wheels slipping, until it slides round it: with the slip
+found ([localizer] slip_noise) or the odometry's travel always trusted.
 """
 
 from __future__ import annotations
@@ -25,7 +31,7 @@ import dataclasses
 import heapq
 import math
 import statistics
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 
 import msgspec
 
@@ -40,6 +46,7 @@ from zenav.services.localizer.base import MODES, LocalizerConfig, Mode
 from zenav.services.localizer.modes import make_mode
 from zenav.services.odometry.service import OdometryConfig
 from zenav.world import faults
+from zenav.world.bodies import Disc
 
 
 class SquareDriver:
@@ -69,11 +76,17 @@ class SquareDriver:
 
 
 def drive_square(
-    scenario: Scenario, seed: int, duration: float = 60.0, side: float = 1.0, speed: float = 0.3, odometry: OdometryConfig | None = None
+    scenario: Scenario,
+    seed: int,
+    duration: float = 60.0,
+    side: float = 1.0,
+    speed: float = 0.3,
+    odometry: OdometryConfig | None = None,
+    others: Mapping[str, Disc] | None = None,
 ) -> Streams:
     """The streams of the square (0,0) -> (side,0) -> (side,side) -> (0,side) -> (0,0), laps until `duration` [s]
-    (odometry: the [odometry] section; None: heading from the encoders)."""
-    trial = Trial(Robot(), scenario, seed, odometry)
+    (odometry: the [odometry] section; None: heading from the encoders; others: robots' bodies in the way)."""
+    trial = Trial(Robot(), scenario, seed, odometry, others=others)
     trial.run(SquareDriver(side, speed), duration)
     return trial.streams
 
@@ -177,6 +190,27 @@ def table(scenarios: Sequence[str], modes: Sequence[str], seeds: Sequence[int], 
     return "\n".join(lines)
 
 
+PARKED = {"r2": Disc(0.5, 0.0, 0.1)}  # another robot, standing on the square's first side
+
+
+def pushed_table(scenarios: Sequence[str], seeds: Sequence[int]) -> str:
+    """The markdown table of the ekf on the square with another robot parked on its first side (the driver, on
+    the true pose, pushes against it until it slides round), slip found or the odometry's travel trusted."""
+    lines = ["| scenario | ekf | RMSE cm | max cm | fixes rejected |", "|---|---|---|---|---|"]
+    for name in scenarios:
+        sc = scenario(name)
+        robot = Robot(ticks_per_rev=sc.ticks_per_rev)
+        runs = [drive_square(sc, seed, others=PARKED) for seed in seeds]
+        for label, slip in (("slip found (default)", {}), ("travel trusted (slip_noise = 0)", {"slip_noise": 0.0})):
+            scores = []
+            for r in runs:
+                loc = make_mode(msgspec.convert({"mode": "ekf", **slip}, LocalizerConfig), robot)
+                scores.append(evaluate(loc, r.odom, r.fixes, r.truth, r.imu, r.compass))
+            cells = [_mean(scores, "rmse", 100), _mean(scores, "max", 100), str(sum(s.fixes_rejected or 0 for s in scores))]
+            lines.append(f"| {name} | {label} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def unstamped(fixes: Sequence[tuple[float, m.VpsPose]]) -> list[tuple[float, m.VpsPose]]:
     """The fixes as a VPS without capture stamps sends them: t = arrival."""
     return [(t, msgspec.structs.replace(f, t=t)) for t, f in fixes]
@@ -235,7 +269,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--modes", nargs="+", default=list(MODES), choices=MODES)
     parser.add_argument("--no-imu", action="store_true", help="withhold the IMU and compass streams")
     parser.add_argument("--latency", action="store_true", help="stamped fixes against estimated latency (first of --modes)")
+    parser.add_argument("--pushed", action="store_true", help="the ekf with another robot in the square's way, slip found or not")
     args = parser.parse_args(argv)
+    if args.pushed:
+        print(pushed_table(args.scenarios, range(1, args.seeds + 1)))
+        return 0
     if args.latency:
         print(latency_table(args.scenarios, range(1, args.seeds + 1), args.modes[0]))
         return 0

@@ -43,6 +43,10 @@ class LocalizerConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=T
     gate: Pos = 16.3  # squared Mahalanobis distance above which a fix is an outlier (chi2, 3 dof, 99.9 %)
     recover_after: Annotated[int, Meta(ge=1, le=1000)] = 5  # consecutive rejected fixes before re-acquiring
     wheel_noise: Pos = 1e-6  # [m^2/m] variance of each wheel's travel (slip) per metre it travels
+    # [m^2/m] ekf: variance of the position per metre the odometry travels while its wheels are found slipping (pushing
+    # against another robot or a wall: the fixes disagree with the odometry's travel); 0: never found slipping
+    slip_noise: Annotated[float, Meta(ge=0.0, le=100.0)] = 0.05
+    slip_hold: Annotated[float, Meta(gt=0.0, le=60.0)] = 1.0  # [s] ekf: how long after the last fix that found slip it lasts
     calib_noise: Annotated[float, Meta(ge=0.0, le=1.0)] = 1e-8  # [1/m] random walk variance of each calibration error per metre
     calib_sigma: Annotated[float, Meta(ge=0.0, le=0.5)] = 0.05  # 1-sigma prior of each relative calibration error
     gyro_noise: Pos = 1e-3  # [rad/sqrt(s)] angle random walk of the integrated gyro (when sensors/imu is there)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections import deque
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -33,6 +34,11 @@ class _Fix:
     z: np.ndarray  # (x, y, theta)
     R: np.ndarray  # 3x3
     reacquire: bool = False  # forget the pose before applying it
+
+
+TRACTION_WINDOW = 0.5  # [s] of fixes over which the wheels' traction is judged
+TRACTION_TRAVEL = 0.08  # [m] of odometry travel over it, at least, to judge it (the fixes' noise is ~0.02 m)
+TRACTION = 0.5  # [-] the fixes moved less than this share of the odometry's travel: the wheels slip
 
 
 @dataclass
@@ -68,6 +74,9 @@ class Ekf(Mode):
         tick = 2.0 * math.pi * robot.wheel_radius / (robot.ticks_per_rev or 360)
         self.noise = model.Noise(robot.track_width, tick, cfg.wheel_noise, cfg.calib_noise, cfg.gyro_noise**2, cfg.gyro_bias_noise**2)
         self._unknown = np.diag([cfg.unknown_sigma_xy**2] * 2 + [math.pi**2])  # pose covariance when lost
+        self.slip = (math.inf, -math.inf)  # [s] (from, until): the wheels found slipping over this span of odometry
+        self.recent: deque[tuple[float, float, float]] = deque()  # (t, x, y) of the fixes over the last TRACTION_WINDOW
+        self.short = False  # the last fix moved too little for the odometry's travel
 
     # ------------------------------------------------------------ filter steps
     def _apply(self, s: np.ndarray, P: np.ndarray, f: _Fix):
@@ -79,6 +88,39 @@ class Ekf(Mode):
         nu, S, _ = model.innovation(s, P, f.z, f.R)
         return model.update(s, P, nu, S, f.R)
 
+    def _predict(self, s: np.ndarray, P: np.ndarray, u: model.Step, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Propagate through an increment that ends at t [s]; while the wheels slip, its travel says little
+        of where the robot went (slip_noise per metre, on x and y), so that the fixes say it."""
+        s, P = model.predict(s, P, u, self.noise)
+        if self.slip[0] < t <= self.slip[1]:
+            q = self.cfg.slip_noise * abs(u.ds)
+            P[model.X, model.X] += q
+            P[model.Y, model.Y] += q
+        return s, P
+
+    def _slipping(self, t: float, z: np.ndarray, reacquired: bool) -> bool:
+        """Whether the fix z at t [s] finds the wheels slipping, and for how long; True if that changed
+        the span the odometry is not trusted over. They slip where the fixes over the last TRACTION_WINDOW
+        moved less than TRACTION of the odometry's travel, at least TRACTION_TRAVEL, as seen by two fixes
+        in a row (or where a fix re-acquired the robot away from where the odometry took it). It lasts slip_hold after the last
+        fix that found it, from the first."""
+        self.recent.append((t, float(z[0]), float(z[1])))
+        while self.recent[0][0] < t - TRACTION_WINDOW:
+            self.recent.popleft()
+        slipping = reacquired
+        t0, x0, y0 = self.recent[0]
+        if not slipping and t - t0 >= TRACTION_WINDOW / 2.0:
+            first = bisect.bisect_right(self.history, t0, key=lambda e: e.t)
+            last = bisect.bisect_right(self.history, t, key=lambda e: e.t)
+            travel = sum(abs(e.u.ds) for e in self.history[first:last])
+            short = travel >= TRACTION_TRAVEL and math.hypot(z[0] - x0, z[1] - y0) < TRACTION * travel
+            slipping, self.short = short and self.short, short  # two fixes in a row: not one outlier
+        if not slipping or self.cfg.slip_noise == 0.0:
+            return False
+        going = self.slip[0] <= t <= self.slip[1]
+        self.slip = (self.slip[0] if going else t, t + self.cfg.slip_hold)
+        return not going
+
     def _advance(self, s: np.ndarray, P: np.ndarray, t0: float, e: _Entry, until: float = math.inf):
         """Integrate entry e's increment from time t0, applying its fixes, up to `until` [s]."""
         end = min(e.t, until)
@@ -88,12 +130,12 @@ class Ekf(Mode):
             if f.t > end:
                 break
             frac = (f.t - t0) / span
-            s, P = model.predict(s, P, e.u.part(frac - done), self.noise)
+            s, P = self._predict(s, P, e.u.part(frac - done), f.t)
             s, P = self._apply(s, P, f)
             done = frac
         frac = (end - t0) / span
         if frac > done:
-            s, P = model.predict(s, P, e.u if done == 0.0 and frac == 1.0 else e.u.part(frac - done), self.noise)
+            s, P = self._predict(s, P, e.u if done == 0.0 and frac == 1.0 else e.u.part(frac - done), end)
         return s, P
 
     def _replay(self, k: int) -> None:
@@ -145,7 +187,7 @@ class Ekf(Mode):
         g = self.gyro.between(t0, t)
         self.gyro_used = self.gyro_used or g is not None
         u = model.Step(ds, dth, t - t0, g, (self.last.unmeasured_left**2, self.last.unmeasured_right**2))
-        s, P = model.predict(last.s, last.P, u, self.noise)
+        s, P = self._predict(last.s, last.P, u, t)
         self.history.append(_Entry(t, u, s, P))
         drop = bisect.bisect_left(self.history, t - self.cfg.history, key=lambda e: e.t)
         if drop > 1:
@@ -182,9 +224,12 @@ class Ekf(Mode):
             else:
                 self.rejections += 1
                 if self.rejections < self.cfg.recover_after or not confirmed:
+                    if self._slipping(t, z, False):  # the odometry, not the fix, is wrong: the next one is weighed so
+                        self._replay(k)
                     return FixResult(False, "outlier", innovation, d2)
                 reason = "reacquired"
         self.rejections, self.candidate, self.initialised = 0, None, True
+        self._slipping(t, z, reason == "reacquired")
         f = _Fix(t, z, R, reacquire=reason == "reacquired")
         if in_place:
             e.s, e.P = self._apply(e.s, e.P, f)

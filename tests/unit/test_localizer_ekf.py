@@ -173,6 +173,30 @@ def test_outliers_are_rejected_and_a_moved_robot_is_reacquired():
     assert ekf.get_pose().y == pytest.approx(1.0, abs=0.03)
 
 
+def pinned(**cfg) -> list[float]:
+    """The error [m] at each odom sample of a robot that drives into another at t = 1 s (x = 0.3 m) and is held
+    there for 4 s while its wheels slip on: the odometry goes on at 0.3 m/s, the fixes (0.3 s late) see it stand."""
+    ekf = tracking(1.0, **cfg)
+    errors = []
+    for k in range(101, 501):
+        t = k / 100
+        straight(ekf, t, t)
+        if k % 10 == 5:
+            ekf.on_fix(fix(t - 0.3, min(0.3 * (t - 0.3), 0.3)), t)
+        errors.append(ekf.get_pose().x - 0.3)
+    return errors
+
+
+def test_wheels_slipping_against_an_obstacle_are_found_and_the_fixes_followed():
+    found, not_found = pinned(), pinned(slip_noise=0.0)
+    # Found slipping once two fixes in a row moved less than half the odometry's travel over half a second (a
+    # fix's latency later), the filter follows the fixes, off by what the odometry adds over a fix's
+    # latency (0.09 m at 0.3 m/s). Trusting the wheels' travel, it runs off until the fixes it rejects
+    # re-acquire the robot, again and again.
+    assert max(found) < 0.21 and max(found[150:]) < 0.11
+    assert max(not_found[150:]) > 0.25
+
+
 def test_set_pose_mid_drive_resets_and_tracking_continues():
     ekf = tracking(3.0)
     p = ekf.set_pose(3.0, x=2.0, y=-1.0, theta=0.0)

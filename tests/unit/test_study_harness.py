@@ -5,8 +5,10 @@ import math
 import pytest
 
 from zenav.bench.studies.harness import Trial, odometry_config
+from zenav.bench.studies.localizer import pushed_table
 from zenav.common.config import Robot
 from zenav.common.scenarios import PRESETS, Fault, scenario
+from zenav.world.bodies import Disc
 
 
 def forward(trial):
@@ -60,3 +62,16 @@ def test_scheduled_faults_act_on_the_streams():
     theta = {o.t: o.theta for o in s.odom}
     assert theta[1.49] - theta[1.0] > 0.5  # the frozen left wheel turns the odometry left
     assert 1.5 not in theta  # released: the jump in the count is a reset, a new baseline
+
+
+def test_a_robot_in_the_way_holds_the_trials_robot_while_its_encoders_count_on():
+    trial = Trial(Robot(), PRESETS["default"], seed=1, others={"r2": Disc(0.5, 0.0, 0.1)})
+    assert not trial.run(forward, 3.0)  # 0.6 m at 0.2 m/s, but the other's body is 0.3 m ahead
+    s = trial.streams
+    assert s.truth[-1].x == pytest.approx(0.3, abs=0.005) and s.odom[-1].x > 0.5
+
+
+def test_the_pushed_study_compares_slip_found_with_the_travel_trusted():
+    rows = [line.split(" | ") for line in pushed_table(["default"], [1]).splitlines()[2:]]
+    found, trusted = (float(r[2]) for r in rows)  # RMSE [cm]
+    assert found < trusted
