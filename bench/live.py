@@ -110,7 +110,8 @@ def run(
     ids = tuple(f"r{i + 1}" for i in range(robots))
     args = ["--scenario", scenario, "--set", f"sim.rtf={rtf}", "--set", f"scenario.sensor_rate_hz={rate}", "--zenoh-mode", zenoh_mode]
     args += ["--set", f"deployment.realtime={realtime}"]
-    args += ["--set", "sim.body_radius=0"]  # the robots drive one square from one start: through one another
+    if robots > 1:  # they drive one square from one start: through one another (one robot's body is measured)
+        args += ["--set", "sim.body_radius=0"]
     stack = ProcStack(ids, NAMES, log_dir, args, compose=compose, realtime=realtime).start()
     bus = None
     stop = threading.Event()
