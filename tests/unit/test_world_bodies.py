@@ -23,18 +23,20 @@ def test_a_step_that_clears_every_body_is_untouched():
     assert block(0.25, 0.0, 0.35, 0.0, 0.1, {}) == (0.35, 0.0, [])
 
 
-def test_a_step_at_an_angle_slides_round_the_body():
-    x, y, met = block(0.3, 0.02, 0.31, 0.04, 0.1, OTHER)
+def test_a_glancing_step_slides_round_the_body_and_one_near_head_on_stalls():
+    y0 = 0.2 * math.sin(math.pi / 3)
+    x, y, met = block(0.4, y0, 0.41, y0, 0.1, OTHER)  # at contact, driving 60 deg off the line between the centres
     assert met == ["r2"]
-    assert math.hypot(x - 0.5, y) == pytest.approx(0.2)  # on the contact circle
-    assert y > 0.02  # it went on across the line between the centres
+    assert math.hypot(x - 0.5, y) >= 0.2 - 1e-9  # not into it
+    assert 0.4 < x < 0.41 and y > y0  # round it, less what friction took
+    x, y, met = block(0.3, 0.01, 0.31, 0.011, 0.1, OTHER)  # nearly head-on, already at contact
+    assert met == ["r2"] and (x, y) == (pytest.approx(0.3, abs=3e-4), pytest.approx(0.01, abs=1e-4))  # to contact, no further across
 
 
 def test_a_step_away_from_a_body_it_overlaps_is_free_and_none_goes_deeper():
     assert block(0.45, 0.0, 0.40, 0.0, 0.1, OTHER) == (0.40, 0.0, [])  # put down on it: it may back out
     x, y, met = block(0.40, 0.0, 0.45, 0.0, 0.1, OTHER)
     assert (x, y, met) == (pytest.approx(0.40), pytest.approx(0.0), ["r2"])  # not deeper, and not thrown out either
-    assert block(0.45, 0.0, 0.5, 0.0, 0.1, OTHER)[:2] == (0.45, 0.0)  # onto its centre: back where it was
 
 
 def test_a_robot_that_drives_into_another_stops_there_while_its_wheels_turn_on():
