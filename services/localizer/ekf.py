@@ -99,11 +99,11 @@ class Ekf(Mode):
         return s, P
 
     def _slipping(self, t: float, z: np.ndarray, reacquired: bool) -> bool:
-        """Whether the fix z at t [s] finds the wheels slipping, and for how long; True if that changed
-        the span the odometry is not trusted over. They slip where the fixes over the last TRACTION_WINDOW
-        moved less than TRACTION of the odometry's travel, at least TRACTION_TRAVEL, as seen by two fixes
-        in a row (or where a fix re-acquired the robot away from where the odometry took it). It lasts slip_hold after the last
-        fix that found it, from the first."""
+        """Whether the fix z at t [s] finds the wheels slipping, and for how long; True if that changed the
+        span the odometry is not trusted over. They slip where the fixes of the last TRACTION_WINDOW moved
+        less than TRACTION of the odometry's travel (at least TRACTION_TRAVEL), as two fixes in a row see
+        it, or where a fix re-acquired the robot away from where the odometry took it. It lasts slip_hold
+        after the last fix that found it, from the first."""
         self.recent.append((t, float(z[0]), float(z[1])))
         while self.recent[0][0] < t - TRACTION_WINDOW:
             self.recent.popleft()
@@ -117,9 +117,10 @@ class Ekf(Mode):
             slipping, self.short = short and self.short, short  # two fixes in a row: not one outlier
         if not slipping or self.cfg.slip_noise == 0.0:
             return False
-        going = self.slip[0] <= t <= self.slip[1]
-        self.slip = (self.slip[0] if going else t, t + self.cfg.slip_hold)
-        return not going
+        before = self.slip
+        going = before[0] <= t <= before[1]
+        self.slip = (before[0] if going else t, t + self.cfg.slip_hold)
+        return self.slip != before
 
     def _advance(self, s: np.ndarray, P: np.ndarray, t0: float, e: _Entry, until: float = math.inf):
         """Integrate entry e's increment from time t0, applying its fixes, up to `until` [s]."""

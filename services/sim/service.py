@@ -170,7 +170,7 @@ class Sim(Service):
         self.steps += 1
         for robot in set(self.bot.met) - set(was):
             self.count("contacts")
-            self.log.info("drove into robot %s at (%.3f, %.3f): stopped there, the wheels slipping", robot, s.x, s.y)
+            self.log.info("drove into robot %s at (%.3f, %.3f): held there, the wheels slipping", robot, s.x, s.y)
         fx = faults.at(self.scen, t)
         left, right = self.bot.encoders()
         encoders = m.Encoders(t=fx.stamp, left=self.hold.apply(fx, left), right=right)
