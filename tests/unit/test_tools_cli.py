@@ -109,6 +109,21 @@ def clock_recording(path: str) -> None:
     write_recording(path, [(keys.key("r1", "clock"), m.Clock(t=i * 1.0, rtf=2.0, wall=5.0), 100.0 + i * 0.2) for i in range(3)])
 
 
+def replayed_into_a_clock(path: str, rate: float = 0.0) -> tuple[int, list[float], list[str], SimClock]:
+    """Replay a recording with a stack clock following r1's ticks: (messages sent, the ticks, the clock's outcome
+    for each, the clock)."""
+    clock, outcomes, ticks = SimClock(), [], []
+
+    def follow(key: str, data: bytes) -> None:
+        tick = codec.decode(data, m.Clock)
+        ticks.append(tick.t)
+        outcomes.append(clock.update(tick))
+
+    bus = MemoryBus()
+    bus.subscribe(keys.key("r1", "clock"), follow)
+    return replay(path, bus, rate=rate), ticks, outcomes, clock
+
+
 def test_replay_keeps_the_recorded_pace_divided_by_the_rate(tmp_path):
     path = str(tmp_path / "clock.mcap")
     clock_recording(path)
@@ -160,16 +175,8 @@ def test_a_stack_clock_takes_every_tick_made_across_a_gap_in_the_stamps_even_as_
     stamps = [t0 + i * 0.01 for i in range(50)] + [t0 + 5.49 + i * 0.01 for i in range(50)]  # the robot paused 5 s
     write_recording(path, [(keys.key("r1", "odom"), m.Odom(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0), t - t0) for t in stamps])
     for rate in (0.0, 1000.0):  # no wall time for the gap, and a little
-        clock, outcomes, ticks = SimClock(), [], []
-
-        def follow(key: str, data: bytes, clock=clock, outcomes=outcomes, ticks=ticks) -> None:
-            tick = codec.decode(data, m.Clock)
-            ticks.append(tick.t)
-            outcomes.append(clock.update(tick))
-
-        bus = MemoryBus()
-        bus.subscribe(keys.key("r1", "clock"), follow)
-        assert replay(path, bus, rate=rate) == 100
+        sent, ticks, outcomes, clock = replayed_into_a_clock(path, rate)
+        assert sent == 100
         assert set(outcomes) == {ACCEPTED} and clock.tick() == stamps[-1]
         gaps = [b - a for a, b in zip(ticks, ticks[1:])]
         assert min(gaps) > 0.0 and max(gaps) <= FILL + 1e-9
@@ -186,16 +193,8 @@ def test_ticks_made_from_stamps_start_again_where_the_robot_restarted(tmp_path):
     fix = m.VpsPose(t=after[9] - 0.3, x=0.0, y=0.0, theta=0.0)  # late: no tick back for it
     rows.insert(40, (keys.key("r1", "vps/pose"), fix, 0.395))
     write_recording(path, rows)
-    clock, outcomes, ticks = SimClock(), [], []
-
-    def follow(key: str, data: bytes) -> None:
-        tick = codec.decode(data, m.Clock)
-        ticks.append(tick.t)
-        outcomes.append(clock.update(tick))
-
-    bus = MemoryBus()
-    bus.subscribe(keys.key("r1", "clock"), follow)
-    assert replay(path, bus, rate=0.0) == 61
+    sent, ticks, outcomes, clock = replayed_into_a_clock(path)
+    assert sent == 61
     assert ticks == before + after  # one a stamp (TICK apart), from the restart on too
     assert outcomes == [ACCEPTED] * 30 + [RESTARTED] + [ACCEPTED] * 29 and clock.tick() == after[-1]
 
@@ -221,16 +220,8 @@ def test_a_fix_that_came_very_late_takes_the_made_ticks_back_not_at_all(tmp_path
     )
     rows[201:201] = [(keys.key("r1", "vps/pose"), fix, 2.0), (keys.key("r1", "localizer/fixes"), audit, 2.0)]
     write_recording(path, rows)
-    clock, outcomes, ticks = SimClock(), [], []
-
-    def follow(key: str, data: bytes) -> None:
-        tick = codec.decode(data, m.Clock)
-        ticks.append(tick.t)
-        outcomes.append(clock.update(tick))
-
-    bus = MemoryBus()
-    bus.subscribe(keys.key("r1", "clock"), follow)
-    assert replay(path, bus, rate=0.0) == 302
+    sent, ticks, outcomes, _ = replayed_into_a_clock(path)
+    assert sent == 302
     assert ticks == stamps  # the odometry's stamps only: the fixes, stamped at their capture, make none
     assert set(outcomes) == {ACCEPTED}  # no restart, so a localizer re-run on it keeps its estimate
 
