@@ -1,6 +1,7 @@
 """`zenav topics | echo | hz | query`: look at the robot's keys on the wire, like `ros2 topic` and Zenoh's own tools.
 
-KEY is relative to zenav/<robot>/ (`pose`, `'diag/*'`, `'**'`) or absolute (`zenav/r1/odom`,
+KEY is relative to zenav/<robot>/ (`pose`, `'diag/*'`, `'**'`), a field topic's name
+(`sim/body`, `camera/frame`: under zenav/field/) or absolute (`zenav/r1/odom`,
 `zenav/field/**`, `@/...` for Zenoh's admin space). Payloads are decoded as their
 contract type when the key has one, else as msgpack, JSON or text.
 Exit codes: 0 done, 1 nothing came (echo --timeout, hz) or an internal error reply,
@@ -60,7 +61,7 @@ def count(text: str) -> int:
 
 
 def add_arguments(sub: argparse._SubParsersAction) -> None:
-    key_help = "key relative to zenav/<robot>/ (pose, 'diag/*') or absolute (zenav/r1/odom)"
+    key_help = "key relative to zenav/<robot>/ (pose, 'diag/*'), a field topic (sim/body) or absolute (zenav/r1/odom)"
     p = subcommand(sub, topics, "the robot's keys with publishers, their rates and types, and its liveliness tokens")
     p.add_argument("key", nargs="?", default="**", help=f"{key_help}; default '**'")
     p.add_argument("--window", type=positive, default=2.0, help="seconds to listen (default 2)")
