@@ -58,6 +58,7 @@ class Navigator(Service):
         self._pose_wanted = False  # a goal was refused or aborted for want of a usable pose
         self._cmd_lock = threading.Lock()  # cmd_vel from the worker vs the zero of an arriving stop
         self._stops = 0  # nav/stop queries arrived (queued) but not yet handled: no cmd_vel from the worker
+        self._holding: Request | None = None  # a chained goal's request, its lease watched while its last command is held
 
     # ------------------------------------------------------------ inputs
     @subscribe("pose", latest=True)  # a navigator behind its input acts on the newest pose
@@ -72,6 +73,8 @@ class Navigator(Service):
         cmd, end = self.machine.on_pose(sample)
         if end is not None:
             self._ended(end, zero=False)  # the zero goes out below, with this pose's t
+        if self._holding is not None:
+            self._hold_over()
         self._show_changes()
         if self.status != "ok":
             self._health(self.clock.now())
@@ -90,6 +93,8 @@ class Navigator(Service):
         if end is not None:
             self._pose_wanted = self._pose_wanted or self.machine.refusal(now) is not None
             self._ended(end)
+        if self._holding is not None:
+            self._hold_over()
         self._show_changes()
         self._health(now)
 
@@ -272,6 +277,11 @@ class Navigator(Service):
             if end is not None:
                 self._ended(end)
             self._show_changes()
+        elif not alive and request is self._holding:  # its holder went before it sent the goal to chain into
+            self.machine.abort(f"lease lost: {request.lease}")  # no goal runs: this ends the held command
+            self._zero()
+            self.log.warning("lease lost: %s; the held command of chained goal %d ended", request.lease, request.goal_id)
+            self._hold_over()
 
     def _begin(self, request: Request) -> None:
         try:
@@ -282,6 +292,8 @@ class Navigator(Service):
             return
         if preempted is not None:
             self._ended(preempted)
+        if self._holding is not None:
+            self._hold_over()
         gid = self.machine.goal_id
         self.requests.started(request, gid)
         self._info = request.info
@@ -310,7 +322,10 @@ class Navigator(Service):
         log = self.log.info if end.result != goals.ABORTED else self.log.warning
         log("goal %d %s: %s", end.goal_id, end.result, end.message)
         done, waiter = self.requests.ended(end.goal_id)
-        self._unwatch(done)
+        if done is not None and done.watch is not None and not end.stop and self.machine.coasting:
+            self._holding = done  # its lease still watched: the held command ends with its holder
+        else:
+            self._unwatch(done)
         if end.stop and zero:
             self._zero()
         if waiter is not None:
@@ -342,6 +357,12 @@ class Navigator(Service):
             reply_ok(q, reply)
         except Exception as e:  # the caller gave up (query timed out) or left
             self.warn("reply", f"could not answer goal {reply.goal_id}: {e}")
+
+    def _hold_over(self) -> None:
+        """Stop watching the lease of a chained goal whose held command is over (or was taken over)."""
+        if not self.machine.coasting:
+            self._unwatch(self._holding)
+            self._holding = None
 
     def _zero(self) -> None:
         """Command zero velocity now (t = 0: "now", not computed from a pose)."""

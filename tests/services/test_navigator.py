@@ -185,6 +185,17 @@ def test_lease_lost_cancels_the_goal_and_stops(rig):
     assert rep.result == "aborted" and rep.message == "lease lost: zenav/r1/lease/me" and rig.cmd == (0.0, 0.0)
 
 
+def test_a_chained_goals_held_command_ends_at_once_when_its_lease_goes(rig):
+    token = rig.bus.token("zenav/r1/lease/me")
+    chained = {"x": 0.5, "y": 0.0, "wait": True, "lease": "zenav/r1/lease/me", "min_speed": 0.15, "early_exit_range": 0.05}
+    q = rig.query("nav/move_to_point", chained)
+    rep = rig.run_until(q, max_s=10.0)
+    assert rep.exit == "chained" and rig.nav.machine.coasting and rig.cmd[0] >= 0.15  # held at speed for the next goal
+    token.undeclare()  # the program died before it sent one
+    rig.step(poses=False)
+    assert rig.cmd == (0.0, 0.0) and not rig.nav.machine.coasting  # not after chain_time: now
+
+
 def test_lease_seen_later_starts_the_goal(rig):
     q = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "lease": "zenav/r1/lease/late"})
     rig.step(10)
