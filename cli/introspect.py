@@ -38,7 +38,7 @@ from zenav.cli.wire import (
     topics_table,
     unknown_topic,
 )
-from zenav.common import codec
+from zenav.common import codec, keys
 from zenav.common.app import connection_args
 from zenav.common.bus import ZenohBus
 
@@ -63,7 +63,7 @@ def count(text: str) -> int:
 def add_arguments(sub: argparse._SubParsersAction) -> None:
     key_help = "key relative to zenav/<robot>/ (pose, 'diag/*'), a field topic (sim/body) or absolute (zenav/r1/odom)"
     p = subcommand(sub, topics, "the robot's keys with publishers, their rates and types, and its liveliness tokens")
-    p.add_argument("key", nargs="?", default="**", help=f"{key_help}; default '**'")
+    p.add_argument("key", nargs="?", default="**", help=f"{key_help}; default '**', and the field's keys (zenav/field/**)")
     p.add_argument("--window", type=positive, default=2.0, help="seconds to listen (default 2)")
     p = subcommand(sub, echo, "print each message on a key as one JSON object per line: {key, type, msg}")
     p.add_argument("key", help=key_help)
@@ -121,10 +121,11 @@ def checked(args: argparse.Namespace) -> str:
     return key
 
 
-def listen(bus: ZenohBus, key: str) -> queue.SimpleQueue[tuple[str, bytes, float]]:
-    """Samples on `key` as (key, payload, arrival [s, monotonic]), queued on Zenoh's thread."""
+def listen(bus: ZenohBus, *on: str) -> queue.SimpleQueue[tuple[str, bytes, float]]:
+    """Samples on the keys `on` as (key, payload, arrival [s, monotonic]), queued on Zenoh's thread."""
     samples: queue.SimpleQueue[tuple[str, bytes, float]] = queue.SimpleQueue()
-    bus.subscribe(key, lambda k, data: samples.put((k, data, time.monotonic())))
+    for key in on:
+        bus.subscribe(key, lambda k, data: samples.put((k, data, time.monotonic())))
     return samples
 
 
@@ -154,8 +155,9 @@ def take(samples: queue.SimpleQueue[tuple[str, bytes, float]], deadline: float |
 
 
 def topics(args: argparse.Namespace, key: str, bus: ZenohBus) -> int:
-    """Listen for --window seconds; print each key seen, its type and rate, and the liveliness tokens."""
-    samples = listen(bus, key)
+    """Listen for --window seconds; print each key seen, its type and rate, and the liveliness tokens (by
+    default the robot's keys and the field's, which every robot shares: the camera, the robots' bodies)."""
+    samples = listen(bus, key, keys.field_key("**")) if args.key == "**" else listen(bus, key)
     deadline = time.monotonic() + args.window
     tokens = [str(r.ok.key_expr) for r in bus.session.liveliness().get(key, timeout=args.window) if r.ok is not None]
     arrivals: dict[str, list[float]] = {}

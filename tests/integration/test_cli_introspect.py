@@ -37,6 +37,8 @@ def test_topics_lists_keys_types_rates_and_tokens(stack, router, capsys):
     assert 5.0 < clock < encoders  # [sim] clock_rate_hz 20 against the 100 Hz sensors
     tokens = [line.strip() for line in out if line.startswith("  ")]
     assert {"zenav/r1/alive/sim", "zenav/r1/alive/navigator"} <= set(tokens)
+    field = [line.split() for line in out if line.startswith("zenav/field/")]
+    assert [row[:2] for row in field] == [["zenav/field/sim/body", "Body"]]  # the field's keys too, every robot's
 
 
 def test_echo_prints_json_lines_with_wildcards_and_absolute_keys(stack, router, capsys):
