@@ -311,14 +311,14 @@ class Service:
 
     # ------------------------------------------------------------ helpers
     def key(self, suffix: str) -> str:
-        """Full key of a contract suffix for this robot."""
+        """Full key of a contract suffix: under this robot, or a field topic's under zenav/field/."""
         full = self._keys.get(suffix)
         if full is None:
-            full = self._keys[suffix] = keys.key(self.robot, suffix)
+            full = self._keys[suffix] = keys.field_key(suffix) if suffix in keys.FIELD_TOPICS else keys.key(self.robot, suffix)
         return full
 
     def publish(self, suffix: str, msg: Any) -> None:
-        """Publish a message on `zenav/<robot>/<suffix>`."""
+        """Publish a message on the suffix's key (`zenav/<robot>/<suffix>`, or a field topic's)."""
         self.bus.publish(self.key(suffix), codec.encode(msg))
         self.counters.inc("msgs_out")
         self.counters.seen(suffix)

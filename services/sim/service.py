@@ -89,10 +89,6 @@ class Sim(Service):
         if self.shutter is not None:
             self.shutter.close()
 
-    def key(self, suffix: str) -> str:
-        """Field-level topics live under zenav/field/, the rest under this robot."""
-        return keys.field_key(suffix) if suffix in keys.FIELD_TOPICS else super().key(suffix)
-
     def on_start(self) -> None:
         self.base = self.clock.now()
         if self.cfg.body_radius > 0.0:
@@ -168,9 +164,10 @@ class Sim(Service):
         was = self.bot.met
         s = self.bot.step(*self.cmd, self.step_period, self._bodies())
         self.steps += 1
-        for robot in set(self.bot.met) - set(was):
-            self.count("contacts")
-            self.log.info("drove into robot %s at (%.3f, %.3f): held there, the wheels slipping", robot, s.x, s.y)
+        for robot in self.bot.met:
+            if robot not in was:  # a contact begins
+                self.count("contacts")
+                self.log.info("drove into robot %s at (%.3f, %.3f): held there, the wheels slipping", robot, s.x, s.y)
         fx = faults.at(self.scen, t)
         left, right = self.bot.encoders()
         encoders = m.Encoders(t=fx.stamp, left=self.hold.apply(fx, left), right=right)

@@ -58,10 +58,6 @@ class Vps(Service):
             self.queues = {robot: DeliveryQueue() for robot in cam.robots}
             self.timing: dict[str, deque[float]] = {k: deque(maxlen=TIMING_WINDOW) for k in ("pipeline_ms_p50", "detect_ms_p50")}
 
-    def key(self, suffix: str) -> str:
-        """Field-level topics live under zenav/field/, the rest under this robot."""
-        return keys.field_key(suffix) if suffix in keys.FIELD_TOPICS else super().key(suffix)
-
     def on_start(self) -> None:
         if self.reader is None:
             self.subscribe("sim/truth", m.Truth, self.on_truth)

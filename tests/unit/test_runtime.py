@@ -475,7 +475,7 @@ def test_an_input_stamped_on_another_stacks_clock_is_not_held_to_this_ones_horiz
     bodies: list[float] = []
     s.subscribe("sim/body", m.Body, lambda msg: bodies.append(msg.t), other_clock=True)
     tick(bus, s, 10.0)
-    body = "zenav/r1/sim/body"  # as a service subscribes it (the sim's own key() puts it under zenav/field/)
+    body = "zenav/field/sim/body"  # a field topic, whichever robot the service is
     bus.publish(body, codec.encode(m.Body(t=500.0, robot="r2", x=0.0, y=0.0, radius=0.1)))  # a sim far ahead of this one
     bus.publish("zenav/r1/cmd_vel", codec.encode(m.CmdVel(t=500.0, v=0.1, omega=0.0)))  # on this clock: dropped
     s.drain()
