@@ -104,6 +104,8 @@ class Ekf(Mode):
         less than TRACTION of the odometry's travel (at least TRACTION_TRAVEL), as two fixes in a row see
         it, or where a fix re-acquired the robot away from where the odometry took it. It lasts slip_hold
         after the last fix that found it, from the first."""
+        if self.cfg.slip_noise == 0.0:  # never found slipping: nothing to judge
+            return False
         self.recent.append((t, float(z[0]), float(z[1])))
         while self.recent[0][0] < t - TRACTION_WINDOW:
             self.recent.popleft()
@@ -115,7 +117,7 @@ class Ekf(Mode):
             travel = sum(abs(e.u.ds) for e in self.history[first:last])
             short = travel >= TRACTION_TRAVEL and math.hypot(z[0] - x0, z[1] - y0) < TRACTION * travel
             slipping, self.short = short and self.short, short  # two fixes in a row: not one outlier
-        if not slipping or self.cfg.slip_noise == 0.0:
+        if not slipping:
             return False
         before = self.slip
         going = before[0] <= t <= before[1]
