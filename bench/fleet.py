@@ -1,11 +1,13 @@
 """Many robots: the router alone under N robots' traffic, then a fleet over several hosts.
 
 Router load: a player process publishes every topic of N robots at its contract rate
-(docs/contract.md: sensors, truth and the chain at 100 Hz, clock at 20 Hz, compass,
-fixes and vps at 10 Hz, nav/state at 5 Hz, six diags at 1 Hz), each message a Clock stamped
-with the wall clock; a sink process holds one session per subscribing service, each
-subscribed to what that service reads, so the router fans out as for real stacks.
-Per N: the router's CPU and the delivery latency (sink arrival - stamp).
+(docs/contract.md: sensors, truth and the chain at 100 Hz, clock and the sim's body at
+20 Hz, compass, fixes and vps at 10 Hz, nav/state at 5 Hz, six diags at 1 Hz), each
+message a Clock stamped with the wall clock; a sink process holds one session per
+subscribing service, each subscribed to what that service reads, so the router fans out
+as for real stacks. The bodies go on one field key that every robot's sim reads, so they
+take one session per robot and grow as N squared. Per N: the router's CPU and the
+delivery latency (sink arrival - stamp).
 
 Hosts: network namespaces joined by veth pairs to a bridge (in a namespace of its own,
 addresses in 10.213.7.0/24, which exist only inside them), one router per host linked
@@ -35,7 +37,7 @@ from zenav.bench.latency import Stats
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.bus import ZenohBus, zenoh_config
-from zenav.services.sim.service import SimConfig
+from zenav.services.sim.service import BODY_RATE_HZ, SimConfig
 from zenav.stack.launcher import ProcStack
 
 # (suffix, rate [Hz], sessions that read it: the services subscribed to it, the first the latency probe's)
@@ -54,7 +56,9 @@ TRAFFIC = (
     ("nav/state", 5.0, 0),
     ("diag/all", 6.0, 0),  # six services' diag at 1 Hz
 )
-SESSIONS = 5  # the most services reading one topic (clock: all but the sim)
+SESSIONS = 5  # the most services of one robot reading one of its topics (clock: all but the sim)
+# (suffix, rate [Hz]) of each robot on the field's key, which every robot's sim reads (its own included)
+FIELD_TRAFFIC = (("sim/body", BODY_RATE_HZ),)
 PROBE = "sensors/encoders"  # the topic whose delivery latency is measured (100 Hz, read by the first session)
 TICK = 0.01  # [s] the player's pace
 READY = "ready"
@@ -76,6 +80,7 @@ def play(connect: str, robots: list[str], duration: float) -> float:
     pace kept (duration over the wall time it took: under 1, this process could not keep up)."""
     bus = ZenohBus.open(connect)
     plan = [(keys.key(r, s), max(round(1.0 / (rate * TICK)), 1)) for r in robots for s, rate, _ in TRAFFIC]
+    plan += [(keys.field_key(s), max(round(1.0 / (rate * TICK)), 1)) for _ in robots for s, rate in FIELD_TRAFFIC]
     start = time.monotonic()
     for k in range(round(duration / TICK)):
         delay = start + k * TICK - time.monotonic()
@@ -96,8 +101,9 @@ def sink(connect: str, robots: list[str], timeout: float) -> dict:
 
     The probe (every robot's PROBE topic on the first session) is a Python callback; the other
     subscriptions take their samples into a one-slot ring in Zenoh, so the router does all of
-    the fan-out while this process stays light."""
-    buses = [ZenohBus.open(connect) for _ in range(SESSIONS)]
+    the fan-out while this process stays light. Every robot's sim reads the field's key: one
+    session a robot (the first ones shared with the services')."""
+    buses = [ZenohBus.open(connect) for _ in range(max(SESSIONS, len(robots)))]
     lock = threading.Lock()
     latency: list[float] = []
     done = threading.Event()
@@ -115,6 +121,9 @@ def sink(connect: str, robots: list[str], timeout: float) -> dict:
                     bus.subscribe(keys.key(r, suffix), probe)
                 elif i < readers:
                     rings.append(bus.session.declare_subscriber(keys.key(r, suffix), zenoh.handlers.RingChannel(1)))
+        if i < len(robots):
+            for suffix, _ in FIELD_TRAFFIC:
+                rings.append(bus.session.declare_subscriber(keys.field_key(suffix), zenoh.handlers.RingChannel(1)))
     buses[0].subscribe(keys.key("fleet", "end"), lambda key, data: done.set())
     print(READY, flush=True)
     done.wait(timeout)

@@ -692,8 +692,9 @@ def fleet(res: Results) -> list[str]:
         "## Fleet",
         "",
         f"The router alone (its own process) under N robots' traffic: every contract topic at its rate, fanned out to "
-        f"the sessions of the services that read it (bench/fleet.py), {res.plan.fleet_window:g} s per N. Latency: "
-        "every robot's clock at the first sink session. The player and the sink share the machine with the router; "
+        f"the sessions of the services that read it, each sim's body to every robot's sim (N squared deliveries; "
+        f"bench/fleet.py), {res.plan.fleet_window:g} s per N. Latency: every robot's encoder samples (stamped at "
+        "sending) at the first sink session. The player and the sink share the machine with the router; "
         "a player pace under 1 means the load generator, not the router, fell behind.",
         "",
         *table(["robots", "router cores", "per robot", "delivered", "player pace", "p50 [ms]", "p99 [ms]"], rows),
