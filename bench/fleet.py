@@ -62,6 +62,9 @@ FIELD_TRAFFIC = (("sim/body", BODY_RATE_HZ),)
 PROBE = "sensors/encoders"  # the topic whose delivery latency is measured (100 Hz, read by the first session)
 TICK = 0.01  # [s] the player's pace
 READY = "ready"
+END = keys.key("fleet", "end")  # the player's last message: the sink stops counting
+DONE = keys.key("fleet", "done")  # the sink's answer: the player may close its session
+FINISH = 30.0  # [s] the player waits this long for the sink's answer
 ALL = "all"  # a watcher has heard every robot
 START = 60.0  # [s] for the processes in the namespaces to start and hear each other
 DOUBLED = 2.0  # delivery p50 this many times the one-robot p50: the router is past its capacity
@@ -77,8 +80,14 @@ def robot_ids(n: int, prefix: str = "f") -> list[str]:
 
 def play(connect: str, robots: list[str], duration: float) -> float:
     """Publish every robot's traffic at its rate for `duration` s, then the end marker; returns the
-    pace kept (duration over the wall time it took: under 1, this process could not keep up)."""
+    pace kept (duration over the wall time it took: under 1, this process could not keep up).
+
+    The session stays open until the sink says it heard the end: closing it discards what its
+    queues still hold (a router past its capacity leaves a backlog there), while the end marker,
+    sent last, may already be through: the sink would count those samples as lost."""
     bus = ZenohBus.open(connect)
+    finished = threading.Event()
+    bus.subscribe(DONE, lambda key, data: finished.set())
     plan = [(keys.key(r, s), max(round(1.0 / (rate * TICK)), 1)) for r in robots for s, rate, _ in TRAFFIC]
     plan += [(keys.field_key(s), max(round(1.0 / (rate * TICK)), 1)) for _ in robots for s, rate in FIELD_TRAFFIC]
     start = time.monotonic()
@@ -91,8 +100,11 @@ def play(connect: str, robots: list[str], duration: float) -> float:
             if k % every == 0:
                 bus.publish(key, data)
     pace = duration / max(time.monotonic() - start, 1e-9)
-    bus.publish(keys.key("fleet", "end"), b"")
+    bus.publish(END, b"")
+    heard = finished.wait(FINISH)
     bus.close()
+    if not heard:
+        raise RuntimeError(f"the fleet sink did not answer the end within {FINISH:g} s")
     return pace
 
 
@@ -124,9 +136,10 @@ def sink(connect: str, robots: list[str], timeout: float) -> dict:
         if i < len(robots):
             for suffix, _ in FIELD_TRAFFIC:
                 rings.append(bus.session.declare_subscriber(keys.field_key(suffix), zenoh.handlers.RingChannel(1)))
-    buses[0].subscribe(keys.key("fleet", "end"), lambda key, data: done.set())
+    buses[0].subscribe(END, lambda key, data: done.set())
     print(READY, flush=True)
-    done.wait(timeout)
+    if done.wait(timeout):
+        buses[0].publish(DONE, b"")
     for bus in buses:
         bus.close()
     return {"latency": latency}
