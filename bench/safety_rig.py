@@ -67,7 +67,10 @@ class Rig:
     """A router and the whole stack as processes, and a client that records what they publish."""
 
     def __init__(self, log_dir: Path) -> None:
-        self.stack = ProcStack(("r1",), registry.NAMES, log_dir, ("--set", f"field.x_max={FIELD_X_MAX}")).start()
+        # The field's edge is no wall here (sim.walls): what is tested is the navigator stopping a robot whose
+        # pose leaves the field, as a real one pushed out or lost would.
+        edge = ("--set", f"field.x_max={FIELD_X_MAX}", "--set", "sim.walls=false")
+        self.stack = ProcStack(("r1",), registry.NAMES, log_dir, edge).start()
         self.endpoint = self.stack.endpoint
         self.client = Client("r1", self.endpoint)
         self.client.wait_alive(registry.NAMES, timeout=90)

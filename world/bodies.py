@@ -1,13 +1,14 @@
-"""Robots' bodies on one field, as discs: a step that would take a robot into another stops at contact.
+"""Robots' bodies on one field, as discs: a step that would take a robot into another, or through
+the field's walls, stops at contact.
 
 A robot that drives into another does not push it: its wheels turn on (the encoders
 count them) while it stays at the contact circle. Along the other's body it slides
 only as far as friction lets it: the part of its step across the line between the
 centres, less FRICTION times the part the other held back, so a push near head-on
-stalls and a glancing one slides round. Odometry sees a robot that moves; only the
-camera sees it held, as on a real field. A step away from a body it overlaps (put
-down on it, or driven into by the other) is free, and so is one that keeps its
-distance.
+stalls and a glancing one slides round. A wall holds it the same way, across the
+wall's normal. Odometry sees a robot that moves; only the camera sees it held, as on
+a real field. A step away from a body or wall it overlaps (put down on it, or driven
+into by the other) is free, and so is one that keeps its distance.
 
 Pure: positions in, a position out.
 """
@@ -29,12 +30,48 @@ class Disc(NamedTuple):
     radius: float  # [m]
 
 
-def block(x0: float, y0: float, x1: float, y1: float, radius: float, others: Mapping[str, Disc]) -> tuple[float, float, list[str]]:
-    """Where a body of `radius` that a step takes from (x0, y0) to (x1, y1) ends among `others`, and the
-    names of those it met: a step that would end closer to a disc than it started, and within contact of
-    it, goes into it only as far as contact (no further, if it overlapped already), and across the line
-    between the centres by what is left after friction."""
-    x, y, met = x1, y1, []
+class Walls(NamedTuple):
+    """The field's walls: the inner faces of a rectangle (map frame)."""
+
+    x_min: float  # [m]
+    x_max: float  # [m]
+    y_min: float  # [m]
+    y_max: float  # [m]
+
+    def faces(self) -> tuple[tuple[str, float, float, float], ...]:
+        """Each wall as (name, inward unit normal nx, ny, offset): (x, y) lies nx x + ny y + offset [m] inside it."""
+        return (
+            ("wall x_min", 1.0, 0.0, -self.x_min),
+            ("wall x_max", -1.0, 0.0, self.x_max),
+            ("wall y_min", 0.0, 1.0, -self.y_min),
+            ("wall y_max", 0.0, -1.0, self.y_max),
+        )
+
+
+def _held(x0: float, y0: float, x: float, y: float, nx: float, ny: float, room: float) -> tuple[float, float] | None:
+    """Where a step from (x0, y0) to (x, y) ends against a contact whose unit normal (nx, ny) points from it
+    to (x0, y0), with `room` [m] between them at the start (negative: overlapping); None if it moves away:
+    into it as far as contact (no further, if it overlapped already), and across the normal by what is
+    left after friction."""
+    dx, dy = x - x0, y - y0
+    into = dx * nx + dy * ny  # < 0: towards the contact
+    if into >= 0.0:
+        return None
+    allowed = -max(room, 0.0)
+    tx, ty = dx - into * nx, dy - into * ny  # across the normal
+    across = math.hypot(tx, ty)
+    keep = max(across - FRICTION * (allowed - into), 0.0) / across if across > 0.0 else 0.0
+    return x0 + allowed * nx + keep * tx, y0 + allowed * ny + keep * ty
+
+
+def block(
+    x0: float, y0: float, x1: float, y1: float, radius: float, others: Mapping[str, Disc], walls: Walls | None = None
+) -> tuple[float, float, list[str]]:
+    """Where a body of `radius` that a step takes from (x0, y0) to (x1, y1) ends among `others` and inside
+    `walls`, and the names of those it met (a wall's: "wall x_max" and so on): a step that would end
+    closer to a disc or a wall than it started, and within contact of it, is held there (_held)."""
+    x, y = x1, y1
+    met: list[str] = []
     for name, o in others.items():
         reach = radius + o.radius
         if math.hypot(x - o.x, y - o.y) >= reach:
@@ -43,15 +80,16 @@ def block(x0: float, y0: float, x1: float, y1: float, radius: float, others: Map
         start = math.hypot(nx, ny)
         if start < 1e-12:  # on its centre: no way out is closer
             continue
-        nx, ny = nx / start, ny / start
-        dx, dy = x - x0, y - y0
-        into = dx * nx + dy * ny  # < 0: towards the other
-        if into >= 0.0:
-            continue
-        met.append(name)
-        allowed = -max(start - reach, 0.0)  # into it as far as contact
-        tx, ty = dx - into * nx, dy - into * ny  # across the line between the centres
-        across = math.hypot(tx, ty)
-        keep = max(across - FRICTION * (allowed - into), 0.0) / across if across > 0.0 else 0.0
-        x, y = x0 + allowed * nx + keep * tx, y0 + allowed * ny + keep * ty
+        end = _held(x0, y0, x, y, nx / start, ny / start, start - reach)
+        if end is not None:
+            (x, y) = end
+            met.append(name)
+    if walls is not None:
+        for name, nx, ny, offset in walls.faces():
+            if nx * x + ny * y + offset >= radius:
+                continue
+            end = _held(x0, y0, x, y, nx, ny, nx * x0 + ny * y0 + offset - radius)
+            if end is not None:
+                (x, y) = end
+                met.append(name)
     return x, y, met

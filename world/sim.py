@@ -4,6 +4,7 @@
     bot.drive(0.2, 0.0, 0.01)          # body velocity through the nominal wheel geometry
     bot.step(5.0, 5.0, 0.01)           # or wheel commands [rad/s]
     bot.step(5.0, 5.0, 0.01, {"r2": Disc(0.3, 0.0, 0.1)})  # among other robots' bodies: bot.met names those it met
+    SimRobot(Robot(), scenario, seed=1, body_radius=0.1, walls=Walls(-1.0, 3.0, -1.0, 3.0))  # inside the field
     bot.state.x, bot.encoders(), bot.imu(), bot.compass()
 
 Pure: time comes in as dt. The body's slip and each sensor's noise draw from their own
@@ -22,7 +23,7 @@ from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import Scenario
 from zenav.world import robot as body
 from zenav.world import sensors
-from zenav.world.bodies import Disc, block
+from zenav.world.bodies import Disc, Walls, block
 
 # Seed streams, mixed with the seed (numpy SeedSequence entropy words).
 MOTION_STREAM = 0x4D4F54  # "MOT": slip
@@ -43,9 +44,11 @@ class SimRobot:
         theta: float = 0.0,  # [rad]
         encoder_start: int = 0,  # [ticks] count both encoders read at the start
         body_radius: float = 0.0,  # [m] the footprint other robots' bodies keep out of (0: none)
+        walls: Walls | None = None,  # the field's walls its footprint keeps inside (none without a footprint)
     ) -> None:
         self.robot = robot
         self.body_radius = body_radius
+        self.walls = walls
         self.met: list[str] = []  # the other bodies the last step met
         self.scenario = scenario
         self.body = body.world(robot, scenario)
@@ -68,12 +71,13 @@ class SimRobot:
         return left * k, right * k
 
     def step(self, cmd_left: float, cmd_right: float, dt: float, others: Mapping[str, Disc] | None = None) -> body.State:
-        """Move on by dt [s] under wheel commands [rad/s], kept out of `others` (bodies.block); the new state."""
+        """Move on by dt [s] under wheel commands [rad/s], kept out of `others` and inside the walls (bodies.block);
+        the new state."""
         s0 = self.state
         s = body.step(s0, self.body, cmd_left, cmd_right, dt, self._motion)
         self.met = []
-        if others and self.body_radius > 0.0:
-            x, y, self.met = block(s0.x, s0.y, s.x, s.y, self.body_radius, others)
+        if self.body_radius > 0.0 and (others or self.walls is not None):
+            x, y, self.met = block(s0.x, s0.y, s.x, s.y, self.body_radius, others or {}, self.walls)
             if self.met:  # the wheels turned all the same (the encoders count it); the ground moved this far
                 mid = s0.theta + wrap_angle(s.theta - s0.theta) / 2.0
                 s = s._replace(x=x, y=y, v=((x - s0.x) * math.cos(mid) + (y - s0.y) * math.sin(mid)) / dt)

@@ -18,7 +18,7 @@ from zenav.common.config import Camera, Settings
 from zenav.common.runtime import Service, on_liveliness, query, subscribe, timer
 from zenav.services.sim.camera import FieldCamera, Shutter
 from zenav.world import faults, sensors
-from zenav.world.bodies import Disc
+from zenav.world.bodies import Disc, Walls
 from zenav.world.sim import SimRobot
 
 
@@ -37,6 +37,7 @@ class SimConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     clock_rate_hz: Annotated[float, Meta(ge=5.0, le=2000.0)] = 20.0
     # [m] the robot's footprint, a disc other simulated robots on the field keep out of (and it out of theirs); 0: none
     body_radius: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.1
+    walls: bool = True  # the [field] area's edges are walls the footprint stays inside (with [field] enabled)
 
 
 OVERRUN_HOLD = 5.0  # [s] of the scheduling clock a fall behind keeps the status degraded
@@ -58,7 +59,10 @@ class Sim(Service):
         self.step_period = 1.0 / self.rate  # [s] of the scheduling clock: one physics step
         self.tick_period = self.step_period / 2  # [s] the tick timer's: a step, and half a step later what follows it
         c = self.cfg
-        self.bot = SimRobot(settings.robot, self.scen, settings.deployment.seed, c.x0, c.y0, c.theta0, c.encoder_start, c.body_radius)
+        f = settings.field
+        walls = Walls(f.x_min, f.x_max, f.y_min, f.y_max) if c.walls and f.enabled else None
+        seed = settings.deployment.seed
+        self.bot = SimRobot(settings.robot, self.scen, seed, c.x0, c.y0, c.theta0, c.encoder_start, c.body_radius, walls)
         self.others: dict[str, tuple[float, Disc]] = {}  # robot -> (sim time heard, its body): what the bodies step among
         self.steps = 0  # steps taken: sim time is steps / rate, never read from the wall
         self.base = 0.0  # [s] scheduling-clock time of step 0 (moves forward on a resync)
@@ -164,10 +168,11 @@ class Sim(Service):
         was = self.bot.met
         s = self.bot.step(*self.cmd, self.step_period, self._bodies())
         self.steps += 1
-        for robot in self.bot.met:
-            if robot not in was:  # a contact begins
+        for what in self.bot.met:
+            if what not in was:  # a contact begins
                 self.count("contacts")
-                self.log.info("drove into robot %s at (%.3f, %.3f): held there, the wheels slipping", robot, s.x, s.y)
+                what = what if what.startswith("wall ") else f"robot {what}"
+                self.log.info("drove into %s at (%.3f, %.3f): held there, the wheels slipping", what, s.x, s.y)
         fx = faults.at(self.scen, t)
         left, right = self.bot.encoders()
         encoders = m.Encoders(t=fx.stamp, left=self.hold.apply(fx, left), right=right)

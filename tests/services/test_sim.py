@@ -322,3 +322,22 @@ def test_a_sim_without_a_body_tells_the_field_nothing_and_drives_through_others(
     bodies = [codec.decode(d, m.Body).robot for k, d in rig.bus.published if k == "zenav/field/sim/body"]
     assert bodies == ["r2"]  # r2's only: r1 has no body to tell of
     assert rig.got("sim/truth")[-1].x > 0.3 and rig.svc.counters.values["contacts"] == 0
+
+
+@pytest.mark.parametrize(
+    ("sections", "held"),
+    [({}, True), ({"sim": {"x0": 0.7, "walls": False}}, False), ({"field": {"x_max": 1.0, "enabled": False}}, False)],
+    ids=["walls", "walls-off", "field-off"],
+)
+def test_the_fields_edges_are_walls_the_robot_stops_at(sections, held):
+    base = {"sim": {"x0": 0.7}, "field": {"x_max": 1.0}}
+    rig = Rig(Sim, **{name: {**base[name], **sections.get(name, {})} for name in base})
+    for _ in range(300):  # 3 s at 0.17 m/s toward the edge 0.3 m ahead
+        command(rig, 5.0, 5.0)
+        rig.run(0.01)
+    truth = rig.got("sim/truth")[-1]
+    if held:  # at contact with the wall x_max = 1.0, a footprint's radius short of it, the wheels slipping
+        assert truth.x == pytest.approx(0.9) and abs(truth.v) < 0.01 and rig.svc.counters.values["contacts"] == 1
+        assert rig.got("sensors/encoders")[-1].left / 360 * 2 * math.pi * 0.0673 / 2 > 0.45
+    else:
+        assert truth.x > 1.1 and rig.svc.counters.values["contacts"] == 0

@@ -1,16 +1,17 @@
-"""Robots' bodies as discs: a step into another body stops at contact, slides round it, and never pushes it."""
+"""Robots' bodies as discs: a step into another body or a wall stops at contact, slides round it, and never pushes it."""
 
 import math
 
 import pytest
 
 from zenav.common.config import Robot
-from zenav.world.bodies import Disc, block
+from zenav.world.bodies import Disc, Walls, block
 from zenav.world.sim import SimRobot
 
 from .test_world_sim import IDEAL
 
 OTHER = {"r2": Disc(0.5, 0.0, 0.1)}
+FIELD = Walls(-1.0, 1.0, -1.0, 1.0)
 
 
 def test_a_step_that_would_overlap_another_body_ends_at_contact():
@@ -53,3 +54,30 @@ def test_a_robot_that_drives_into_another_stops_there_while_its_wheels_turn_on()
     for _ in range(200):
         ghost.step(*ghost.wheels(0.2, 0.0), 0.01, OTHER)
     assert ghost.state.x == pytest.approx(0.4)
+
+
+def test_a_wall_holds_a_step_at_contact_and_lets_it_slide_along_as_friction_allows():
+    assert block(0.85, 0.0, 0.95, 0.0, 0.1, {}, FIELD) == (pytest.approx(0.9), 0.0, ["wall x_max"])  # head-on: stops
+    x, y, met = block(0.9, 0.0, 0.91, 0.02, 0.1, {}, FIELD)  # at contact, mostly along the wall
+    assert met == ["wall x_max"] and x == pytest.approx(0.9) and y == pytest.approx(0.02 - 0.5 * 0.01)
+    assert block(0.9, 0.0, 0.91, 0.001, 0.1, {}, FIELD)[:2] == (pytest.approx(0.9), 0.0)  # nearly head-on: stalls
+    assert block(0.0, 0.0, 0.1, 0.1, 0.1, {}, FIELD) == (0.1, 0.1, [])  # clear of every wall
+    assert block(0.9, 0.0, 0.8, 0.0, 0.1, {}, FIELD) == (0.8, 0.0, [])  # away from it: free
+
+
+def test_a_corner_holds_both_ways_and_a_robot_outside_may_come_back_in_but_not_go_farther():
+    x, y, met = block(0.9, 0.9, 0.95, 0.95, 0.1, {}, FIELD)
+    assert (x, y) == (pytest.approx(0.9), pytest.approx(0.9)) and met == ["wall x_max", "wall y_max"]
+    assert block(1.2, 0.0, 1.1, 0.0, 0.1, {}, FIELD) == (1.1, 0.0, [])  # put down outside: back in is free
+    assert block(1.2, 0.0, 1.3, 0.0, 0.1, {}, FIELD)[:2] == (pytest.approx(1.2), 0.0)  # no farther out
+
+
+def test_a_robot_driven_at_a_wall_stops_there_while_its_wheels_turn_on_and_one_without_a_footprint_drives_through():
+    held = SimRobot(Robot(), IDEAL, seed=1, x=0.5, body_radius=0.1, walls=FIELD)
+    ghost = SimRobot(Robot(), IDEAL, seed=1, x=0.5, walls=FIELD)  # no footprint (body_radius 0): no walls either
+    for _ in range(300):  # 3 s at 0.2 m/s: 0.6 m, the last second against the wall
+        held.drive(0.2, 0.0, 0.01)
+        ghost.drive(0.2, 0.0, 0.01)
+    assert held.state.x == pytest.approx(0.9) and held.met == ["wall x_max"] and held.state.v == pytest.approx(0.0)
+    assert ghost.state.x == pytest.approx(1.1)  # through the edge
+    assert held.encoders() == ghost.encoders()  # the wheels slipped: the encoders counted the whole way
