@@ -6,9 +6,9 @@ event line also goes to `<log_dir>/launcher.log`. With `restart=True` (`zenav up
 `poll` restarts a child that exits, after a delay that doubles per quick crash; more
 than `max_crashes` exits within `crash_window` and it gives up on that child. With
 `hang_after`, a child whose heartbeat (`beat`: `zenav up` calls it on each diag)
-stopped is SIGTERMed, SIGKILLed HANG_GRACE later, and restarted like a crash (while
-no child is heard at all, nobody is hung: the launcher's own link or the stack clock
-stalled). Without
+stopped while others beat is SIGTERMed, SIGKILLed HANG_GRACE later, and restarted like a
+crash (while no child is heard at all, nobody is hung: the launcher's own link or the
+stack clock stalled). Without
 `restart` (the bench) `check` raises on any exit. `stop` stops groups of children in
 order: SIGTERM to a group, SIGKILL to what is still running STOP_GRACE later.
 `ProcStack` is a router process and, per robot, every service as its own process, as
@@ -191,11 +191,13 @@ class Launcher:
             h.at = now
 
     def silence(self, c: Child, now: float) -> float | None:
-        """How long `c` has been silent [s] while it should have beaten (None: excused).
+        """How long `c` has been silent [s] while it should have beaten and others were heard (None: excused).
 
-        Excused while the launcher hears no child at all: its own link to the router, or
-        the stack clock (every service's diag timer follows the sim's), stalled; then the
-        silence counts from when it heard one again."""
+        The silence runs up to the last heartbeat of any child, not up to now: while the
+        launcher hears no child at all (its own link to the router, or the stack clock that
+        every service's diag timer follows, stalled), nobody's silence grows, so a child whose
+        last diag came a little before the others' is not found hung while nobody is heard;
+        after such a gap the silence counts from when the launcher heard one again."""
         own = self.beats.get(c.name)
         if own is not None and own >= c.started:
             since = own
@@ -206,7 +208,7 @@ class Launcher:
         h = self.heard
         if h is None or self.hang_after is None or now - h.at > self.hang_after:
             return None
-        return now - max(since, h.since)
+        return max(min(h.at, now) - max(since, h.since), 0.0)
 
     def poll(self) -> list[str]:
         """Notice exits and hangs, restart what is due (with `restart`); call a few times a second.

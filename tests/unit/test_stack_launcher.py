@@ -153,6 +153,25 @@ def test_hang_decision_follows_the_heartbeats_on_a_fake_clock(tmp_path):
     sup.close()
 
 
+def test_nobody_is_found_hung_while_nobody_is_heard_whichever_beat_came_last(tmp_path):
+    """The router goes: the sim's last diag came 0.5 s after the motor's. The motor's silence must not pass
+    the limit before the launcher's own silence excuses everyone."""
+    clock = Clock()
+    sup = Launcher(tmp_path, events=lambda line: None, now=clock, hang_after=3.0)
+    motor, sim = sup.add("motor", []), sup.add("sim", [])
+    motor.started = sim.started = clock.t
+    sup.beat("motor")
+    sup.beat("sim")
+    clock.t += 1.0
+    sup.beat("motor")
+    clock.t += 0.5
+    sup.beat("sim")  # then nothing from anyone
+    for dt in (1.0, 2.5, 2.9):  # the last: 2.9 s after anyone's beat, 3.4 s after the motor's
+        assert sup.silence(motor, clock.t + dt) == pytest.approx(0.5)  # what the others were heard beyond it
+    assert sup.silence(motor, clock.t + 3.1) is None  # nobody heard for longer than the limit: excused
+    sup.close()
+
+
 def test_a_hung_child_is_terminated_killed_after_the_grace_and_restarted(tmp_path):
     clock, events = Clock(), []
     sup = Launcher(tmp_path, events=events.append, now=clock, hang_after=3.0)
