@@ -30,21 +30,18 @@ class Disc(NamedTuple):
     radius: float  # [m]
 
 
-class Walls(NamedTuple):
-    """The field's walls: the inner faces of a rectangle (map frame)."""
+class Walls:
+    """The field's walls: the inner faces of a rectangle (map frame), each kept as (name, inward unit normal
+    nx, ny, offset): (x, y) lies nx x + ny y + offset [m] inside it. Built once, read at every step."""
 
-    x_min: float  # [m]
-    x_max: float  # [m]
-    y_min: float  # [m]
-    y_max: float  # [m]
+    __slots__ = ("faces",)
 
-    def faces(self) -> tuple[tuple[str, float, float, float], ...]:
-        """Each wall as (name, inward unit normal nx, ny, offset): (x, y) lies nx x + ny y + offset [m] inside it."""
-        return (
-            ("wall x_min", 1.0, 0.0, -self.x_min),
-            ("wall x_max", -1.0, 0.0, self.x_max),
-            ("wall y_min", 0.0, 1.0, -self.y_min),
-            ("wall y_max", 0.0, -1.0, self.y_max),
+    def __init__(self, x_min: float, x_max: float, y_min: float, y_max: float) -> None:  # [m]
+        self.faces = (
+            ("wall x_min", 1.0, 0.0, -x_min),
+            ("wall x_max", -1.0, 0.0, x_max),
+            ("wall y_min", 0.0, 1.0, -y_min),
+            ("wall y_max", 0.0, -1.0, y_max),
         )
 
 
@@ -85,7 +82,7 @@ def block(
             (x, y) = end
             met.append(name)
     if walls is not None:
-        for name, nx, ny, offset in walls.faces():
+        for name, nx, ny, offset in walls.faces:
             if nx * x + ny * y + offset >= radius:
                 continue
             end = _held(x0, y0, x, y, nx, ny, nx * x0 + ny * y0 + offset - radius)
