@@ -18,7 +18,10 @@ clock was set back), the made ticks start again from there, as a restarted sim's
 a stack clock takes such a tick as a restart. Only messages stamped when they were sent
 make ticks: a fix is stamped at its capture (CAPTURE_STAMPED), late by design and by
 however long its camera's link took, and must not take the clock back. The ticks are the
-same at any rate, and so is the re-run.
+same at any rate, and so is the re-run. They stand for a clock that ticked every TICK: the
+localizer holds a fix for the next odom sample HOLD plus one tick interval at most, so where
+the robot's odometry paused about that long, a re-run of one whose clock ran otherwise (the
+wall clock, read continuously) may apply that fix one odom sample apart from the live run.
 
 To re-run the localizer on recorded sensors, replay `clock`, `odom`, `vps/pose` and
 `sensors/imu` into a stack that runs only the localizer, and compare its `pose` with the recorded one.

@@ -20,7 +20,7 @@ from zenav.common import messages as m
 from zenav.common.bus import MemoryBus, ZenohBus
 from zenav.tools import mcap_format as fmt
 from zenav.tools.record import Recorder
-from zenav.tools.replay import replay
+from zenav.tools.replay import TICK, replay
 
 COV = tuple(float(i) / 100 for i in range(9))
 
@@ -192,7 +192,11 @@ def test_replay_reruns_the_localizer_on_recorded_sensors(router, make_stack, cli
     rec_bus = ZenohBus.open(router)
     rec = Recorder(path, rec_bus, "r1").start()  # before the stack: the recording holds every message
     try:
-        first = make_stack(["localizer", "odometry", "vps", "sim"], sim={"rtf": 2.0})
+        # The sim's clock ticks every TICK, as the ticks the replay makes for a recording without
+        # one: stripped of it below, the recording re-runs on the clock it ran on. (A slower clock
+        # would hold a fix longer for its odom sample, HOLD plus one tick interval: where the
+        # odometry paused in between, the made ticks would release it one sample earlier.)
+        first = make_stack(["localizer", "odometry", "vps", "sim"], sim={"rtf": 2.0, "clock_rate_hz": 1.0 / TICK})
         client.wait_alive(["localizer", "odometry", "vps", "sim"], timeout=30)
         drive_arc(client, 5.0)
         client.latest("localizer/fixes").wait(timeout=10)
