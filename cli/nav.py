@@ -1,4 +1,6 @@
-"""`zenav goto | turn | swing | face | straight | path | stop | set-pose`: drive the robot through the navigator.
+"""`zenav goto | turn | swing | face | straight | path | stop | set-pose | drive`: drive the robot through the navigator.
+
+`zenav drive` alone goes round it: open loop on `cmd_vel` for a time (squaring up against a wall).
 
 Without --wait a command returns once the navigator accepts the goal. With --wait it
 shows a progress line until the goal ends, and holds a liveliness token as the goal's
@@ -137,6 +139,15 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p.add_argument("theta", type=finite, nargs="?", help="[rad] in [-2 pi, 2 pi] (degrees with --deg; default: keep the heading)")
     p.add_argument("--deg", action="store_true", help="theta in degrees")
     p.set_defaults(func=run, query="localizer/set_pose")
+    p = sub.add_parser(
+        "drive", parents=[common], help="drive open loop on cmd_vel for a time, then stop (square up: zenav drive -0.1 --for 1)"
+    )
+    p.add_argument("v", type=finite, help="[m/s], negative to reverse")
+    p.add_argument("omega", type=finite, nargs="?", default=0.0, help="[rad/s] CCW (default 0)")
+    p.add_argument(
+        "--for", dest="seconds", type=positive, required=True, metavar="SECONDS", help="how long [s]; a running goal is stopped first"
+    )
+    p.set_defaults(func=run, query="cmd_vel")
 
 
 def send(bot: Robot, args: argparse.Namespace) -> Goal:
@@ -169,6 +180,10 @@ def run(args: argparse.Namespace, connect: Callable[[argparse.Namespace], Abstra
         with connect(args) as bot:
             if args.query == "nav/stop":
                 print(f"stopped ({bot.stop()})")
+                return EXIT_OK
+            if args.query == "cmd_vel":
+                bot.drive(args.v, args.omega, args.seconds)
+                print(f"drove at v {args.v:+.2f} m/s, omega {args.omega:+.2f} rad/s for {args.seconds:g} s, then stopped")
                 return EXIT_OK
             if args.query == "localizer/set_pose":
                 theta = None if args.theta is None else args.theta * (math.radians(1.0) if args.deg else 1.0)

@@ -5,6 +5,7 @@
     bot.step(5.0, 5.0, 0.01)           # or wheel commands [rad/s]
     bot.step(5.0, 5.0, 0.01, {"r2": Disc(0.3, 0.0, 0.1)})  # among other robots' bodies: bot.met names those it met
     SimRobot(Robot(), scenario, seed=1, body_radius=0.1, walls=Walls(-1.0, 3.0, -1.0, 3.0))  # inside the field
+    SimRobot(..., chassis=Chassis(0.16, 0.12))  # a rectangle against the walls, that squares up to one
     bot.state.x, bot.encoders(), bot.imu(), bot.compass()
 
 Pure: time comes in as dt. The body's slip and each sensor's noise draw from their own
@@ -23,7 +24,7 @@ from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import Scenario
 from zenav.world import robot as body
 from zenav.world import sensors
-from zenav.world.bodies import Disc, Walls, block
+from zenav.world.bodies import Chassis, Disc, Walls, block, chassis_inside, chassis_travel
 
 # Seed streams, mixed with the seed (numpy SeedSequence entropy words).
 MOTION_STREAM = 0x4D4F54  # "MOT": slip
@@ -45,10 +46,12 @@ class SimRobot:
         encoder_start: int = 0,  # [ticks] count both encoders read at the start
         body_radius: float = 0.0,  # [m] the footprint other robots' bodies keep out of (0: none)
         walls: Walls | None = None,  # the field's walls its footprint keeps inside (none without a footprint)
+        chassis: Chassis | None = None,  # its footprint against the walls (None: the disc)
     ) -> None:
         self.robot = robot
         self.body_radius = body_radius
-        self.walls = walls
+        self.walls = walls if body_radius > 0.0 else None
+        self.chassis = chassis
         self.met: list[str] = []  # the other bodies the last step met
         self.scenario = scenario
         self.body = body.world(robot, scenario)
@@ -71,16 +74,34 @@ class SimRobot:
         return left * k, right * k
 
     def step(self, cmd_left: float, cmd_right: float, dt: float, others: Mapping[str, Disc] | None = None) -> body.State:
-        """Move on by dt [s] under wheel commands [rad/s], kept out of `others` and inside the walls (bodies.block);
-        the new state."""
+        """Move on by dt [s] under wheel commands [rad/s], kept out of `others` and inside the walls (bodies.block,
+        or the chassis's bodies.chassis_travel); the new state. The wheels turn all the same (the encoders count
+        it): a step held back moves the ground less."""
         s0 = self.state
         s = body.step(s0, self.body, cmd_left, cmd_right, dt, self._motion)
         self.met = []
-        if self.body_radius > 0.0 and (others or self.walls is not None):
-            x, y, self.met = block(s0.x, s0.y, s.x, s.y, self.body_radius, others or {}, self.walls)
-            if self.met:  # the wheels turned all the same (the encoders count it); the ground moved this far
+        walls, chassis = self.walls, self.chassis
+        if walls is not None and chassis is not None:
+            track = self.body.track
+            ds, dtheta = s.v * dt, s.omega * dt
+            left, right, self.met = chassis_travel(
+                s0.x, s0.y, s0.theta, ds - dtheta * track / 2, ds + dtheta * track / 2, track, chassis, walls
+            )
+            if self.met:
+                ds, dtheta = (left + right) / 2.0, (right - left) / track
+                x, y, theta = body.arc(s0.x, s0.y, s0.theta, ds, dtheta)
+                s = s._replace(x=x, y=y, theta=theta, v=ds / dt, omega=dtheta / dt)
+            walls = None  # the discs' block below: the other robots only
+        if self.body_radius > 0.0 and (others or walls is not None):
+            x, y, met = block(s0.x, s0.y, s.x, s.y, self.body_radius, others or {}, walls)
+            if met:
                 mid = s0.theta + wrap_angle(s.theta - s0.theta) / 2.0
                 s = s._replace(x=x, y=y, v=((x - s0.x) * math.cos(mid) + (y - s0.y) * math.sin(mid)) / dt)
+                self.met += met
+        if self.walls is not None and chassis is not None:  # the arc's curve, or another robot's slide
+            x, y = chassis_inside(s0.x, s0.y, s0.theta, s.x, s.y, s.theta, chassis, self.walls)
+            if (x, y) != (s.x, s.y):
+                s = s._replace(x=x, y=y)
         self.state = s
         return s
 

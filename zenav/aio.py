@@ -27,7 +27,7 @@ from typing import Any
 
 from zenav.common import messages as m
 from zenav.common.client import QueryBus
-from zenav.robot import CONNECT_TIMEOUT, DRIVE_SERVICES, POSE_TIMEOUT, QUERY_TIMEOUT, Result
+from zenav.robot import CONNECT_TIMEOUT, DRIVE_PERIOD, DRIVE_SERVICES, POSE_TIMEOUT, QUERY_TIMEOUT, Result
 from zenav.robot import Goal as SyncGoal
 from zenav.robot import Robot as SyncRobot
 
@@ -244,7 +244,9 @@ class Robot:
     ) -> Goal:
         """Turn to `heading` [rad] about one wheel, `side` "left" or "right", which stays still."""
         options = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "direction": direction}
-        return await self._goal(self.sync.swing_to_heading, heading, side, **options, min_speed=min_speed, early_exit_range=early_exit_range)
+        return await self._goal(
+            self.sync.swing_to_heading, heading, side, **options, min_speed=min_speed, early_exit_range=early_exit_range
+        )
 
     async def turn_to_point(
         self,
@@ -283,6 +285,22 @@ class Robot:
         options = {"speed": speed, "tolerance": tolerance, "waypoint_tolerance": waypoint_tolerance, "timeout": timeout}
         chain = {"forwards": forwards, "min_speed": min_speed, "early_exit_range": early_exit_range}
         return await self._goal(self.sync.follow_path, points, **options, **chain)  # the robot makes the points lists
+
+    async def drive(self, v: float, omega: float = 0.0, seconds: float = 0.0) -> None:
+        """Drive open loop at v [m/s] and omega [rad/s] for `seconds`, then command zero (see `zenav.robot.Robot.drive`);
+        cancelled meanwhile, it commands zero."""
+        cmd = await asyncio.to_thread(self.sync._drive_command, v, omega, seconds)
+        loop = asyncio.get_running_loop()
+        end = loop.time() + seconds
+        try:
+            while True:
+                self.sync.client.publish("cmd_vel", cmd)
+                left = end - loop.time()
+                if left <= 0.0:
+                    return
+                await asyncio.sleep(min(DRIVE_PERIOD, left))
+        finally:
+            self.sync.client.publish("cmd_vel", m.CmdVel(t=0.0, v=0.0, omega=0.0))
 
     async def stop(self) -> str:
         """Cancel whatever goal runs and command zero at once; the navigator's state."""

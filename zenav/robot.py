@@ -53,6 +53,7 @@ POSE_TIMEOUT = 5.0  # [s] pose() waits this long for a first pose
 RETRIES = 2  # a goal refused on a stale pose, or before its lease was seen, is sent again this often
 ASK_EVERY = 0.05  # [s] of stack clock: wait_ready asks the navigator again on a pose at least this much newer
 LEASE_TIMEOUT = 0.3  # [s] transport lease of the robot's own session: a frozen program's goal stops this soon
+DRIVE_PERIOD = 0.05  # [s] drive() sends its command this often (20 Hz, well inside the motor's command watchdog)
 
 
 @dataclass(frozen=True)
@@ -394,6 +395,25 @@ class Robot:
         fields = {"speed": speed, "tolerance": tolerance, "waypoint_tolerance": waypoint_tolerance, "timeout": timeout}
         return self._goal("nav/follow_path", {"points": pts, **fields, **_options(forwards, min_speed, early_exit_range)})
 
+    def drive(self, v: float, omega: float = 0.0, seconds: float = 0.0) -> None:
+        """Drive open loop at v [m/s] and omega [rad/s] for `seconds` of this program's (wall) time, then command zero:
+        what a team does to square up against a wall (back into it for a second) or to push a game piece.
+
+        It goes to `cmd_vel`, as teleop's commands do: the motor's limits apply, and its watchdog stops the
+        wheels if this program dies meanwhile. A goal that runs is stopped first (the program has the wheels,
+        not the goal). Blocks until done; an exception meanwhile (Ctrl-C) still commands zero."""
+        cmd = self._drive_command(v, omega, seconds)
+        end = time.monotonic() + seconds
+        try:
+            while True:
+                self.client.publish("cmd_vel", cmd)
+                left = end - time.monotonic()
+                if left <= 0.0:
+                    return
+                time.sleep(min(DRIVE_PERIOD, left))
+        finally:
+            self.client.publish("cmd_vel", m.CmdVel(t=0.0, v=0.0, omega=0.0))
+
     def stop(self) -> str:
         """Cancel whatever goal runs and command zero at once; the navigator's state."""
         return str(self.client.query("nav/stop", timeout=self.timeout).state)
@@ -430,6 +450,20 @@ class Robot:
         self._listeners.append(callback)
 
     # ------------------------------------------------------------ internals
+    def _drive_command(self, v: float, omega: float, seconds: float) -> m.CmdVel:
+        """drive()'s command (InvalidArgument if a number is not finite, or `seconds` negative), a running goal stopped."""
+        for name, value in (("v", v), ("omega", omega), ("seconds", seconds)):
+            if not math.isfinite(value):
+                raise InvalidArgument(f"{name}: {value} is not finite")
+        if seconds < 0.0:
+            raise InvalidArgument(f"seconds: {seconds} is negative")
+        try:
+            if self.is_moving():
+                self.stop()
+        except Unavailable:
+            pass  # no navigator: no goal drives but this
+        return m.CmdVel(t=0.0, v=float(v), omega=float(omega))
+
     def _goal(self, suffix: str, fields: dict[str, Any]) -> Goal:
         request = {k: v for k, v in fields.items() if v is not None}
         if self.lease_key is not None:

@@ -63,6 +63,19 @@ def test_goals_feedback_preemption_cancel_and_stop(stack, router):
         stack.latest("sim/truth").wait(lambda t: abs(t.v) < 0.01 and abs(t.omega) < 0.05, timeout=10)
 
 
+def test_drive_backs_the_robot_into_the_wall_where_it_squares_up(make_stack, router):
+    # 15 cm from the wall x_min = -1 behind it, turned 10 deg: a back corner meets the wall first.
+    make_stack(SERVICES, sim={"rtf": RTF, "x0": -0.77, "theta0": math.radians(10.0)}, navigator=NAV)
+    with Client("r1", router) as watcher, Robot("r1", router) as bot:
+        bot.wait_ready(timeout=60)
+        bot.drive(-0.15, 0.0, seconds=2.0)  # 30 cm of wheel travel
+        truth = watcher.latest("sim/truth").wait(lambda t: abs(t.v) < 0.01 and abs(t.omega) < 0.01, timeout=10)
+        assert truth.theta == pytest.approx(0.0, abs=1e-6) and truth.x == pytest.approx(-1.0 + 0.08)  # its back flat on it
+        watcher.latest("diag/sim").wait(lambda d: d.counters["contacts"] >= 1, timeout=10)
+        # The pose turned with it, most of the way at once: the gyro felt what the encoders did not (they say 10 deg still).
+        assert abs(bot.pose().theta) < math.radians(5.0)
+
+
 def test_a_program_that_dies_stops_the_robot(stack, router):
     holder = subprocess.Popen([sys.executable, "-c", HOLDER, router], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     try:

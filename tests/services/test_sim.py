@@ -325,19 +325,52 @@ def test_a_sim_without_a_body_tells_the_field_nothing_and_drives_through_others(
 
 
 @pytest.mark.parametrize(
-    ("sections", "held"),
-    [({}, True), ({"sim": {"x0": 0.7, "walls": False}}, False), ({"field": {"x_max": 1.0, "enabled": False}}, False)],
-    ids=["walls", "walls-off", "field-off"],
+    ("sections", "stop"),
+    [
+        ({}, 0.92),  # the chassis's front (half its 0.16 m length) at the wall
+        ({"sim": {"x0": 0.7, "body_length": 0.0, "body_width": 0.0}}, 0.9),  # the disc's: its 0.1 m radius
+        ({"sim": {"x0": 0.7, "walls": False}}, None),
+        ({"field": {"x_max": 1.0, "enabled": False}}, None),
+    ],
+    ids=["walls", "walls-disc", "walls-off", "field-off"],
 )
-def test_the_fields_edges_are_walls_the_robot_stops_at(sections, held):
+def test_the_fields_edges_are_walls_the_robot_stops_at(sections, stop):
     base = {"sim": {"x0": 0.7}, "field": {"x_max": 1.0}}
     rig = Rig(Sim, **{name: {**base[name], **sections.get(name, {})} for name in base})
     for _ in range(300):  # 3 s at 0.17 m/s toward the edge 0.3 m ahead
         command(rig, 5.0, 5.0)
         rig.run(0.01)
     truth = rig.got("sim/truth")[-1]
-    if held:  # at contact with the wall x_max = 1.0, a footprint's radius short of it, the wheels slipping
-        assert truth.x == pytest.approx(0.9) and abs(truth.v) < 0.01 and rig.svc.counters.values["contacts"] == 1
+    if stop is not None:  # at contact with the wall x_max = 1.0, the wheels slipping
+        assert truth.x == pytest.approx(stop) and abs(truth.v) < 0.01 and rig.svc.counters.values["contacts"] == 1
         assert rig.got("sensors/encoders")[-1].left / 360 * 2 * math.pi * 0.0673 / 2 > 0.45
     else:
         assert truth.x > 1.1 and rig.svc.counters.values["contacts"] == 0
+
+
+def test_a_robot_driven_into_a_wall_at_an_angle_squares_up_against_it():
+    def drive(walls: bool) -> Rig:
+        rig = Rig(Sim, sim={"x0": 0.7, "theta0": math.radians(12.0), "walls": walls}, field={"x_max": 1.0})
+        for _ in range(400):  # 4 s toward the wall x_max = 1.0, the chassis's front-left corner first
+            command(rig, 5.0, 5.0)
+            rig.run(0.01)
+        return rig
+
+    def turned(rig: Rig) -> float:
+        """[rad] what the gyro felt, its bias and noise included."""
+        return sum(s.gyro_z for s in rig.got("sensors/imu")) * 0.01
+
+    rig, free = drive(True), drive(False)
+    truth = rig.got("sim/truth")[-1]
+    # The front flat against the wall: heading square to it, the centre half the chassis's length from it.
+    assert truth.theta == pytest.approx(0.0, abs=1e-9) and truth.x == pytest.approx(0.92) and abs(truth.v) < 0.01
+    drift = free.got("sim/truth")[-1].theta  # without the wall: its heading, give or take the wheels' differences
+    assert drift == pytest.approx(math.radians(12.0), abs=math.radians(3.0))
+    # The gyro felt the wall's turn; the encoders did not: both wheels turned as far as without the wall.
+    assert turned(rig) - turned(free) == pytest.approx(-drift, abs=math.radians(0.5))
+    assert rig.got("sensors/encoders")[-1] == free.got("sensors/encoders")[-1]
+
+
+def test_a_chassis_needs_both_its_length_and_its_width():
+    with pytest.raises(Exception, match="body_length and body_width"):
+        Rig(Sim, sim={"body_length": 0.2, "body_width": 0.0})

@@ -148,9 +148,28 @@ def test_stop(capsys):
     assert bus.subscribed == ["zenav/r2/pose", "zenav/r2/nav/state"] and bus.withdrawn()
 
 
+@pytest.mark.parametrize("moving", [True, False])
+def test_drive_stops_a_running_goal_then_commands_cmd_vel_for_its_time_and_zero(moving, capsys):
+    idle = {"state": "STOPPED", "goal_id": 0, "goal": None, "result": None, "distance_remaining": None, "pose": None}
+    status = m.StatusReply(**{**idle, "is_moving": moving})
+    bus = FakeBus({"nav/status": status, "nav/stop": m.StopReply(state="STOPPED")})
+    commands = []
+    bus.subs.append(("zenav/r1/cmd_vel", lambda key, data: commands.append(codec.decode(data, m.CmdVel))))
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(nav, "open_bus", lambda args: bus)
+        code = nav.run(parse("drive", "-0.1", "0.5", "--for", "0.06"))
+    assert code == EXIT_OK and [q for q, _, _ in bus.sent] == ["nav/status", *(["nav/stop"] if moving else [])]
+    assert len(commands) >= 2 and set(commands[:-1]) == {m.CmdVel(t=0.0, v=-0.1, omega=0.5)}
+    assert commands[-1] == m.CmdVel(t=0.0, v=0.0, omega=0.0)
+    assert "then stopped" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize(
     "argv",
     [
+        ["drive", "0.1"],  # no --for
+        ["drive", "0.1", "--for", "0"],
+        ["drive", "nan", "--for", "1"],
         ["goto", "1"],
         ["goto", "one", "2"],
         ["goto", "nan", "0"],
@@ -248,7 +267,7 @@ def test_progress_line():
 
 
 GOALS = (["goto", "1", "2"], ["turn", "1"], ["swing", "1", "left"], ["face", "1", "2"], ["straight", "0.1"], ["path", "1,2"])
-CLIENT_COMMANDS = (*GOALS, ["stop"], ["set-pose", "0", "0"], ["status"])
+CLIENT_COMMANDS = (*GOALS, ["stop"], ["set-pose", "0", "0"], ["drive", "0.1", "--for", "1"], ["status"])
 
 
 @pytest.mark.parametrize("cmd", GOALS)
@@ -265,7 +284,7 @@ def test_client_commands_refuse_deployment_options(cmd, option, capsys):
     assert e.value.code == EXIT_USAGE and f"unrecognized arguments: {option[0]}" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("cmd", [["stop"], ["set-pose", "0", "0"]])
+@pytest.mark.parametrize("cmd", [["stop"], ["set-pose", "0", "0"], ["drive", "0.1", "--for", "1"]])
 def test_stop_and_set_pose_have_no_wait(cmd):
     with pytest.raises(SystemExit) as e:
         parse(*cmd, "--wait")

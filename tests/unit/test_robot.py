@@ -175,6 +175,26 @@ def test_stop(world, bot):
     assert goal.wait(timeout=0).result == "cancelled" and not bot.is_moving()
 
 
+def test_drive_stops_the_running_goal_then_commands_cmd_vel_for_its_time_and_zero_after(world, bot):
+    goal = bot.move_straight(0.1)
+    world.drive(lambda: world.x > 0.02)
+    before = len(world.published("cmd_vel"))
+    bot.drive(-0.1, 0.2, seconds=0.12)
+    assert goal.wait(timeout=0).result == "cancelled"  # stopped before the first command
+    sent = [(c.t, c.v, c.omega) for c in world.published("cmd_vel")[before:]]
+    ours = [c for c in sent if c != (0.0, 0.0, 0.0)]
+    assert len(ours) >= 2 and set(ours) == {(0.0, -0.1, 0.2)}  # t = 0: "now", as teleop's
+    assert sent[-len(ours) - 1 :] == [*ours, (0.0, 0.0, 0.0)]  # one run of them, then zero
+
+
+@pytest.mark.parametrize(("args", "field"), [((math.nan,), "v"), ((0.1, math.inf), "omega"), ((0.1, 0.0, -1.0), "seconds")])
+def test_drive_refuses_a_number_that_is_not_finite_or_a_negative_time(world, bot, args, field):
+    before = len(world.published("cmd_vel"))
+    with pytest.raises(InvalidArgument, match=field):
+        bot.drive(*args)
+    assert len(world.published("cmd_vel")) == before  # nothing sent
+
+
 def test_goals_carry_the_lease_and_closing_stops_the_robot(world):
     watcher = Robot("r1", bus=world, lease=False)
     bot = Robot("r1", bus=world)

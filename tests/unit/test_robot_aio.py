@@ -92,3 +92,28 @@ def test_arguments_the_robot_does_not_take_fail_at_once(world):
         aio.Robot("r1", bus=world, colour="red")
     with pytest.raises(InvalidArgument, match="robot"):
         asyncio.run(aio.Robot("no such robot!", bus=world).open())
+
+
+def test_drive_in_asyncio_commands_zero_when_done_and_when_cancelled(world):
+    zero = (0.0, 0.0, 0.0)
+
+    def sent() -> list[tuple[float, float, float]]:
+        return [(c.t, c.v, c.omega) for c in world.published("cmd_vel")]
+
+    async def main():
+        async with aio.Robot("r1", bus=world) as bot:
+            await bot.drive(0.1, 0.0, seconds=0.08)
+            ours = [c for c in sent() if c != zero]
+            assert len(ours) >= 2 and set(ours) == {(0.0, 0.1, 0.0)} and sent()[-1] == zero
+            before, loop, driving = len(sent()), asyncio.get_running_loop(), asyncio.Event()
+            world.bus.subscribe("zenav/r1/cmd_vel", lambda key, data: loop.call_soon_threadsafe(driving.set))
+            task = asyncio.create_task(bot.drive(-0.1, 0.0, seconds=60.0))
+            await asyncio.wait_for(driving.wait(), timeout=10)  # its first command
+            task.cancel()
+            with pytest.raises(asyncio.CancelledError):
+                await task
+            assert sent()[-1] == zero and (0.0, -0.1, 0.0) in sent()[before:]
+            with pytest.raises(InvalidArgument, match="seconds"):
+                await bot.drive(0.1, 0.0, seconds=-1.0)
+
+    asyncio.run(main())

@@ -1,11 +1,15 @@
-"""Robots' bodies as discs: a step into another body or a wall stops at contact, slides round it, and never pushes it."""
+"""Robots' bodies as discs: a step into another body or a wall stops at contact, slides round it, and never pushes it.
+A chassis against the walls: no corner past one, and a robot driven into one squares up against it."""
 
 import math
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from zenav.common.config import Robot
-from zenav.world.bodies import Disc, Walls, block
+from zenav.world.bodies import Chassis, Disc, Walls, _corners, _nearest, block, chassis_inside, chassis_travel
+from zenav.world.robot import arc
 from zenav.world.sim import SimRobot
 
 from .test_world_sim import IDEAL
@@ -81,3 +85,86 @@ def test_a_robot_driven_at_a_wall_stops_there_while_its_wheels_turn_on_and_one_w
     assert held.state.x == pytest.approx(0.9) and held.met == ["wall x_max"] and held.state.v == pytest.approx(0.0)
     assert ghost.state.x == pytest.approx(1.1)  # through the edge
     assert held.encoders() == ghost.encoders()  # the wheels slipped: the encoders counted the whole way
+
+
+CHASSIS = Chassis(0.16, 0.12)
+TRACK = 0.1156  # [m] Robot()'s track width
+
+
+def rooms(x: float, y: float, theta: float, walls: Walls = FIELD) -> list[float]:
+    """[m] how far inside each wall each corner of CHASSIS is (negative: past it)."""
+    return [nx * (x + rx) + ny * (y + ry) + off for _, nx, ny, off in walls.faces for rx, ry in _corners(theta, CHASSIS)]
+
+
+def drive(
+    x: float, y: float, theta: float, left: float, right: float, steps: int, walls: Walls = FIELD
+) -> tuple[float, float, float, float]:
+    """A chassis whose wheels travel (left, right) [m] a step, `steps` times, inside `walls`: its pose, and its
+    corners' deepest room over the run."""
+    deepest = min(rooms(x, y, theta, walls))
+    for _ in range(steps):
+        a, b, _met = chassis_travel(x, y, theta, left, right, TRACK, CHASSIS, walls)
+        x1, y1, th1 = arc(x, y, theta, (a + b) / 2.0, (b - a) / TRACK)
+        x1, y1 = chassis_inside(x, y, theta, x1, y1, th1, CHASSIS, walls)
+        x, y, theta = x1, y1, th1
+        deepest = min(deepest, *rooms(x, y, theta, walls))
+    return x, y, theta, deepest
+
+
+@pytest.mark.parametrize("degrees", [10.0, -10.0, 30.0, -30.0])
+def test_a_chassis_backed_into_a_wall_at_an_angle_squares_up_against_it(degrees):
+    x, _, theta, deepest = drive(-0.7, 0.0, math.radians(degrees), -0.002, -0.002, 500)  # 1 m back toward x_min = -1
+    assert theta == pytest.approx(0.0, abs=1e-9)  # its back flat against the wall
+    assert x == pytest.approx(-1.0 + CHASSIS.length / 2)
+    assert deepest > -1e-9  # no corner ever past the wall
+
+
+def test_the_wheel_on_the_side_that_touched_is_held_and_the_other_drives_on():
+    theta = math.radians(10.0)  # backing into x_min: the rear left corner (turned toward the wall) touches first
+    x = -1.0 - min(rx for rx, _ in _corners(theta, CHASSIS))  # that corner at the wall
+    left, right, met = chassis_travel(x, 0.0, theta, -0.002, -0.002, TRACK, CHASSIS, FIELD)
+    assert met == ["wall x_min"]
+    assert abs(left) < 0.15 * abs(right) and right < -0.8 * 0.002  # it turns about the corner
+
+
+def test_a_chassis_flat_against_a_wall_is_held_and_drives_away_free():
+    x = 1.0 - CHASSIS.length / 2  # its front on x_max
+    assert chassis_travel(x, 0.0, 0.0, 0.002, 0.002, TRACK, CHASSIS, FIELD) == (pytest.approx(0.0), pytest.approx(0.0), ["wall x_max"])
+    assert chassis_travel(x, 0.0, 0.0, -0.002, -0.002, TRACK, CHASSIS, FIELD) == (-0.002, -0.002, [])
+    assert chassis_travel(0.0, 0.0, 0.0, 0.002, 0.002, TRACK, CHASSIS, FIELD) == (0.002, 0.002, [])  # far from every wall
+
+
+def test_a_chassis_grazing_a_wall_turns_along_it():
+    _, y, theta, deepest = drive(0.0, 0.9, math.radians(10.0), 0.002, 0.002, 300)  # toward y_max = 1 at 10 deg
+    assert abs(theta) < 1e-3 and y == pytest.approx(1.0 - CHASSIS.width / 2, abs=1e-4)  # along it, its side on it
+    assert deepest > -1e-9
+
+
+def test_a_chassis_driven_into_the_fields_corner_stays_inside_both_walls():
+    *_, deepest = drive(0.7, 0.7, math.radians(45.0), 0.002, 0.0025, 600)  # into x_max and y_max at once, turning
+    assert deepest > -1e-9
+
+
+def test_a_chassis_put_down_across_a_wall_may_come_back_in_but_goes_no_farther_out():
+    start = min(rooms(1.0, 0.0, 0.3))  # its centre on x_max
+    assert start < 0
+    *_, deepest = drive(1.0, 0.0, 0.3, 0.002, 0.002, 100)  # driving out
+    assert deepest >= start - 1e-9
+    x, *_ = drive(1.0, 0.0, 0.3, -0.002, -0.002, 100)  # backing in
+    assert x < 0.9
+
+
+BOUND = st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 0.0))  # a u + b v >= low, (0, 0) keeps it
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(BOUND, min_size=1, max_size=5), st.floats(-2.0, 2.0), st.floats(-2.0, 2.0))
+def test_the_nearest_travel_keeps_every_bound_and_no_point_that_keeps_them_is_nearer(bounds, p, q):
+    u, v = _nearest(p, q, bounds)
+    assert all(a * u + b * v >= low - 1e-9 for a, b, low in bounds)
+    d = math.hypot(u - p, v - q)
+    for i in range(-20, 21):  # a grid of points around (p, q)
+        for j in range(-20, 21):
+            gu, gv = p + i * 0.1, q + j * 0.1
+            if all(a * gu + b * gv >= low for a, b, low in bounds):
+                assert d <= math.hypot(gu - p, gv - q) + 1e-9
