@@ -703,6 +703,17 @@ class Service:
         return enqueue
 
     def _dispatch(self, item: tuple) -> None:
+        """Serve one input. Whatever fails (a handler, or sending what it returned or a reply) is counted (`errors`)
+        and logged, and the next input is served: an exception raised here would end the worker, or reach the Zenoh
+        thread that serves inline, where only Zenoh would report it."""
+        try:
+            self._handle(item)
+        except Exception as e:
+            self.counters.inc("errors")
+            what = f"{item[0]} {item[2] or getattr(item[1], '__name__', '')}"  # a query acting on no exact key: its handler
+            self.warn(f"serve:{what}", f"serving {what} failed: {type(e).__name__}: {clip(str(e))}", logging.ERROR)
+
+    def _handle(self, item: tuple) -> None:
         kind, fn, suffix, typ, data = item
         if kind == "query":
             self._dispatch_query(fn, suffix, typ, data)

@@ -87,6 +87,26 @@ def test_handler_exception_is_counted_and_service_continues(svc):
     assert [w.t for w in published(bus, "motors/wheels")] == [2.0]
 
 
+@pytest.mark.parametrize("inline", [False, True], ids=["worker", "inline"])
+def test_an_output_that_fails_to_go_out_is_counted_and_the_next_input_is_served(svc, monkeypatch, inline):
+    s, bus, _ = svc
+    s.inline = inline  # served on the publishing thread, as on a Zenoh thread: nothing may be raised into it
+    publish, failed = bus.publish, []
+
+    def failing_once(key, data):
+        if key.endswith("/motors/wheels") and not failed:
+            failed.append(key)
+            raise RuntimeError("session closing")  # as a Zenoh publisher's put can
+        publish(key, data)
+
+    monkeypatch.setattr(bus, "publish", failing_once)
+    bus.publish("zenav/r1/cmd_vel", codec.encode(m.CmdVel(t=1.0, v=0.1, omega=0.0)))
+    bus.publish("zenav/r1/cmd_vel", codec.encode(m.CmdVel(t=2.0, v=0.1, omega=0.0)))
+    s.drain()
+    assert failed and s.counters.values["errors"] == 1
+    assert [w.t for w in published(bus, "motors/wheels")] == [2.0]
+
+
 def test_timers_follow_the_clock(svc):
     s, bus, clock = svc
     s.drain()  # first run schedules at now + period
