@@ -168,3 +168,28 @@ def test_the_nearest_travel_keeps_every_bound_and_no_point_that_keeps_them_is_ne
             gu, gv = p + i * 0.1, q + j * 0.1
             if all(a * gu + b * gv >= low for a, b, low in bounds):
                 assert d <= math.hypot(gu - p, gv - q) + 1e-9
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.floats(-0.95, 0.95),
+    st.floats(-0.95, 0.95),
+    st.floats(-math.pi, math.pi),
+    st.lists(st.tuples(st.floats(-10.0, 10.0), st.floats(-10.0, 10.0)), min_size=1, max_size=30),
+    st.lists(st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)), max_size=2),
+)
+def test_a_chassis_among_walls_and_other_robots_never_goes_farther_past_a_wall(x, y, theta, commands, others):
+    bot = SimRobot(Robot(), IDEAL, 1, x, y, theta, body_radius=0.1, walls=FIELD, chassis=CHASSIS)
+    bodies = {f"r{i}": Disc(ox, oy, 0.1) for i, (ox, oy) in enumerate(others, start=2)}
+
+    def deepest(s) -> list[float]:
+        """[m] per wall, how far inside it the chassis's deepest corner is."""
+        return [min(nx * (s.x + rx) + ny * (s.y + ry) + off for rx, ry in _corners(s.theta, CHASSIS)) for _, nx, ny, off in FIELD.faces]
+
+    for left, right in commands:
+        for _ in range(20):
+            before = deepest(bot.state)
+            s = bot.step(left, right, 0.01, bodies)
+            assert all(math.isfinite(v) for v in (s.x, s.y, s.theta, s.v, s.omega))
+            # Inside a wall it stays inside; put down across one, it comes no farther out.
+            assert all(now >= min(was, 0.0) - 1e-9 for now, was in zip(deepest(s), before, strict=True))
