@@ -21,6 +21,8 @@ from zenav.world import faults, sensors
 from zenav.world.bodies import Chassis, Disc, Walls
 from zenav.world.sim import SimRobot
 
+CHASSIS = (1.6, 1.2)  # the default chassis's length and width, per body_radius: a 4:3 rectangle whose corners touch the disc
+
 
 class SimConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """The [sim] section."""
@@ -38,13 +40,22 @@ class SimConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     # [m] the robot's footprint, a disc other simulated robots on the field keep out of (and it out of theirs); 0: none
     body_radius: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.1
     walls: bool = True  # the [field] area's edges are walls the footprint stays inside (with [field] enabled)
-    # [m] the chassis, a rectangle centred on the wheels' axle, that meets the walls (and squares up against one); 0: the disc
-    body_length: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.16
-    body_width: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.12
+    # [m] the chassis, a rectangle centred on the wheels' axle, that meets the walls (and squares up against one):
+    # by default CHASSIS times body_radius (a rectangle inside the disc); both 0: the disc meets them
+    body_length: Annotated[float, Meta(ge=0.0, le=10.0)] | None = None
+    body_width: Annotated[float, Meta(ge=0.0, le=10.0)] | None = None
 
     def __post_init__(self) -> None:
-        if (self.body_length > 0.0) != (self.body_width > 0.0):
-            raise ValueError("body_length and body_width: both > 0 (a chassis against the walls) or both 0 (the disc)")
+        length, width = self.chassis()
+        if (length > 0.0) != (width > 0.0):
+            raise ValueError(
+                f"body_length {length:g} and body_width {width:g} m: both > 0 (a chassis against the walls) or both 0 (the disc)"
+            )
+
+    def chassis(self) -> tuple[float, float]:
+        """[m] (length, width) of the chassis against the walls, the defaults drawn from body_radius; (0, 0): the disc."""
+        length = CHASSIS[0] * self.body_radius if self.body_length is None else self.body_length
+        return length, CHASSIS[1] * self.body_radius if self.body_width is None else self.body_width
 
 
 OVERRUN_HOLD = 5.0  # [s] of the scheduling clock a fall behind keeps the status degraded
@@ -69,7 +80,8 @@ class Sim(Service):
         f = settings.field
         walls = Walls(f.x_min, f.x_max, f.y_min, f.y_max) if c.walls and f.enabled else None
         seed = settings.deployment.seed
-        chassis = Chassis(c.body_length, c.body_width) if c.body_length > 0.0 else None
+        length, width = c.chassis()
+        chassis = Chassis(length, width) if length > 0.0 else None
         self.bot = SimRobot(settings.robot, self.scen, seed, c.x0, c.y0, c.theta0, c.encoder_start, c.body_radius, walls, chassis)
         self.others: dict[str, tuple[float, Disc]] = {}  # robot -> (sim time heard, its body): what the bodies step among
         self.steps = 0  # steps taken: sim time is steps / rate, never read from the wall

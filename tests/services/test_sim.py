@@ -372,5 +372,15 @@ def test_a_robot_driven_into_a_wall_at_an_angle_squares_up_against_it():
 
 
 def test_a_chassis_needs_both_its_length_and_its_width():
-    with pytest.raises(Exception, match="body_length and body_width"):
-        Rig(Sim, sim={"body_length": 0.2, "body_width": 0.0})
+    for sim in ({"body_length": 0.2, "body_width": 0.0}, {"body_length": 0.0}):  # the other's default is body_radius's
+        with pytest.raises(Exception, match=r"body_width .* both > 0 \(a chassis against the walls\) or both 0"):
+            Rig(Sim, sim=sim)
+
+
+@pytest.mark.parametrize(("sim", "stop"), [({"body_radius": 0.2}, 1.0 - 0.16), ({"body_radius": 0.2, "body_length": 0.1}, 0.95)])
+def test_the_default_chassis_grows_with_the_body(sim, stop):
+    rig = Rig(Sim, sim={"x0": 0.5, **sim}, field={"x_max": 1.0})
+    for _ in range(400):  # 4 s at 0.17 m/s toward the wall 0.5 m ahead
+        command(rig, 5.0, 5.0)
+        rig.run(0.01)
+    assert rig.got("sim/truth")[-1].x == pytest.approx(stop)  # half its length short of the wall
