@@ -178,7 +178,17 @@ def read(path: str, robot: str | None = None, suffixes: Iterable[str] | None = N
 
 
 def topics(path: str) -> dict[str, set[str]]:
-    """The robot ids that have contract channels in a recording, in first-seen order, each with its topic suffixes."""
+    """The robot ids that have contract channels in a recording, in first-seen order, each with its topic suffixes.
+
+    An unfinished file has no summary and is read through to find them: kept while the file stays as it was (its
+    size and time), so that a replay that checks the robots and then looks for their clocks reads it once."""
+    st = os.stat(path)
+    return {robot: set(suffixes) for robot, suffixes in _topics(os.path.realpath(path), st.st_size, st.st_mtime_ns).items()}
+
+
+@functools.lru_cache(maxsize=8)
+def _topics(path: str, size: int, mtime_ns: int) -> dict[str, frozenset[str]]:
+    """topics() of the file at `path` as it is at that size and time."""
     if finished(path):  # the summary lists every channel
         with open(path, "rb") as f:
             summary = make_reader(f).get_summary()
@@ -190,7 +200,7 @@ def topics(path: str) -> dict[str, set[str]]:
         topic = contract_topic(key_of(channel.topic))
         if topic is not None:
             found.setdefault(topic[0], set()).add(topic[1])
-    return found
+    return {robot: frozenset(suffixes) for robot, suffixes in found.items()}
 
 
 def robots(path: str) -> list[str]:

@@ -74,3 +74,27 @@ def test_what_is_no_recording(tmp_path):
         list(fmt.read(str(text)))
     with pytest.raises(fmt.BadRecording, match="directory"):
         fmt.finished(str(tmp_path))
+
+
+def test_an_unfinished_file_is_read_through_for_its_robots_once_while_it_stays_as_it_was(tmp_path, monkeypatch):
+    part = tmp_path / "run.mcap.part"
+    with open(part, "wb") as f:
+        w = Writer(f)
+        _write(w, part, [20], finish=False)
+        reads = []
+        messages = fmt._messages
+        monkeypatch.setattr(fmt, "_messages", lambda path: reads.append(path) or messages(path))
+        assert fmt.robots(str(part)) == ["r1"] and fmt.topics(str(part)) == {"r1": {"clock"}}  # a replay's check, then its clocks
+        assert len(reads) == 1
+        fmt.topics(str(part))["r1"].add("odom")  # the caller's own copy
+        assert fmt.topics(str(part)) == {"r1": {"clock"}} and len(reads) == 1
+        _write_more(w, part)  # the recorder goes on: read again
+        assert fmt.topics(str(part)) == {"r1": {"clock", "odom"}} and len(reads) == 2
+
+
+def _write_more(w: Writer, path: Path) -> None:
+    """An odom message on a channel of its own, flushed."""
+    schema = w.register_schema(fmt.schema_name(m.Odom), fmt.SCHEMA_ENCODING, fmt.schema_bytes(m.Odom))
+    channel = w.register_channel(fmt.topic_of(keys.key("r1", "odom")), fmt.MESSAGE_ENCODING, schema)
+    w.add_message(channel, log_time=1000, data=fmt.to_json(m.Odom(t=1.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)), publish_time=1000)
+    w.flush()
