@@ -82,7 +82,7 @@ class State(NamedTuple):
     angle_right: float = 0.0  # [rad]
     v: float = 0.0  # [m/s] forward, mean over the last step
     omega: float = 0.0  # [rad/s] CCW, mean over the last step
-    accel: float = 0.0  # [m/s^2] forward acceleration the motors gave over the last step
+    accel: float = 0.0  # [m/s^2] forward acceleration over the last step: the motors', or the body's where held (sim.py)
     t: float = 0.0  # [s] time since the start (the payload schedule's clock)
 
 
@@ -129,7 +129,8 @@ def step(s: State, w: World, cmd_left: float, cmd_right: float, dt: float, rng: 
     d_right = r_right * turn_r * slip_r
     ds, dtheta = (d_left + d_right) / 2.0, (d_right - d_left) / w.track
     x, y, theta = arc(s.x, s.y, s.theta, ds, dtheta)
-    # Slip is a travel error per step, not a force: the accelerometer feels the motors.
+    # Slip is a travel error per step, not a force: the accelerometer feels the motors (a wall or another
+    # robot that holds the body is a force: SimRobot.step makes it feel the body's stop there).
     accel = (r_left * (speed_l - s.speed_left) + r_right * (speed_r - s.speed_right)) / (2.0 * dt)
     return State(x, y, theta, speed_l, speed_r, s.angle_left + turn_l, s.angle_right + turn_r, ds / dt, dtheta / dt, accel, s.t + dt)
 

@@ -76,7 +76,7 @@ class SimRobot:
     def step(self, cmd_left: float, cmd_right: float, dt: float, others: Mapping[str, Disc] | None = None) -> body.State:
         """Move on by dt [s] under wheel commands [rad/s], kept out of `others` and inside the walls (bodies.block,
         or the chassis's bodies.chassis_travel); the new state. The wheels turn all the same (the encoders count
-        it): a step held back moves the ground less."""
+        it): a step held back moves the ground less, and the accelerometer feels the body's change of speed."""
         s0 = self.state
         s = body.step(s0, self.body, cmd_left, cmd_right, dt, self._motion)
         self.met = []
@@ -102,6 +102,8 @@ class SimRobot:
             x, y = chassis_inside(s0.x, s0.y, s0.theta, s.x, s.y, s.theta, chassis, self.walls)
             if (x, y) != (s.x, s.y):
                 s = s._replace(x=x, y=y)
+        if self.met:  # held: the body, not the motors, is what the accelerometer feels (the stop, then nothing)
+            s = s._replace(accel=(s.v - s0.v) / dt)
         self.state = s
         return s
 

@@ -371,6 +371,22 @@ def test_a_robot_driven_into_a_wall_at_an_angle_squares_up_against_it():
     assert rig.got("sensors/encoders")[-1] == free.got("sensors/encoders")[-1]
 
 
+def test_the_accelerometer_feels_the_wall_stop_the_robot_and_nothing_while_it_is_held():
+    rig = Rig(Sim, sim={"x0": 0.7}, field={"x_max": 1.0}, scenario={"accel_noise": 0.0, "accel_bias": 0.0})
+    for _ in range(300):  # 3 s at 0.17 m/s toward the wall 0.3 m ahead: there at about 1.3 s
+        command(rig, 5.0, 5.0)
+        rig.run(0.01)
+    imu = [(s.t, s.accel_x) for s in rig.got("sensors/imu")]
+    truth = {s.t: s.x for s in rig.got("sim/truth")}
+    hit = min(t for t, _ in imu if truth.get(t, 0.0) >= 0.92 - 1e-9)  # the step the chassis met the wall
+    around = [a for t, a in imu if hit - 0.02 < t <= hit + 0.02]
+    assert min(around) < -5.0  # the stop: 0.17 m/s lost in a step or two
+    held = [a for t, a in imu if t > hit + 0.1]
+    assert len(held) > 100 and max(map(abs, held)) < 1e-9  # held still while the motors push on
+    cruise = [a for t, a in imu if 0.5 < t < hit - 0.1]
+    assert max(map(abs, cruise)) < 0.5  # before: what the motors gave at a steady speed
+
+
 def test_a_chassis_needs_both_its_length_and_its_width():
     for sim in ({"body_length": 0.2, "body_width": 0.0}, {"body_length": 0.0}):  # the other's default is body_radius's
         with pytest.raises(Exception, match=r"body_width .* both > 0 \(a chassis against the walls\) or both 0"):
