@@ -54,11 +54,15 @@ class Walls:
         )
 
 
-class Chassis(NamedTuple):
-    """A robot's body against the walls: a rectangle centred on the middle of its wheels' axle."""
+class Chassis:
+    """A robot's body against the walls: a rectangle centred on the middle of its wheels' axle. Built once, read at
+    every step."""
 
-    length: float  # [m] along the heading
-    width: float  # [m] across it
+    __slots__ = ("corner", "length", "width")
+
+    def __init__(self, length: float, width: float) -> None:  # [m] along the heading, and across it
+        self.length, self.width = length, width
+        self.corner = math.hypot(length, width) / 2.0  # [m] from the centre to a corner
 
 
 def _held(x0: float, y0: float, x: float, y: float, nx: float, ny: float, room: float) -> tuple[float, float] | None:
@@ -127,9 +131,8 @@ def chassis_travel(
     the nearest pair that keeps them all is a projection onto a convex polygon in the plane, found among the
     travel itself, its projections onto each bound's edge and the edges' crossings. Standing still keeps them all.
     """
-    far = math.hypot(chassis.length, chassis.width) / 2.0  # [m] from the centre to a corner
-    reach = (abs(d_left) + abs(d_right)) * (0.5 + far / track) + SLACK  # the farthest a corner can move this step
-    if _clear(x, y, walls, far + reach):
+    reach = (abs(d_left) + abs(d_right)) * (0.5 + chassis.corner / track) + SLACK  # the farthest a corner moves this step
+    if _clear(x, y, walls, chassis.corner + reach):
         return d_left, d_right, []
     offsets = _corners(theta, chassis)
     hx, hy = math.cos(theta), math.sin(theta)
@@ -182,7 +185,7 @@ def chassis_inside(
     """Where the chassis at (x, y, theta), after a step from (x0, y0, theta0), sits with no corner past a wall
     farther than it started (past none, if it started inside): moved back across each wall's normal as far as
     needed. `chassis_travel` bounds the step to first order; this takes up the rest (the arc's curve)."""
-    if _clear(x, y, walls, math.hypot(chassis.length, chassis.width) / 2.0):
+    if _clear(x, y, walls, chassis.corner):
         return x, y
     before, after = _corners(theta0, chassis), _corners(theta, chassis)
     for _, nx, ny, offset in walls.faces:

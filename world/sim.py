@@ -51,7 +51,7 @@ class SimRobot:
         self.robot = robot
         self.body_radius = body_radius
         self.walls = walls if body_radius > 0.0 else None
-        self.chassis = chassis
+        self.chassis = chassis if self.walls is not None else None  # it meets the walls only
         self.met: list[str] = []  # the other bodies the last step met
         self.scenario = scenario
         self.body = body.world(robot, scenario)
@@ -81,7 +81,7 @@ class SimRobot:
         s = body.step(s0, self.body, cmd_left, cmd_right, dt, self._motion)
         self.met = []
         walls, chassis = self.walls, self.chassis
-        if walls is not None and chassis is not None:
+        if chassis is not None and walls is not None:  # the chassis meets the walls, the disc below the other robots
             track = self.body.track
             ds, dtheta = s.v * dt, s.omega * dt
             left, right, self.met = chassis_travel(
@@ -91,15 +91,15 @@ class SimRobot:
                 ds, dtheta = (left + right) / 2.0, (right - left) / track
                 x, y, theta = body.arc(s0.x, s0.y, s0.theta, ds, dtheta)
                 s = s._replace(x=x, y=y, theta=theta, v=ds / dt, omega=dtheta / dt)
-            walls = None  # the discs' block below: the other robots only
-        if self.body_radius > 0.0 and (others or walls is not None):
-            x, y, met = block(s0.x, s0.y, s.x, s.y, self.body_radius, others or {}, walls)
+        disc_walls = walls if chassis is None else None
+        if self.body_radius > 0.0 and (others or disc_walls is not None):
+            x, y, met = block(s0.x, s0.y, s.x, s.y, self.body_radius, others or {}, disc_walls)
             if met:
                 mid = s0.theta + wrap_angle(s.theta - s0.theta) / 2.0
                 s = s._replace(x=x, y=y, v=((x - s0.x) * math.cos(mid) + (y - s0.y) * math.sin(mid)) / dt)
                 self.met += met
-        if self.walls is not None and chassis is not None:  # the arc's curve, or another robot's slide
-            x, y = chassis_inside(s0.x, s0.y, s0.theta, s.x, s.y, s.theta, chassis, self.walls)
+        if chassis is not None and walls is not None:  # the arc's curve, or another robot's slide
+            x, y = chassis_inside(s0.x, s0.y, s0.theta, s.x, s.y, s.theta, chassis, walls)
             if (x, y) != (s.x, s.y):
                 s = s._replace(x=x, y=y)
         if self.met:  # held: the body, not the motors, is what the accelerometer feels (the stop, then nothing)
