@@ -133,6 +133,7 @@ class Pose(Topic, frozen=True, kw_only=True):
     frame: str = "map"
     correction: Vec3 = (0.0, 0.0, 0.0)  # (dx, dy, dtheta) applied by the newest fix
     calibration: dict[str, Finite] = {}  # online estimates of odometry errors
+    slipping: bool = False  # the wheels are found slipping (held by a wall or a robot, pushed): x, y rest on the fixes
 
 
 class CmdVel(Topic, frozen=True, kw_only=True):

@@ -44,9 +44,13 @@ class LocalizerConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=T
     recover_after: Annotated[int, Meta(ge=1, le=1000)] = 5  # consecutive rejected fixes before re-acquiring
     wheel_noise: Pos = 1e-6  # [m^2/m] variance of each wheel's travel (slip) per metre it travels
     # [m^2/m] ekf: variance of the position per metre the odometry travels while its wheels are found slipping (pushing
-    # against another robot or a wall: the fixes disagree with the odometry's travel); 0: never found slipping
+    # against another robot or a wall: the accelerometer or the fixes disagree with the odometry); 0: never found slipping
     slip_noise: Annotated[float, Meta(ge=0.0, le=100.0)] = 0.05
-    slip_hold: Annotated[float, Meta(gt=0.0, le=60.0)] = 1.0  # [s] ekf: how long after the last fix that found slip it lasts
+    slip_hold: Annotated[float, Meta(gt=0.0, le=60.0)] = 1.0  # [s] ekf: how long slip lasts after the last sample or fix finding it
+    # [m/s] ekf: the accelerometer's and the odometry's forward speed changes parting by more than this find the wheels
+    # slipping at once (an impact, a hold, a push: impact.py); 0: the accelerometer is not read
+    impact_speed: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.05
+    impact_leak: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.25  # [s] ekf: time constant their difference fades with
     calib_noise: Annotated[float, Meta(ge=0.0, le=1.0)] = 1e-8  # [1/m] random walk variance of each calibration error per metre
     calib_sigma: Annotated[float, Meta(ge=0.0, le=0.5)] = 0.05  # 1-sigma prior of each relative calibration error
     gyro_noise: Pos = 1e-3  # [rad/sqrt(s)] angle random walk of the integrated gyro (when sensors/imu is there)
@@ -130,6 +134,7 @@ class Mode:
         self._latencies: deque[float] = deque(maxlen=cfg.latency_window)
         self._recent_fixes: deque[tuple] = deque(maxlen=DUPLICATE_WINDOW)  # (t, x, y, theta) of recent fixes
         self.latency_estimator = latency_estimator(cfg) if cfg.latency == "estimate" else None
+        self.impacts = 0  # times the accelerometer found the wheels slipping (ekf)
 
     # ------------------------------------------------------------ interface
     @property
@@ -227,6 +232,7 @@ class Mode:
             cov=cov,
             correction=self.correction,
             calibration=self.calibration(),
+            slipping=self.slipping(),
         )
 
     def set_pose(self, t: float, x: float | None = None, y: float | None = None, theta: float | None = None) -> Pose2:
@@ -250,6 +256,10 @@ class Mode:
     def calibration(self) -> dict[str, float]:
         """Online estimates of the odometry's errors (empty: the mode has none)."""
         return {}
+
+    def slipping(self) -> bool:
+        """Whether the wheels are found slipping at the newest odom sample (False: the mode does not look)."""
+        return False
 
     # ------------------------------------------------------------ a mode implements
     def _start(self, pose: Pose2) -> None:

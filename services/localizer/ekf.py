@@ -23,7 +23,7 @@ from zenav.common import messages as m
 from zenav.common.config import Robot
 from zenav.common.geometry import Pose2, wrap_angle
 
-from . import model
+from . import impact, model
 from .base import FixResult, LocalizerConfig, Mode, fix_cov
 from .gyro import GyroIntegral
 
@@ -77,6 +77,8 @@ class Ekf(Mode):
         self.slip = (math.inf, -math.inf)  # [s] (from, until): the wheels found slipping over this span of odometry
         self.recent: deque[tuple[float, float, float]] = deque()  # (t, x, y) of the fixes over the last TRACTION_WINDOW
         self.short = False  # the last fix moved too little for the odometry's travel
+        span = impact.window(cfg.impact_speed, tick) if cfg.impact_speed > 0.0 and cfg.slip_noise > 0.0 else None
+        self.impact = None if span is None else impact.Impact(cfg.impact_speed, cfg.impact_leak, span, cfg.history, cfg.gyro_max_gap)
 
     # ------------------------------------------------------------ filter steps
     def _apply(self, s: np.ndarray, P: np.ndarray, f: _Fix):
@@ -120,9 +122,14 @@ class Ekf(Mode):
         if not slipping:
             return False
         before = self.slip
-        going = before[0] <= t <= before[1]
-        self.slip = (before[0] if going else t, t + self.cfg.slip_hold)
+        self._slip(t, t)
         return self.slip != before
+
+    def _slip(self, start: float, t: float) -> bool:
+        """The wheels found slipping at t [s]: the span lasts slip_hold past t, from `start` if it is new (True)."""
+        going = self.slip[0] <= t <= self.slip[1]
+        self.slip = (self.slip[0] if going else start, t + self.cfg.slip_hold)
+        return not going
 
     def _advance(self, s: np.ndarray, P: np.ndarray, t0: float, e: _Entry, until: float = math.inf):
         """Integrate entry e's increment from time t0, applying its fixes, up to `until` [s]."""
@@ -160,6 +167,8 @@ class Ekf(Mode):
     def on_imu(self, imu: m.Imu) -> str | None:
         if not self.gyro.add(imu.t, imu.gyro_z):
             return "stale"
+        if self.impact is not None:
+            self.impact.on_imu(imu.t, imu.accel_x, imu.accel_y)
         if not self.history:
             return None
         first = None  # fill the increments the gyro now covers, then re-integrate from there
@@ -195,6 +204,12 @@ class Ekf(Mode):
         drop = bisect.bisect_left(self.history, t - self.cfg.history, key=lambda e: e.t)
         if drop > 1:
             del self.history[: drop - 1]
+        if self.impact is not None and self.impact.on_odom(t0, t, ds):
+            # The accelerometer found it, half its window back: the increments from there are re-weighed as slipping.
+            start = t - self.impact.window / 2.0
+            if self._slip(start, t):
+                self.impacts += 1
+                self._replay(max(bisect.bisect_right(self.history, start, key=lambda e: e.t), 1))
 
     def _fix(self, fix: m.VpsPose, t: float, t_arrival: float) -> FixResult:
         z = np.array([fix.x, fix.y, fix.theta])
@@ -266,3 +281,6 @@ class Ekf(Mode):
 
     def calibration(self) -> dict[str, float]:
         return model.calibration(self.history[-1].s, self.robot.track_width, self.gyro_used)
+
+    def slipping(self) -> bool:
+        return self.slip[0] < self.last.t <= self.slip[1]

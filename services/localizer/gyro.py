@@ -6,7 +6,8 @@ import bisect
 
 
 class GyroIntegral:
-    """Cumulative integral of the yaw rate over the recent past (raw: bias and scale included)."""
+    """Cumulative integral of a rate over the recent past, raw (bias and scale included): the gyro's yaw rate, or
+    the accelerometer's forward reading (impact.py)."""
 
     def __init__(self, keep: float, max_gap: float) -> None:
         self.keep = keep  # [s] how far back increments can be asked for

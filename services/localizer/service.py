@@ -41,7 +41,15 @@ class Localizer(Service):
     @publish("pose")
     def on_odom(self, msg: m.Odom) -> m.Pose | None:
         """One odom sample: the pose at its t."""
+        impacts = self.mode.impacts
         dropped = self.mode.on_odom(msg)
+        if self.mode.impacts > impacts:
+            self.count("impacts")
+            self.warn(
+                "impact",
+                f"the accelerometer and the odometry part at t={msg.t:.3f} (a wall, a robot?): the wheels slip. With every"
+                " start and stop, check the accelerometer's axis and sign, or set [localizer] impact_speed = 0",
+            )
         if dropped == "stale":
             self.count("dropped_stale")
             self.warn("odom_stale", f"odom t={msg.t:.3f} is not after the previous sample: dropped")
@@ -136,6 +144,9 @@ class Localizer(Service):
             if self.outliers_in_row >= OUTLIERS_DEGRADED:
                 status = "degraded"
                 notes.insert(0, f"{self.outliers_in_row} VPS fixes in a row disagree with the odometry")
+            if self.mode.odom is not None and self.mode.slipping():
+                status = "degraded"
+                notes.insert(0, "the wheels slip (held by a wall or a robot, pushed?): the position rests on the fixes")
         odom = self.mode.odom
         if odom is not None and now - odom.t > ODOM_SILENT:
             status = "error"

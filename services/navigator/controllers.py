@@ -31,6 +31,7 @@ class PoseSample(NamedTuple):
     omega: float = 0.0  # [rad/s] measured turn rate
     sigma_xy: float = 0.0  # [m] 1 sigma of the position along its most uncertain axis
     sigma_theta: float = 0.0  # [rad] 1 sigma of the heading
+    slipping: bool = False  # the localizer finds the wheels slipping: x, y wait for the fixes
 
 
 def sigmas(cov: Sequence[float]) -> tuple[float, float]:

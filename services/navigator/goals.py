@@ -133,6 +133,7 @@ class _Run:
     along: float | None = None  # [m] or [rad] a chained goal: how far before the target's line it was on the last pose
     way: float = 0.0  # a turn: +1 counter-clockwise, -1 clockwise, as it started
     forced: bool = False  # a turn told its direction, not yet within RELEASE of its heading
+    slipped: bool = False  # the localizer found the wheels slipping on some pose of the goal
 
     @property
     def sign(self) -> float:
@@ -320,6 +321,7 @@ class GoalMachine:
             return (0.0, 0.0), self.abort(f"left the field: {self.area.outside(pose.x, pose.y)}{farther}")
         if out == 0.0:
             run.beyond = 0.0  # inside (again): the field's bounds hold
+        run.slipped = run.slipped or pose.slipping
         if run.sign < 0.0:
             pose = behind(pose)
         if run.settle_from is None:
@@ -331,8 +333,12 @@ class GoalMachine:
                 return self._chained(run, pose)
             self._stop(run, pose.t)
         assert run.settle_from is not None and run.exit is not None  # stopped
-        if pose.t - run.settle_from >= self.params.rest_time:
+        resting = pose.t - run.settle_from
+        if resting >= self.params.rest_time and not (pose.slipping and resting < self.params.rest_time + self.params.slip_wait):
+            # (While the wheels slip the position waits for the fixes: a robot held short by a wall is not "arrived".)
             result, message = verdict(run.goal, run.origin, pose, run.exit)
+            if result != SUCCEEDED and run.slipped:
+                message += " (the wheels slipped: held by a wall or a robot?)"
             if result == SUCCEEDED or not self._retry(run, pose):
                 return (0.0, 0.0), self._end(result, message, stop=True, exit=run.exit)
             return self.on_pose(self.pose)

@@ -38,6 +38,7 @@ class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     lock_distance: NonNeg = 0.08  # [m] this close to the final point the robot stops turning toward it
     stop_lead: NonNeg = 0.06  # [s] a stop is predicted to coast this long at the current rate (motor lag)
     rest_time: NonNeg = 0.2  # [s] after a move stops, zero is held this long, then the error is re-checked
+    slip_wait: NonNeg = 1.5  # [s] and at most this much longer while the localizer finds the wheels slipping
     chain_time: NonNeg = 0.2  # [s] after a chained move ends (exit chained) its last command is held this long for the next goal
     retries: Annotated[int, Meta(ge=0, le=10)] = 2  # moves again this many times at most while the re-check is over the tolerance
     settle_error: Pos = 0.02  # [m] a position error held under this for settle_time ends the move (settled)

@@ -69,7 +69,7 @@ class Navigator(Service):
             self.count("dropped_stale")
             self.warn("pose_order", f"dropped a pose out of order (t {msg.t:.3f} < {last.t:.3f})")
             return None
-        sample = PoseSample(msg.t, msg.x, msg.y, wrap_angle(msg.theta), msg.v, msg.omega, *sigmas(msg.cov))
+        sample = PoseSample(msg.t, msg.x, msg.y, wrap_angle(msg.theta), msg.v, msg.omega, *sigmas(msg.cov), msg.slipping)
         cmd, end = self.machine.on_pose(sample)
         if end is not None:
             self._ended(end, zero=False)  # the zero goes out below, with this pose's t

@@ -76,6 +76,20 @@ def test_drive_backs_the_robot_into_the_wall_where_it_squares_up(make_stack, rou
         assert abs(bot.pose().theta) < math.radians(5.0)
 
 
+def test_a_move_that_a_wall_holds_short_ends_short_not_arrived(make_stack, router):
+    # The wall x_min = -1 stops the chassis's front at x = -0.92: the target lies 5 cm beyond, inside the field.
+    make_stack(SERVICES, sim={"rtf": RTF, "x0": -0.6, "theta0": math.pi}, navigator={**NAV, "retries": 0})
+    with Client("r1", router) as watcher, Robot("r1", router) as bot:
+        bot.wait_ready(timeout=60)
+        res = bot.move_to_point(-0.97, 0.0, speed=0.2).wait(timeout=60)
+        # The odometry alone says it got there; the accelerometer felt the wall, so the verdict waited for the fixes.
+        assert res.result == "aborted" and "the wheels slipped" in res.message, res.message
+        truth = watcher.latest("sim/truth").wait(lambda t: abs(t.v) < 0.01, timeout=10)
+        assert truth.x == pytest.approx(-0.92, abs=0.002)
+        watcher.latest("pose").wait(lambda p: abs(p.x - truth.x) < 0.01, timeout=10)
+        assert watcher.latest("diag/localizer").wait(lambda d: d.counters.get("impacts", 0) >= 1, timeout=10)
+
+
 def test_a_program_that_dies_stops_the_robot(stack, router):
     holder = subprocess.Popen([sys.executable, "-c", HOLDER, router], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     try:

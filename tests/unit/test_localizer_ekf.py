@@ -35,10 +35,13 @@ def harsh_run():
     return drive_square(scenario("harsh"), 7)
 
 
-def straight(ekf: Ekf, t_from: float, t_to: float, v: float = 0.3, y: float = 0.0):
-    """Perfect odometry along x at v [m/s], 100 Hz, from the origin at t = 0."""
+def straight(ekf: Ekf, t_from: float, t_to: float, v: float = 0.3, y: float = 0.0, accel=None):
+    """Perfect odometry along x at v [m/s], 100 Hz, from the origin at t = 0; `accel`: an IMU sample before each
+    odom sample, the accelerometer's forward reading accel(t) [m/s^2] and no turn."""
     for k in range(int(round(t_from * 100)), int(round(t_to * 100)) + 1):
         t = k / 100
+        if accel is not None:
+            ekf.on_imu(m.Imu(t=t, gyro_z=0.0, accel_x=accel(t), accel_y=0.0))
         ekf.on_odom(m.Odom(t=t, x=v * t, y=y, theta=0.0, v=v, omega=0.0))
 
 
@@ -46,15 +49,15 @@ def fix(t: float, x: float, y: float = 0.0, theta: float = 0.0) -> m.VpsPose:
     return m.VpsPose(t=t, x=x, y=y, theta=theta, cov=COV)
 
 
-def tracking(t_end: float = 3.0, **cfg) -> Ekf:
-    """A filter initialised by two fixes and driven along x to t_end, fixes 0.3 s late."""
+def tracking(t_end: float = 3.0, accel=None, **cfg) -> Ekf:
+    """A filter initialised by two fixes and driven along x to t_end, fixes 0.3 s late (`accel`: as `straight`)."""
     ekf = Ekf(LocalizerConfig(**cfg), ROBOT)
-    straight(ekf, 0.0, 0.5)
+    straight(ekf, 0.0, 0.5, accel=accel)
     for tc in (0.1, 0.2):
         ekf.on_fix(fix(tc, 0.3 * tc), 0.5)
     for k in range(6, int(t_end * 100) + 1):
         t = k / 100
-        straight(ekf, t, t)
+        straight(ekf, t, t, accel=accel)
         if k % 10 == 5:  # fixes captured at x.x5 s: the tests send their own at x.x0
             ekf.on_fix(fix(t - 0.3, 0.3 * (t - 0.3)), t)
     return ekf
@@ -173,18 +176,24 @@ def test_outliers_are_rejected_and_a_moved_robot_is_reacquired():
     assert ekf.get_pose().y == pytest.approx(1.0, abs=0.03)
 
 
-def pinned(**cfg) -> list[float]:
+def pinned(accel=None, **cfg) -> list[float]:
     """The error [m] at each odom sample of a robot that drives into another at t = 1 s (x = 0.3 m) and is held
-    there for 4 s while its wheels slip on: the odometry goes on at 0.3 m/s, the fixes (0.3 s late) see it stand."""
-    ekf = tracking(1.0, **cfg)
+    there for 4 s while its wheels slip on: the odometry goes on at 0.3 m/s, the fixes (0.3 s late) see it stand.
+    `accel`: with an IMU (as `straight`)."""
+    ekf = tracking(1.0, accel=accel, **cfg)
     errors = []
     for k in range(101, 501):
         t = k / 100
-        straight(ekf, t, t)
+        straight(ekf, t, t, accel=accel)
         if k % 10 == 5:
             ekf.on_fix(fix(t - 0.3, min(0.3 * (t - 0.3), 0.3)), t)
         errors.append(ekf.get_pose().x - 0.3)
     return errors
+
+
+def felt(t: float) -> float:
+    """[m/s^2] the pinned robot's accelerometer: its bias, and the stop (0.3 m/s lost over the step to 1.01 s)."""
+    return 0.02 - (30.0 if round(t * 100) == 101 else 0.0)
 
 
 def test_wheels_slipping_against_an_obstacle_are_found_and_the_fixes_followed():
@@ -195,6 +204,27 @@ def test_wheels_slipping_against_an_obstacle_are_found_and_the_fixes_followed():
     # re-acquire the robot, again and again.
     assert max(found) < 0.21 and max(found[150:]) < 0.11
     assert max(not_found[150:]) > 0.25
+
+
+def test_an_impact_the_accelerometer_feels_finds_the_wheels_slipping_at_once():
+    ekf = tracking(1.03, accel=felt)  # the stop came over the step to 1.01 s
+    assert ekf.impacts == 1 and ekf.get_pose().slipping
+    # Found at the impact, not two late fixes later: the first fix after it is followed at once.
+    felt_errors, fixes_errors = pinned(felt), pinned()
+    assert max(felt_errors) < 0.13 and max(fixes_errors) > 0.18
+    assert pinned(felt, impact_speed=0.0) == fixes_errors  # not read
+    assert pinned(lambda t: 0.0) == fixes_errors  # an IMU without an accelerometer (both readings 0): not read
+
+
+def test_a_free_drive_is_no_impact(default_scored):
+    ekf = tracking(5.0, accel=lambda t: 0.02)  # the accelerometer's bias only: it keeps its speed
+    assert ekf.impacts == 0 and not ekf.get_pose().slipping
+    assert default_scored[0].impacts == 0  # the square: starts, stops and turns, the IMU's noise and bias
+
+
+def test_encoders_too_coarse_to_tell_an_impact_leave_the_accelerometer_unread():
+    assert Ekf(LocalizerConfig(), Robot(ticks_per_rev=16)).impact is None
+    assert Ekf(LocalizerConfig(), ROBOT).impact is not None
 
 
 def test_set_pose_mid_drive_resets_and_tracking_continues():

@@ -49,6 +49,28 @@ def test_arrival_rests_at_zero_then_succeeds():
     assert mc.state == goals.STOPPED and mc.result == goals.SUCCEEDED and mc.exit == "within_tolerance" and not mc.active
 
 
+def test_a_stop_while_the_wheels_slip_is_judged_once_the_fixes_say_where_the_robot_is():
+    mc = machine(rest_time=0.2, slip_wait=1.5, retries=0)
+    mc.start(to_point(0.005, 0.0), 0.0)  # within tolerance at once: the move stops on the next pose
+    assert mc.on_pose(PoseSample(0.01, 0.005, 0.0, 0.0, slipping=True)) == ((0.0, 0.0), None)
+    # Past rest_time the localizer still finds the wheels slipping (a wall holds the robot): no verdict yet.
+    assert mc.on_pose(PoseSample(0.5, 0.005, 0.0, 0.0, slipping=True)) == ((0.0, 0.0), None) and mc.active
+    # The fixes put the robot 6 cm short, and the slip is over: the verdict, saying why.
+    cmd, end = mc.on_pose(PoseSample(1.0, -0.055, 0.0, 0.0))
+    assert cmd == (0.0, 0.0) and end is not None and end.result == goals.ABORTED
+    why = "(the wheels slipped: held by a wall or a robot?)"
+    assert end.message == f"stopped 6.00 cm from the goal (tolerance 1.00 cm): exit within_tolerance {why}"
+
+
+def test_a_slip_that_lasts_is_waited_for_slip_wait_at_most():
+    mc = machine(rest_time=0.2, slip_wait=1.5)
+    mc.start(to_point(0.005, 0.0), 0.0)
+    mc.on_pose(PoseSample(0.01, 0.005, 0.0, 0.0, slipping=True))
+    assert mc.on_pose(PoseSample(1.69, 0.005, 0.0, 0.0, slipping=True)) == ((0.0, 0.0), None)  # stopped at 0
+    cmd, end = mc.on_pose(PoseSample(1.71, 0.005, 0.0, 0.0, slipping=True))
+    assert end == goals.End(1, goals.SUCCEEDED, "arrived", stop=True, exit="within_tolerance")
+
+
 def test_a_point_outside_tolerance_is_driven_to():
     mc = machine()
     mc.start(to_point(0.02, 0.0), 0.0)
