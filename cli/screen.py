@@ -14,7 +14,8 @@ def fmt_pose(msg: Any) -> str:
 
 
 def pose_line(label: str, msg: Any, truth: Any) -> str:
-    """A pose with its distance and heading difference to the latest truth."""
+    """A pose with its distance and heading difference to the latest truth (and SLIPPING while the localizer finds
+    the wheels slipping)."""
     if msg is None:
         return f"{label:<6} (none yet)"
     line = f"{label:<6} {fmt_pose(msg)}"
@@ -24,6 +25,8 @@ def pose_line(label: str, msg: Any, truth: Any) -> str:
         line += f"   vs truth {err * 100:6.2f} cm {dth:+6.2f} deg"
     elif label == "truth":
         line += f"   v {msg.v:+.3f} m/s  w {msg.omega:+.2f} rad/s"
+    if getattr(msg, "slipping", False):
+        line += "   SLIPPING (held or pushed?)"
     return line
 
 

@@ -47,8 +47,9 @@ class Localizer(Service):
             self.count("impacts")
             self.warn(
                 "impact",
-                f"the accelerometer and the odometry part at t={msg.t:.3f} (a wall, a robot?): the wheels slip. With every"
-                " start and stop, check the accelerometer's axis and sign, or set [localizer] impact_speed = 0",
+                f"the accelerometer and the odometry part at t={msg.t:.3f} (a wall, a robot, a push, an encoder that stopped"
+                " counting?): the wheels slip. With every start and stop, check the accelerometer's axis and sign, or set"
+                " [localizer] impact_speed = 0",
             )
         if dropped == "stale":
             self.count("dropped_stale")

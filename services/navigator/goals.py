@@ -52,6 +52,7 @@ STATES = (STOPPED, MOVING_TO_POINT, MOVING_TO_POSE, TURNING_TO_HEADING, MOVING_S
 RESULTS = (SUCCEEDED, CANCELLED, ABORTED)  # a goal's `result`
 FACE_OFF_LINE = 0.8  # [-] a correction turns to face its point first when it lies this many tolerances off the heading line,
 FIELD_SLACK = 0.02  # [m] a goal started outside the field may take the robot this much farther out (a turn, the pose's noise)
+SLIPPED = " (the wheels slipped: held by a wall or a robot?)"  # ends a move's failure where the wheels slipped
 NOISE_SIGMAS = 2.0  # [-] plus this many position sigmas: an offset the estimate's noise explains is not chased by a turn
 MAX_SWITCHES = 256  # path points passed on one pose at most (bunched points: the rest on the next poses)
 RELEASE = math.pi / 4  # [rad] a turn told its direction turns the shorter way once this close (an overshoot is no full turn)
@@ -338,7 +339,7 @@ class GoalMachine:
             # (While the wheels slip the position waits for the fixes: a robot held short by a wall is not "arrived".)
             result, message = verdict(run.goal, run.origin, pose, run.exit)
             if result != SUCCEEDED and run.slipped:
-                message += " (the wheels slipped: held by a wall or a robot?)"
+                message += SLIPPED
             if result == SUCCEEDED or not self._retry(run, pose):
                 return (0.0, 0.0), self._end(result, message, stop=True, exit=run.exit)
             return self.on_pose(self.pose)
@@ -365,7 +366,7 @@ class GoalMachine:
         if run.settle_from is not None or run.best is None or run.progress >= run.best + step:
             run.best, run.best_t = run.progress, now
         elif now - run.best_t > p.progress_timeout:
-            return self.abort(f"no progress for {now - run.best_t:.1f} s", exits.STALLED)
+            return self.abort(f"no progress for {now - run.best_t:.1f} s{SLIPPED if run.slipped else ''}", exits.STALLED)
         return None
 
     def feedback(self, now: float) -> Feedback:

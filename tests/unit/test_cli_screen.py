@@ -1,6 +1,6 @@
 """The status table of `zenav up`, `status` and `watch` (pure formatting)."""
 
-from zenav.cli.screen import service_rows
+from zenav.cli.screen import pose_line, service_rows
 from zenav.common import messages as m
 
 
@@ -23,3 +23,11 @@ def test_input_let_go_unserved_shows_beside_bad_input():
     assert header[5:7] == ["bad", "dropped"] and nav[5:7] == ["2", "45"]  # a handler's errors are not input let go
     _, quiet = (r.split() for r in service_rows(["motor"], {"motor": diag("motor", 0.01)}, {"motor"}))
     assert quiet[5:7] == ["0", "0"]
+
+
+def test_a_pose_whose_wheels_slip_says_so():
+    truth = m.Truth(t=1.0, x=0.5, y=0.0, theta=0.0, v=0.0, omega=0.0, wall=0.0)
+    pose = m.Pose(t=1.0, x=0.52, y=0.0, theta=0.0, v=0.1, omega=0.0)
+    assert "SLIPPING" not in pose_line("pose", pose, truth)
+    line = pose_line("pose", m.Pose(t=1.0, x=0.52, y=0.0, theta=0.0, v=0.1, omega=0.0, slipping=True), truth)
+    assert "vs truth   2.00 cm" in line and line.endswith("SLIPPING (held or pushed?)")

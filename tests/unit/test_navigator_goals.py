@@ -125,15 +125,17 @@ def test_pose_sigma_is_the_worst_axis_of_the_covariance():
     assert sxy == pytest.approx(math.sqrt(2.0))
 
 
-def test_no_progress_aborts_after_the_timeout():
+@pytest.mark.parametrize("slipping", [False, True])
+def test_no_progress_aborts_after_the_timeout(slipping):
     mc = machine(progress_timeout=2.0)
     mc.start(to_point(1.0, 0.0), 0.0)
     t, end = 0.0, None
     while end is None and t < 10.0:
         t = round(t + 0.05, 2)
-        mc.on_pose(PoseSample(t, 0.0, 0.0, 0.0))  # stuck
+        mc.on_pose(PoseSample(t, 0.0, 0.0, 0.0, slipping=slipping and t < 0.5))  # stuck (against a robot: slipping)
         end = mc.check(t)
-    assert end.result == goals.ABORTED and "no progress" in end.message and t == pytest.approx(2.05)
+    assert end.result == goals.ABORTED and end.message.startswith("no progress for 2.") and t == pytest.approx(2.05)
+    assert end.message.endswith("(the wheels slipped: held by a wall or a robot?)") == slipping
 
 
 def test_slow_progress_is_progress():

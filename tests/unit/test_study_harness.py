@@ -73,5 +73,6 @@ def test_a_robot_in_the_way_holds_the_trials_robot_while_its_encoders_count_on()
 
 def test_the_pushed_study_compares_slip_found_with_the_travel_trusted():
     rows = [line.split(" | ") for line in pushed_table(["default"], [1]).splitlines()[2:]]
-    found, trusted = (float(r[2]) for r in rows)  # RMSE [cm]
-    assert found < trusted
+    (found, found_max), (by_fixes, by_fixes_max), (trusted, trusted_max) = ((float(r[2]), float(r[3])) for r in rows)  # [cm]
+    assert found < trusted and by_fixes < trusted  # RMSE
+    assert found_max < trusted_max and by_fixes_max < trusted_max
