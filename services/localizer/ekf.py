@@ -7,7 +7,8 @@ the newest sample. A long run of rejected fixes means the filter, not the camera
 wrong: the pose covariance is inflated and a fix that the previous one confirms
 re-acquires. The state carries the odometry's and the gyro's calibration errors,
 which the fixes make observable. Gyro samples that come after their odom sample
-are filled into the history the same way.
+are filled into the history the same way. While the wheels are found slipping (by the
+fixes, or at once by the accelerometer: impact.py) their travel weighs little.
 """
 
 from __future__ import annotations

@@ -12,8 +12,9 @@ middle: the accelerometer's change is taken between those middles, so that a har
 (both change together) is no disagreement. The window is WINDOW, or longer where the
 encoders are coarse: long enough that one tick is a small part of `speed` (TICKS). Over
 more than MAX_WINDOW the mean is no longer the middle's speed (a robot that starts and
-stops): encoders that coarse cannot tell an impact, and the accelerometer is not read. An IMU that carries no
-accelerometer (both readings exactly 0) is not used. Pure: samples in, a verdict out.
+stops): encoders that coarse cannot tell an impact, and the accelerometer is not read.
+An IMU that carries no accelerometer (both readings exactly 0) is not used. Pure:
+samples in, a verdict out.
 """
 
 from __future__ import annotations

@@ -335,8 +335,9 @@ class GoalMachine:
             self._stop(run, pose.t)
         assert run.settle_from is not None and run.exit is not None  # stopped
         resting = pose.t - run.settle_from
-        if resting >= self.params.rest_time and not (pose.slipping and resting < self.params.rest_time + self.params.slip_wait):
-            # (While the wheels slip the position waits for the fixes: a robot held short by a wall is not "arrived".)
+        # While the wheels slip the position waits for the fixes: a robot held short by a wall has not "arrived".
+        waiting = pose.slipping and resting < self.params.rest_time + self.params.slip_wait
+        if resting >= self.params.rest_time and not waiting:
             result, message = verdict(run.goal, run.origin, pose, run.exit)
             if result != SUCCEEDED and run.slipped:
                 message += SLIPPED
