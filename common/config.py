@@ -62,6 +62,8 @@ class Robot(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     track_width: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.1156  # [m] wheel contact to contact
     ticks_per_rev: Annotated[int, Meta(ge=1, le=1000000)] | None = None  # None: the scenario's
     max_wheel_speed: Annotated[float, Meta(gt=0.0, le=1e3)] = 10.0  # [rad/s]
+    imu_x: Annotated[float, Meta(ge=-10.0, le=10.0)] = 0.0  # [m] the IMU ahead of the middle of the wheels' axle
+    imu_y: Annotated[float, Meta(ge=-10.0, le=10.0)] = 0.0  # [m] the IMU left of it
 
     @property
     def wheel_radius(self) -> float:

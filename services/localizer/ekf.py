@@ -79,7 +79,10 @@ class Ekf(Mode):
         self.recent: deque[tuple[float, float, float]] = deque()  # (t, x, y) of the fixes over the last TRACTION_WINDOW
         self.short = False  # the last fix moved too little for the odometry's travel
         span = impact.window(cfg.impact_speed, tick) if cfg.impact_speed > 0.0 and cfg.slip_noise > 0.0 else None
-        self.impact = None if span is None else impact.Impact(cfg.impact_speed, cfg.impact_leak, span, cfg.history, cfg.gyro_max_gap)
+        self.impact: impact.Impact | None = None  # the accelerometer's check (None: not read)
+        if span is not None:
+            at = (robot.imu_x, robot.imu_y)
+            self.impact = impact.Impact(cfg.impact_speed, cfg.impact_leak, span, cfg.history, cfg.gyro_max_gap, at)
 
     # ------------------------------------------------------------ filter steps
     def _apply(self, s: np.ndarray, P: np.ndarray, f: _Fix):
@@ -169,7 +172,7 @@ class Ekf(Mode):
         if not self.gyro.add(imu.t, imu.gyro_z):
             return "stale"
         if self.impact is not None:
-            self.impact.on_imu(imu.t, imu.accel_x, imu.accel_y)
+            self.impact.on_imu(imu.t, imu.accel_x, imu.accel_y, imu.gyro_z)
         if not self.history:
             return None
         first = None  # fill the increments the gyro now covers, then re-integrate from there

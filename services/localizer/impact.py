@@ -13,8 +13,10 @@ middle: the accelerometer's change is taken between those middles, so that a har
 encoders are coarse: long enough that one tick is a small part of `speed` (TICKS). Over
 more than MAX_WINDOW the mean is no longer the middle's speed (a robot that starts and
 stops): encoders that coarse cannot tell an impact, and the accelerometer is not read.
-An IMU that carries no accelerometer (both readings exactly 0) is not used. Pure:
-samples in, a verdict out.
+An IMU that carries no accelerometer (both readings exactly 0) is not used. An IMU off
+the middle of the wheels' axle feels a turn too (its centripetal and tangential
+acceleration, from the gyro's rate): that is taken out first. Pure: samples in, a
+verdict out.
 """
 
 from __future__ import annotations
@@ -38,8 +40,10 @@ def window(speed: float, tick: float) -> float | None:
 class Impact:
     """Says, per odom sample, whether the body's and the wheels' speeds have parted by more than `speed`."""
 
-    def __init__(self, speed: float, leak: float, window: float, keep: float, max_gap: float) -> None:
+    def __init__(self, speed: float, leak: float, window: float, keep: float, max_gap: float, at: tuple[float, float] = (0.0, 0.0)):
         self.speed = speed  # [m/s] the disagreement that is an impact
+        self.at = at  # [m] the IMU ahead of the middle of the wheels' axle, and left of it
+        self.turn: tuple[float, float] | None = None  # (t [s], yaw rate [rad/s]) of the previous IMU sample
         self.leak = leak  # [s] the leak's time constant
         self.window = window  # [s] of odometry averaged into one speed (`window`)
         self.accel = GyroIntegral(keep, max_gap)  # the accelerometer's forward reading, integrated: speed change
@@ -48,11 +52,16 @@ class Impact:
         self.mid: tuple[float, float] | None = None  # (middle time, mean speed) of the previous window
         self.gap = 0.0  # [m/s] the wheels' speed change minus the body's, leaky
 
-    def on_imu(self, t: float, accel_x: float, accel_y: float) -> None:
-        """An accelerometer sample [m/s^2] at t [s] (the mean over the span since the previous one)."""
+    def on_imu(self, t: float, accel_x: float, accel_y: float, gyro_z: float) -> None:
+        """An IMU sample at t [s]: the accelerometer [m/s^2] (the mean over the span since the previous one), the gyro's
+        yaw rate [rad/s]."""
         if accel_x == 0.0 and accel_y == 0.0:
             return  # no accelerometer: the gyro alone
-        self.accel.add(t, accel_x)
+        prev, self.turn = self.turn, (t, gyro_z)
+        spin = 0.0 if prev is None or t <= prev[0] else (gyro_z - prev[1]) / (t - prev[0])  # [rad/s^2]
+        # At (x, y) off the axle's middle a turn adds -rate^2 x - spin y to the forward reading: the axle's is the rest.
+        x, y = self.at
+        self.accel.add(t, accel_x + gyro_z * gyro_z * x + spin * y)
 
     def on_odom(self, t0: float, t: float, ds: float) -> bool:
         """An odometry increment of ds [m] forward from t0 to t [s]; True while the speeds disagree."""

@@ -48,8 +48,8 @@ class Localizer(Service):
             self.warn(
                 "impact",
                 f"the accelerometer and the odometry part at t={msg.t:.3f} (a wall, a robot, a push, an encoder that stopped"
-                " counting?): the wheels slip. With every start and stop, check the accelerometer's axis and sign, or set"
-                " [localizer] impact_speed = 0",
+                " counting?): the wheels slip. With every start and stop, check the accelerometer's axis and sign; with"
+                " every turn, [robot] imu_x and imu_y; or set [localizer] impact_speed = 0",
             )
         if dropped == "stale":
             self.count("dropped_stale")

@@ -21,7 +21,7 @@ def drive(speed, accel, seconds=3.0, noise=0.05, bias=0.02, seed=1, tick=TICK):
         t = k * DT
         v = speed(t)
         travel += v * DT
-        d.on_imu(t, accel(t, v, before) + bias + rng.gauss(0.0, noise), 0.1)
+        d.on_imu(t, accel(t, v, before) + bias + rng.gauss(0.0, noise), 0.1, 0.0)
         before = v
         ticks = math.floor(travel / tick)
         if d.on_odom(t - DT, t, (ticks - counted) * tick):
@@ -68,7 +68,7 @@ def test_a_slower_disagreement_than_impact_speed_is_not_found():
 def test_an_imu_without_an_accelerometer_is_not_read():
     d = Impact(0.05, 0.25, WINDOW, 1.5, 0.1)
     for k in range(1, 100):
-        d.on_imu(k * DT, 0.0, 0.0)
+        d.on_imu(k * DT, 0.0, 0.0, 0.0)
         assert not d.on_odom((k - 1) * DT, k * DT, 0.003 * min(k, 20))  # the wheels speed up: nothing to compare with
     assert d.accel.newest is None
 
@@ -78,3 +78,22 @@ def test_the_window_grows_with_the_tick_and_coarse_encoders_leave_it_unread(tick
     w = window(0.05, 2.0 * math.pi * 0.0336 / ticks)
     assert w == (None if expected is None else pytest.approx(expected, abs=1e-3))
     assert w is None or w <= MAX_WINDOW
+
+
+@pytest.mark.parametrize("at", [(0.1, 0.0), (0.0, 0.05), (-0.08, -0.04)])
+def test_an_imu_off_the_axle_feels_a_turn_in_place_which_is_no_impact_once_its_place_is_known(at):
+    """A turn in place, its rate up to 3 rad/s in 0.3 s and held: the IMU at (x, y) reads -rate^2 x - spin y forward."""
+
+    def turning(impact):
+        found, rate = [], 0.0
+        for k in range(1, 150):
+            t = k * DT
+            spin = 10.0 if t <= 0.3 else 0.0
+            rate += spin * DT
+            impact.on_imu(t, -rate * rate * at[0] - spin * at[1] + 0.02, 0.1, rate)
+            if impact.on_odom(t - DT, t, 0.0):  # the wheels turn opposite ways: no forward travel
+                found.append(t)
+        return found
+
+    assert turning(Impact(0.05, 0.25, WINDOW, 1.5, 0.1))  # where it is not known, the turn looks like a push
+    assert turning(Impact(0.05, 0.25, WINDOW, 1.5, 0.1, at)) == []
