@@ -135,6 +135,7 @@ class _Run:
     way: float = 0.0  # a turn: +1 counter-clockwise, -1 clockwise, as it started
     forced: bool = False  # a turn told its direction, not yet within RELEASE of its heading
     slipped: bool = False  # the localizer found the wheels slipping on some pose of the goal
+    held: bool = False  # ... on the pose the move stopped at: a wall or a robot held it there
 
     @property
     def sign(self) -> float:
@@ -284,7 +285,7 @@ class GoalMachine:
             self._aim(run, pose)
         cmd = self._step(run, pose)  # feedback and progress from the start
         if cmd is None and run.exit != exits.CHAINED:  # already there (a chained goal already there ends on the next pose)
-            self._stop(run, pose.t)
+            self._stop(run, pose)
         run.best, run.best_t = run.progress, now
         return preempted
 
@@ -332,7 +333,7 @@ class GoalMachine:
                 return self._cmd, None
             if run.exit == exits.CHAINED:
                 return self._chained(run, pose)
-            self._stop(run, pose.t)
+            self._stop(run, pose)
         assert run.settle_from is not None and run.exit is not None  # stopped
         resting = pose.t - run.settle_from
         # While the wheels slip the position waits for the fixes: a robot held short by a wall has not "arrived".
@@ -361,7 +362,7 @@ class GoalMachine:
             return self.abort(message, exits.TIMEOUT)
         if run.settle_from is None and now >= run.deadline:
             run.exit = exits.TIMEOUT
-            self._stop(run, pose.t)  # zero from the next pose on, then the error is re-checked
+            self._stop(run, pose)  # zero from the next pose on, then the error is re-checked
         angular = run.goal.state == TURNING_TO_HEADING or run.turning or run.facing
         step = p.progress_angle if angular else p.progress_distance
         if run.settle_from is not None or run.best is None or run.progress >= run.best + step:
@@ -436,9 +437,10 @@ class GoalMachine:
             return True
         return False
 
-    def _stop(self, run: _Run, t: float) -> None:
-        """The move ends (run.exit says why): zero from now on, the error re-checked after rest_time."""
-        run.settle_from, self._cmd = t, (0.0, 0.0)
+    def _stop(self, run: _Run, pose: PoseSample) -> None:
+        """The move ends at `pose` (run.exit says why): zero from now on, the error re-checked after rest_time."""
+        run.settle_from, run.held, self._cmd = pose.t, pose.slipping, (0.0, 0.0)
+        run.slipped = run.slipped or pose.slipping
         run.exit = run.exit or exits.WITHIN_TOLERANCE
         run.remaining = 0.0 if run.remaining is not None else None
 
@@ -448,9 +450,10 @@ class GoalMachine:
         Only a move that ended at its target (within_tolerance, passed) is corrected, a path from its last point:
         straight on (forwards or back) when the point lies near the heading line (within FACE_OFF_LINE of the
         tolerance, straight on then ends within it, or within what the estimate's noise explains); else first
-        turning in place to face it (or to back onto it, whichever turn is smaller).
+        turning in place to face it (or to back onto it, whichever turn is smaller). Not a move that stopped with
+        its wheels slipping: a wall or a robot held it, and moving again would push into it again.
         """
-        if run.exit not in (exits.WITHIN_TOLERANCE, exits.PASSED) or run.retries >= self.params.retries:
+        if run.exit not in (exits.WITHIN_TOLERANCE, exits.PASSED) or run.retries >= self.params.retries or run.held:
             return False
         if run.goal.state == MOVING_STRAIGHT:
             return False

@@ -40,7 +40,8 @@ class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     rest_time: NonNeg = 0.2  # [s] after a move stops, zero is held this long, then the error is re-checked
     slip_wait: NonNeg = 1.5  # [s] and at most this much longer while the localizer finds the wheels slipping
     chain_time: NonNeg = 0.2  # [s] after a chained move ends (exit chained) its last command is held this long for the next goal
-    retries: Annotated[int, Meta(ge=0, le=10)] = 2  # moves again this many times at most while the re-check is over the tolerance
+    # moves again this many times at most while the re-check is over the tolerance (not a move held where it stopped)
+    retries: Annotated[int, Meta(ge=0, le=10)] = 2
     settle_error: Pos = 0.02  # [m] a position error held under this for settle_time ends the move (settled)
     settle_heading_error: Pos = 0.035  # [rad] likewise for a heading error (2 deg)
     settle_time: Pos = 0.5  # [s]

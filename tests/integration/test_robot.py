@@ -78,7 +78,7 @@ def test_drive_backs_the_robot_into_the_wall_where_it_squares_up(make_stack, rou
 
 def test_a_move_that_a_wall_holds_short_ends_short_not_arrived(make_stack, router):
     # The wall x_min = -1 stops the chassis's front at x = -0.92: the target lies 5 cm beyond, inside the field.
-    make_stack(SERVICES, sim={"rtf": RTF, "x0": -0.6, "theta0": math.pi}, navigator={**NAV, "retries": 0})
+    make_stack(SERVICES, sim={"rtf": RTF, "x0": -0.6, "theta0": math.pi}, navigator=NAV)  # held where it stops: no retry
     with Client("r1", router) as watcher, Robot("r1", router) as bot:
         bot.wait_ready(timeout=60)
         res = bot.move_to_point(-0.97, 0.0, speed=0.2).wait(timeout=60)

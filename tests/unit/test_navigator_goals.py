@@ -62,6 +62,20 @@ def test_a_stop_while_the_wheels_slip_is_judged_once_the_fixes_say_where_the_rob
     assert end.message == f"stopped 6.00 cm from the goal (tolerance 1.00 cm): exit within_tolerance {why}"
 
 
+def test_a_move_held_where_it_stopped_is_not_retried_one_that_stopped_free_is():
+    held = GoalMachine(Params(rest_time=0.2, slip_wait=1.5), WHEELS)  # retries: 2
+    held.on_pose(PoseSample(0.0, 0.0, 0.0, 0.0, slipping=True))  # pushing against a wall
+    held.start(to_point(0.005, 0.0), 0.0)  # stops at once, still slipping
+    cmd, end = held.on_pose(PoseSample(1.0, -0.055, 0.0, 0.0))
+    assert end is not None and end.result == goals.ABORTED and end.message.endswith("held by a wall or a robot?)")
+
+    free = machine(rest_time=0.2, slip_wait=1.5)
+    free.start(to_point(0.005, 0.0), 0.0)  # stops at once, the wheels gripping
+    free.on_pose(PoseSample(0.1, 0.005, 0.0, 0.0, slipping=True))  # bumped while at rest
+    cmd, end = free.on_pose(PoseSample(1.0, -0.055, 0.0, 0.0))
+    assert end is None and cmd[0] > 0.0 and free.active  # moves again
+
+
 def test_a_slip_that_lasts_is_waited_for_slip_wait_at_most():
     mc = machine(rest_time=0.2, slip_wait=1.5)
     mc.start(to_point(0.005, 0.0), 0.0)
