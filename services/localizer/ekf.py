@@ -287,4 +287,4 @@ class Ekf(Mode):
         return model.calibration(self.history[-1].s, self.robot.track_width, self.gyro_used)
 
     def slipping(self) -> bool:
-        return self.slip[0] < self.last.t <= self.slip[1]
+        return self.odom is not None and self.slip[0] < self.odom.t <= self.slip[1]

@@ -145,7 +145,7 @@ class Localizer(Service):
             if self.outliers_in_row >= OUTLIERS_DEGRADED:
                 status = "degraded"
                 notes.insert(0, f"{self.outliers_in_row} VPS fixes in a row disagree with the odometry")
-            if self.mode.odom is not None and self.mode.slipping():
+            if self.mode.slipping():
                 status = "degraded"
                 notes.insert(0, "the wheels slip (held by a wall or a robot, pushed?): the position rests on the fixes")
         odom = self.mode.odom
