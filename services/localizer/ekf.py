@@ -16,6 +16,7 @@ from __future__ import annotations
 import bisect
 import math
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -46,16 +47,26 @@ TRACTION = 0.5  # [-] the fixes moved less than this share of the odometry's tra
 class _Candidate:
     z: np.ndarray  # an unused fix (x, y, theta)
     R: np.ndarray
-    s: np.ndarray  # the filter's pose at its capture time
+    s: list[float]  # the filter's pose (x, y, theta) at its capture time
 
 
 @dataclass
 class _Entry:
     t: float  # [s] odom sample time
     u: model.Step  # the increment from the previous entry
-    s: np.ndarray  # state after the increment and the fixes captured in (previous t, t]
-    P: np.ndarray
+    s: model.Vec  # state after the increment and the fixes captured in (previous t, t]
+    P: model.Mat
     fixes: list[_Fix] = field(default_factory=list)  # accepted, by capture time
+
+
+def _forget(P: model.Mat, rows: Sequence[int], variances: Sequence[float]) -> model.Mat:
+    """A copy of P with each of `rows` uncorrelated, its variance the matching one of `variances`."""
+    out = [row[:] for row in P]
+    for i, v in zip(rows, variances):
+        for j in range(model.N):
+            out[i][j] = out[j][i] = 0.0
+        out[i][i] = v
+    return out
 
 
 class Ekf(Mode):
@@ -74,7 +85,7 @@ class Ekf(Mode):
         self.gyro_used = False
         tick = 2.0 * math.pi * robot.wheel_radius / (robot.ticks_per_rev or 360)
         self.noise = model.Noise(robot.track_width, tick, cfg.wheel_noise, cfg.calib_noise, cfg.gyro_noise**2, cfg.gyro_bias_noise**2)
-        self._unknown = np.diag([cfg.unknown_sigma_xy**2] * 2 + [math.pi**2])  # pose covariance when lost
+        self._unknown = (cfg.unknown_sigma_xy**2, cfg.unknown_sigma_xy**2, math.pi**2)  # pose variances when lost
         self.slip = (math.inf, -math.inf)  # [s] (from, until): the wheels found slipping over this span of odometry
         self.recent: deque[tuple[float, float, float]] = deque()  # (t, x, y) of the fixes over the last TRACTION_WINDOW
         self.short = False  # the last fix moved too little for the odometry's travel
@@ -85,23 +96,20 @@ class Ekf(Mode):
             self.impact = impact.Impact(cfg.impact_speed, cfg.impact_leak, span, cfg.history, cfg.gyro_max_gap, at)
 
     # ------------------------------------------------------------ filter steps
-    def _apply(self, s: np.ndarray, P: np.ndarray, f: _Fix):
+    def _apply(self, s: model.Vec, P: model.Mat, f: _Fix) -> tuple[model.Vec, model.Mat]:
         if f.reacquire:
-            P = P.copy()
-            P[model.POSE, :] = 0.0
-            P[:, model.POSE] = 0.0
-            P[model.POSE, model.POSE] = self._unknown
+            P = _forget(P, (model.X, model.Y, model.TH), self._unknown)
         nu, S, _ = model.innovation(s, P, f.z, f.R)
         return model.update(s, P, nu, S, f.R)
 
-    def _predict(self, s: np.ndarray, P: np.ndarray, u: model.Step, t: float) -> tuple[np.ndarray, np.ndarray]:
+    def _predict(self, s: model.Vec, P: model.Mat, u: model.Step, t: float) -> tuple[model.Vec, model.Mat]:
         """Propagate through an increment that ends at t [s]; while the wheels slip, its travel says little
         of where the robot went (slip_noise per metre, on x and y), so that the fixes say it."""
         s, P = model.predict(s, P, u, self.noise)
         if self.slip[0] < t <= self.slip[1]:
             q = self.cfg.slip_noise * abs(u.ds)
-            P[model.X, model.X] += q
-            P[model.Y, model.Y] += q
+            P[model.X][model.X] += q
+            P[model.Y][model.Y] += q
         return s, P
 
     def _slipping(self, t: float, z: np.ndarray, reacquired: bool) -> bool:
@@ -135,7 +143,7 @@ class Ekf(Mode):
         self.slip = (self.slip[0] if going else start, t + self.cfg.slip_hold)
         return not going
 
-    def _advance(self, s: np.ndarray, P: np.ndarray, t0: float, e: _Entry, until: float = math.inf):
+    def _advance(self, s: model.Vec, P: model.Mat, t0: float, e: _Entry, until: float = math.inf) -> tuple[model.Vec, model.Mat]:
         """Integrate entry e's increment from time t0, applying its fixes, up to `until` [s]."""
         end = min(e.t, until)
         span = e.t - t0
@@ -191,12 +199,10 @@ class Ekf(Mode):
         return None
 
     def _start(self, pose: Pose2) -> None:
-        P = np.zeros((model.N, model.N))
-        P[model.POSE, model.POSE] = self._unknown
-        for i in (model.ES, model.EW, model.ED, model.SG):
-            P[i, i] = self.cfg.calib_sigma**2
-        P[model.BG, model.BG] = self.cfg.gyro_bias_sigma**2
-        self.history = [_Entry(self.last.t, model.Step(0.0, 0.0, 0.0), np.array([*pose, 0.0, 0.0, 0.0, 0.0, 0.0]), P)]
+        calib, bias = self.cfg.calib_sigma**2, self.cfg.gyro_bias_sigma**2
+        variances = (*self._unknown, calib, calib, calib, bias, calib)  # x y theta es ew ed bg sg
+        P = [[v if i == j else 0.0 for j in range(model.N)] for i, v in enumerate(variances)]
+        self.history = [_Entry(self.last.t, model.Step(0.0, 0.0, 0.0), [*pose, 0.0, 0.0, 0.0, 0.0, 0.0], P)]
 
     def _move(self, ds: float, dth: float, t0: float, t: float) -> None:
         last = self.history[-1]
@@ -237,7 +243,7 @@ class Ekf(Mode):
         reason = "accepted"
         if not self.initialised or d2 > self.cfg.gate:
             # Start (again) only from a fix the previous unused one agrees with: never from a lone outlier.
-            candidate, self.candidate = self.candidate, _Candidate(z, R, s[model.POSE].copy())
+            candidate, self.candidate = self.candidate, _Candidate(z, R, s[:3])
             confirmed = self._agrees(candidate, self.candidate)
             if not self.initialised:
                 if not confirmed:
@@ -263,7 +269,7 @@ class Ekf(Mode):
 
     def _set(self, x: float | None, y: float | None, theta: float | None) -> None:
         last = self.history[-1]
-        s, P = last.s.copy(), last.P.copy()
+        s, rows, variances = last.s[:], [], []
         for i, value, sigma in (
             (model.X, x, self.cfg.set_pose_sigma_xy),
             (model.Y, y, self.cfg.set_pose_sigma_xy),
@@ -271,17 +277,18 @@ class Ekf(Mode):
         ):
             if value is not None:
                 s[i] = value
-                P[i, :] = 0.0
-                P[:, i] = 0.0
-                P[i, i] = sigma**2
+                rows.append(i)
+                variances.append(sigma**2)
+        P = _forget(last.P, rows, variances)
         self.initialised = self.initialised or None not in (x, y, theta)
         self.rejections, self.candidate = 0, None
         self.history = [_Entry(last.t, model.Step(0.0, 0.0, 0.0), s, P)]
 
     def _estimate(self) -> tuple[Pose2, tuple[float, ...]]:
         e = self.history[-1]
-        x, y, theta = e.s[model.POSE].tolist()
-        return Pose2(x, y, theta), tuple(e.P[model.POSE, model.POSE].ravel().tolist())
+        x, y, theta = e.s[:3]
+        P = e.P
+        return Pose2(x, y, theta), (*P[0][:3], *P[1][:3], *P[2][:3])
 
     def calibration(self) -> dict[str, float]:
         return model.calibration(self.history[-1].s, self.robot.track_width, self.gyro_used)

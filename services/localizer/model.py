@@ -1,4 +1,4 @@
-"""The EKF's motion and measurement model, as pure functions on numpy arrays.
+"""The EKF's motion and measurement model, as pure functions.
 
 State (map frame): x [m], y [m], theta [rad]; the odometry's calibration errors
 relative to the nominal geometry: es (distance scale: mean wheel radius), ew (track
@@ -27,6 +27,8 @@ ODOM_GATE = 25.0
 N = 8  # state size
 X, Y, TH, ES, EW, ED, BG, SG = range(N)
 POSE = slice(0, 3)
+Vec = list[float]  # the state
+Mat = list[list[float]]  # its covariance, row by row
 
 
 @dataclass(frozen=True)
@@ -70,33 +72,36 @@ def _wheel_vars(u: Step, nz: Noise) -> tuple[float, float, float]:
     return var_l + var_r, var_r - var_l, rounding
 
 
-# The model works on the state as Python floats and on the covariance with as few numpy
-# calls as the structure allows: one step changes only the pose rows of the Jacobian.
+# The steps run on Python floats: deployed, each odom sample finds the localizer's process
+# cold (it sat idle while the others ran), and there numpy's calls cost many times a float
+# loop's, while back to back the two are about even (docs/benchmarks.md). The pose fixes,
+# ten times fewer and off the control chain, use numpy.
 
 
-def _learn_from_gyro(s: np.ndarray, P: np.ndarray, u: Step, var_odom: float, nz: Noise) -> tuple[np.ndarray, np.ndarray]:
+def _learn_from_gyro(s: Vec, P: Mat, u: Step, var_odom: float, nz: Noise) -> tuple[Vec, Mat]:
     """Update (state, covariance) with the odometry's heading increment, predicted from the gyro's.
 
     The gyro's is the far less noisy one; the other way round, tick rounding in the
     odometry's increment would bias the scale estimates.
     """
     assert u.gyro is not None
-    _, _, _, es, ew, ed, bg, sg = s.tolist()
+    _, _, _, es, ew, ed, bg, sg = s
     kg, ke, kw = 1.0 + sg, 1.0 + es, 1.0 + ew
     g = (u.gyro - bg * u.dt) / kg  # the gyro's increment corrected by its bias and scale
     pred = (g * kw - 2.0 * ed * u.ds / nz.track) / ke  # the odometry's dth if the state is right
     r = kw / ke
-    h = np.array((0.0, 0.0, 0.0, -pred / ke, g / ke, -2.0 * u.ds / (nz.track * ke), -u.dt / kg * r, -g / kg * r))
-    Ph = P @ h  # P is symmetric: h P = (P h)^T
-    S = float(h @ Ph) + var_odom + nz.gyro_var * u.dt
+    # h = d(odometry's dth)/d(state): naught on the pose
+    h3, h4, h5, h6, h7 = -pred / ke, g / ke, -2.0 * u.ds / (nz.track * ke), -u.dt / kg * r, -g / kg * r
+    Ph = [p[3] * h3 + p[4] * h4 + p[5] * h5 + p[6] * h6 + p[7] * h7 for p in P]  # P is symmetric: h P = (P h)^T
+    S = Ph[3] * h3 + Ph[4] * h4 + Ph[5] * h5 + Ph[6] * h6 + Ph[7] * h7 + var_odom + nz.gyro_var * u.dt
     nu = u.dth - pred
     if nu * nu > ODOM_GATE * S:  # not the wheels' doing: the odometry's heading was corrected
         return s, P
-    K = Ph / S
-    return s + K * nu, P - K[:, None] * Ph
+    K = [p / S for p in Ph]
+    return [a + k * nu for a, k in zip(s, K)], [[p - k * q for p, q in zip(row, Ph)] for row, k in zip(P, K)]
 
 
-def predict(s: np.ndarray, P: np.ndarray, u: Step, nz: Noise) -> tuple[np.ndarray, np.ndarray]:
+def predict(s: Vec, P: Mat, u: Step, nz: Noise) -> tuple[Vec, Mat]:
     """Propagate (state, covariance) through one increment.
 
     Without the gyro, the calibrated odometry turns the heading; with it, the gyro
@@ -106,79 +111,93 @@ def predict(s: np.ndarray, P: np.ndarray, u: Step, nz: Noise) -> tuple[np.ndarra
     track = nz.track
     if u.gyro is not None:
         s, P = _learn_from_gyro(s, P, u, (var_sum + rounding) / track**2, nz)
-    x, y, th, es, ew, ed, bg, sg = s.tolist()
-    J = [0.0] * N  # d(dth)/d(state)
+    x, y, th, es, ew, ed, bg, sg = s
     if u.gyro is None:  # the odometry's heading increment corrected by the calibration
         k = 1.0 + ew
         # Wheels: nominal travel dl, dr = ds -+ track*dth/2; true = nominal*(1 + es -+ ed).
         dth = (u.dth * (1.0 + es) + 2.0 * ed * u.ds / track) / k
-        J[ES], J[EW], J[ED] = u.dth / k, -dth / k, 2.0 * u.ds / (track * k)
+        J: tuple[tuple[int, float], ...] = ((ES, u.dth / k), (EW, -dth / k), (ED, 2.0 * u.ds / (track * k)))  # d(dth)/d(state) not naught
         kb = track * k
         var_dth, cov_ds_dth = var_sum / kb**2, var_diff / (2.0 * kb)
     else:  # the gyro's, corrected by its bias and scale
         k = 1.0 + sg
         dth = (u.gyro - bg * u.dt) / k
-        J[BG], J[SG] = -u.dt / k, -dth / k
+        J = ((BG, -u.dt / k), (SG, -dth / k))
         var_dth, cov_ds_dth = nz.gyro_var * u.dt, 0.0
     half = track * u.dth / 2.0
     ds_t = u.ds * (1.0 + es) + ed * half
     phi = th + dth / 2.0
     c, sn = math.cos(phi), math.sin(phi)
+    # F is the identity but for its pose rows A = d(x, y, theta)/d(state): F P F^T differs from P only in
+    # the pose rows and columns. A's rows: those of x, y and theta, plus these times theirs and J.
     ax, ay = -ds_t * sn / 2.0, ds_t * c / 2.0  # d(x, y)/d(dth)
-    row_x = [ax * j for j in J]
-    row_y = [ay * j for j in J]
-    row_th = J[:]
-    row_x[X] += 1.0
-    row_x[TH] -= ds_t * sn
-    row_x[ES] += u.ds * c
-    row_x[ED] += half * c
-    row_y[Y] += 1.0
-    row_y[TH] += ds_t * c
-    row_y[ES] += u.ds * sn
-    row_y[ED] += half * sn
-    row_th[TH] += 1.0
-    A = np.array((row_x, row_y, row_th))  # the pose rows of F; the others are the identity's
-    AP = A @ P
-    out = P.copy()
-    out[POSE] = AP
-    out[3:, POSE] = AP[:, 3:].T
+    kx, ky = -ds_t * sn, ds_t * c  # d(x, y)/d(theta)
+    ex, ey = u.ds * c, u.ds * sn  # d(x, y)/d(es)
+    hx, hy = half * c, half * sn  # d(x, y)/d(ed)
+
+    (i0, j0), *more = J
+    JP = [j0 * p for p in P[i0]]  # J P
+    for i, j in more:
+        JP = [a + j * p for a, p in zip(JP, P[i])]
+    AP = (  # A P
+        [p + ax * q + kx * t + ex * e + hx * d for p, q, t, e, d in zip(P[X], JP, P[TH], P[ES], P[ED])],
+        [p + ay * q + ky * t + ey * e + hy * d for p, q, t, e, d in zip(P[Y], JP, P[TH], P[ES], P[ED])],
+        [t + q for t, q in zip(P[TH], JP)],
+    )
     # Q: the increment's noise through G = d(x, y, theta)/d(ds, dth), and the random walks.
     vs, vd, cv = var_sum / 4.0, var_dth, cov_ds_dth
     g = ((c, ax), (sn, ay), (0.0, 1.0))
     M = [(a * vs + b * cv, a * cv + b * vd) for a, b in g]  # G M
-    Q = [[m0 * a + m1 * b for a, b in g] for m0, m1 in M]
-    out[POSE, POSE] = AP @ A.T + np.array(Q)
+    (qxx, qxy, qxt), (_, qyy, qyt), (_, _, qtt) = ([m0 * a + m1 * b for a, b in g] for m0, m1 in M)
+    # A P A^T, symmetric
+    (ap_x, ap_y, ap_t), (jx, jy, jt) = AP, (sum(j * row[i] for i, j in J) for row in AP)
+    pxx = ap_x[X] + ax * jx + kx * ap_x[TH] + ex * ap_x[ES] + hx * ap_x[ED]
+    pxy = ap_x[Y] + ay * jx + ky * ap_x[TH] + ey * ap_x[ES] + hy * ap_x[ED]
+    pxt = ap_x[TH] + jx
+    pyy = ap_y[Y] + ay * jy + ky * ap_y[TH] + ey * ap_y[ES] + hy * ap_y[ED]
+    pyt = ap_y[TH] + jy
+    ptt = ap_t[TH] + jt
+    out = [
+        [pxx + qxx, pxy + qxy, pxt + qxt, *AP[0][3:]],
+        [pxy + qxy, pyy + qyy, pyt + qyt, *AP[1][3:]],
+        [pxt + qxt, pyt + qyt, ptt + qtt, *AP[2][3:]],
+    ] + [[a, b, t, *row[3:]] for a, b, t, row in zip(AP[0][3:], AP[1][3:], AP[2][3:], P[3:])]
     walk = nz.calib_var * (abs(u.ds) + track * abs(u.dth) / 2.0)
-    out[ES, ES] += walk
-    out[EW, EW] += walk
-    out[ED, ED] += walk
-    out[BG, BG] += nz.bias_var * u.dt
-    state = np.array((x + ds_t * c, y + ds_t * sn, wrap_angle(th + dth), es, ew, ed, bg, sg))
-    return state, out
+    out[ES][ES] += walk
+    out[EW][EW] += walk
+    out[ED][ED] += walk
+    out[BG][BG] += nz.bias_var * u.dt
+    return [x + ds_t * c, y + ds_t * sn, wrap_angle(th + dth), es, ew, ed, bg, sg], out
 
 
-def innovation(s: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+def pose_cov(P: Mat) -> np.ndarray:
+    """The 3x3 covariance of (x, y, theta)."""
+    return np.array((P[0][:3], P[1][:3], P[2][:3]))
+
+
+def innovation(s: Vec, P: Mat, z: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """(innovation, its covariance S, squared Mahalanobis distance) of a pose fix z."""
-    nu = z - s[POSE]
+    nu = z - np.array(s[:3])
     nu[2] = wrap_angle(nu[2])
-    S = P[POSE, POSE] + R
+    S = pose_cov(P) + R
     return nu, S, float(nu @ np.linalg.solve(S, nu))
 
 
-def update(s: np.ndarray, P: np.ndarray, nu: np.ndarray, S: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def update(s: Vec, P: Mat, nu: np.ndarray, S: np.ndarray, R: np.ndarray) -> tuple[Vec, Mat]:
     """The EKF update with a pose fix (Joseph form, symmetric result)."""
-    K = np.linalg.solve(S, P[POSE, :]).T  # P H^T S^-1, with S symmetric
-    out = s + K @ nu
+    Pa = np.array(P)
+    K = np.linalg.solve(S, Pa[POSE, :]).T  # P H^T S^-1, with S symmetric
+    out = np.array(s) + K @ nu
     out[TH] = wrap_angle(out[TH])
     IKH = np.eye(N)
     IKH[:, POSE] -= K  # I - K H, H picking the pose
-    P_new = IKH @ P @ IKH.T + K @ R @ K.T
-    return out, (P_new + P_new.T) / 2.0
+    P_new = IKH @ Pa @ IKH.T + K @ R @ K.T
+    return out.tolist(), ((P_new + P_new.T) / 2.0).tolist()
 
 
-def calibration(s: np.ndarray, track: float, gyro: bool) -> dict[str, float]:
+def calibration(s: Vec, track: float, gyro: bool) -> dict[str, float]:
     """The calibration estimates in user terms (true / nominal); the gyro's once it has been used."""
-    es, ew, ed = float(s[ES]), float(s[EW]), float(s[ED])
+    es, ew, ed = s[ES], s[EW], s[ED]
     out = {
         "distance_scale": 1.0 + es,  # true / nominal mean wheel radius
         "track_width_scale": 1.0 + ew,  # true / nominal track width
@@ -186,6 +205,6 @@ def calibration(s: np.ndarray, track: float, gyro: bool) -> dict[str, float]:
         "track_width": track * (1.0 + ew),  # [m]
     }
     if gyro:
-        out["gyro_bias"] = float(s[BG])  # [rad/s]
-        out["gyro_scale"] = 1.0 + float(s[SG])  # measured / true rate
+        out["gyro_bias"] = s[BG]  # [rad/s]
+        out["gyro_scale"] = 1.0 + s[SG]  # measured / true rate
     return out

@@ -13,12 +13,16 @@ QUIET = model.Noise(TRACK, 0.0, 0.0, 0.0, 1e-12, 0.0)  # no process noise
 
 
 def state(theta=0.3, es=0.01, ew=0.02, ed=-0.003, bg=0.0, sg=0.0):
-    return np.array([1.0, 2.0, theta, es, ew, ed, bg, sg])
+    return [1.0, 2.0, theta, es, ew, ed, bg, sg]
+
+
+def zeros():
+    return [[0.0] * 8 for _ in range(8)]
 
 
 def test_odometry_increment_is_corrected_by_the_calibration():
     s = state(theta=0.0, es=0.01, ew=0.02, ed=0.0)
-    out, _ = model.predict(s, np.zeros((8, 8)), model.Step(0.1, 0.2, 0.1), QUIET)
+    out, _ = model.predict(s, zeros(), model.Step(0.1, 0.2, 0.1), QUIET)
     assert out[model.TH] == pytest.approx(0.2 * 1.01 / 1.02)
     dth = 0.2 * 1.01 / 1.02
     assert out[model.X] == pytest.approx(1.0 + 0.101 * math.cos(dth / 2))
@@ -26,25 +30,46 @@ def test_odometry_increment_is_corrected_by_the_calibration():
 
 
 def test_transition_jacobian_matches_finite_differences():
-    s, u = state(), model.Step(0.05, 0.1, 0.1)
+    s, u = np.array(state()), model.Step(0.05, 0.1, 0.1)
     eps = 1e-6
     J = np.zeros((8, 8))
-    zero = np.zeros((8, 8))
     for i in range(8):
         d = np.zeros(8)
         d[i] = eps
-        J[:, i] = (model.predict(s + d, zero, u, QUIET)[0] - model.predict(s - d, zero, u, QUIET)[0]) / (2 * eps)
+        ahead, behind = model.predict((s + d).tolist(), zeros(), u, QUIET)[0], model.predict((s - d).tolist(), zeros(), u, QUIET)[0]
+        J[:, i] = (np.array(ahead) - np.array(behind)) / (2 * eps)
     for i in range(8):  # P = e_i e_i^T  ->  F P F^T = F[:, i] F[:, i]^T
-        P = np.zeros((8, 8))
-        P[i, i] = 1.0
-        _, P_new = model.predict(s, P, u, QUIET)
+        P = zeros()
+        P[i][i] = 1.0
+        _, P_new = model.predict(s.tolist(), P, u, QUIET)
         assert np.allclose(P_new, np.outer(J[:, i], J[:, i]), atol=1e-6)
+
+
+def test_the_step_keeps_the_covariance_symmetric_and_equal_to_f_p_ft_plus_q():
+    rng = np.random.default_rng(3)
+    B = rng.normal(size=(8, 8))
+    P = B @ B.T * 1e-3
+    nz = model.Noise(TRACK, 0.0, 1e-6, 1e-8, 1e-6, 1e-10)
+    s, u = state(), model.Step(0.05, 0.1, 0.1)  # no gyro: the step is F P F^T + Q alone
+    _, P_new = model.predict(s, P.tolist(), u, nz)
+    _, from_zero = model.predict(s, zeros(), u, nz)  # Q
+    eps, J = 1e-6, np.zeros((8, 8))
+    for i in range(8):
+        d = np.zeros(8)
+        d[i] = eps
+        ahead, behind = (
+            model.predict((np.array(s) + d).tolist(), zeros(), u, nz)[0],
+            model.predict((np.array(s) - d).tolist(), zeros(), u, nz)[0],
+        )
+        J[:, i] = (np.array(ahead) - np.array(behind)) / (2 * eps)
+    assert P_new == np.array(P_new).T.tolist()  # exactly
+    assert np.allclose(P_new, J @ P @ J.T + np.array(from_zero), atol=1e-9)
 
 
 def test_gyro_steers_the_heading_and_standing_still_reveals_its_bias():
     nz = model.Noise(TRACK, 2 * math.pi * 0.03365 / 360, 1e-6, 0.0, 1e-6, 0.0)
-    s = np.zeros(8)
-    P = np.diag([0.0, 0.0, 0.0, 0.05**2, 0.05**2, 0.05**2, 0.05**2, 0.05**2])
+    s = [0.0] * 8
+    P = np.diag([0.0, 0.0, 0.0, 0.05**2, 0.05**2, 0.05**2, 0.05**2, 0.05**2]).tolist()
     for _ in range(200):  # 2 s still: the wheels show nothing, the gyro reads its bias
         s, P = model.predict(s, P, model.Step(0.0, 0.0, 0.01, 0.01 * 0.01), nz)
     assert s[model.BG] == pytest.approx(0.01, rel=0.05)
@@ -53,13 +78,13 @@ def test_gyro_steers_the_heading_and_standing_still_reveals_its_bias():
 
 
 def test_update_pulls_to_the_fix_and_shrinks_the_covariance():
-    s, P = state(theta=3.1), np.eye(8) * 0.01
+    s, P = state(theta=3.1), (np.eye(8) * 0.01).tolist()
     R = np.diag([1e-4, 1e-4, 1e-3])
     nu, S, d2 = model.innovation(s, P, np.array([1.1, 2.0, -3.1]), R)
     assert nu[2] == pytest.approx(2 * math.pi - 6.2)  # wrapped, not -6.2
     assert d2 == pytest.approx(nu @ np.linalg.solve(S, nu))
     out, P_new = model.update(s, P, nu, S, R)
-    assert 1.0 < out[model.X] < 1.1 and P_new[0, 0] < P[0, 0] and np.allclose(P_new, P_new.T)
+    assert 1.0 < out[model.X] < 1.1 and P_new[0][0] < P[0][0] and np.allclose(P_new, np.array(P_new).T)
 
 
 def test_calibration_in_user_terms():
