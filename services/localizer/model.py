@@ -116,7 +116,8 @@ def predict(s: Vec, P: Mat, u: Step, nz: Noise) -> tuple[Vec, Mat]:
         k = 1.0 + ew
         # Wheels: nominal travel dl, dr = ds -+ track*dth/2; true = nominal*(1 + es -+ ed).
         dth = (u.dth * (1.0 + es) + 2.0 * ed * u.ds / track) / k
-        J: tuple[tuple[int, float], ...] = ((ES, u.dth / k), (EW, -dth / k), (ED, 2.0 * u.ds / (track * k)))  # d(dth)/d(state) not naught
+        # J: d(dth)/d(state), (index, value) where it is not naught
+        J: tuple[tuple[int, float], ...] = ((ES, u.dth / k), (EW, -dth / k), (ED, 2.0 * u.ds / (track * k)))
         kb = track * k
         var_dth, cov_ds_dth = var_sum / kb**2, var_diff / (2.0 * kb)
     else:  # the gyro's, corrected by its bias and scale
@@ -134,7 +135,6 @@ def predict(s: Vec, P: Mat, u: Step, nz: Noise) -> tuple[Vec, Mat]:
     kx, ky = -ds_t * sn, ds_t * c  # d(x, y)/d(theta)
     ex, ey = u.ds * c, u.ds * sn  # d(x, y)/d(es)
     hx, hy = half * c, half * sn  # d(x, y)/d(ed)
-
     (i0, j0), *more = J
     JP = [j0 * p for p in P[i0]]  # J P
     for i, j in more:
@@ -149,7 +149,7 @@ def predict(s: Vec, P: Mat, u: Step, nz: Noise) -> tuple[Vec, Mat]:
     g = ((c, ax), (sn, ay), (0.0, 1.0))
     M = [(a * vs + b * cv, a * cv + b * vd) for a, b in g]  # G M
     (qxx, qxy, qxt), (_, qyy, qyt), (_, _, qtt) = ([m0 * a + m1 * b for a, b in g] for m0, m1 in M)
-    # A P A^T, symmetric
+    # A P A^T (symmetric): A's rows applied to those of A P as they were to P's, jx.. their products with J
     (ap_x, ap_y, ap_t), (jx, jy, jt) = AP, (sum(j * row[i] for i, j in J) for row in AP)
     pxx = ap_x[X] + ax * jx + kx * ap_x[TH] + ex * ap_x[ES] + hx * ap_x[ED]
     pxy = ap_x[Y] + ay * jx + ky * ap_x[TH] + ey * ap_x[ES] + hy * ap_x[ED]
