@@ -79,6 +79,7 @@ class Live:
     rss: dict[tuple[str, str], int]  # [bytes] at the end of the window
     waits: dict[tuple[str, str], tuple[float, int]]  # [s] its threads waited for a core in the window, and the times they got one
     counters: dict[tuple[str, str], dict[str, int]]  # counter increases over the window, from diag
+    serve: dict[tuple[str, str], dict[str, float]]  # [us] serving one message of each input in the service's process (diag)
     diag_span: dict[tuple[str, str], float]  # [s] stack time between the two diags the increases are from
     chain: dict[str, list[float]]  # r1's latency per stage and end to end [ms]
     bench_cpu: float  # [s] CPU time of this process (driving the robots; the latency observer is its own) in the window
@@ -164,6 +165,7 @@ def run(
         rss={k: p1[k].rss for k in p1},
         waits={k: (p1[k].waited - p0[k].waited, p1[k].runs - p0[k].runs) for k in p1},
         counters={(r, s): _increase(before[r][s], after[r][s]) for r, s in keys},
+        serve={(r, s): after[r][s].serve for r, s in keys},  # the diag that closes the window: its last second
         diag_span={(r, s): after[r][s].t - before[r][s].t for r, s in keys},
         chain=chain,
         bench_cpu=(self1.user + self1.system) - (self0.user + self0.system),

@@ -78,11 +78,28 @@ def latency(res: Results) -> list[str]:
         "",
         f"Largest service stage at p50: {biggest}. Machine busy during the window: {base.machine_busy:.0%} of "
         f"{os.cpu_count()} cores (everything running on it, not only the stack).",
+        *_serve(base),
         *_floor(res),
         *_peer_latency(res, base),
         *_composed_latency(res, base),
         *_around_fix(res),
         *_busy(res, base),
+    ]
+
+
+def _serve(live: Live) -> list[str]:
+    """What serving one message of each input took each robot service in its own process (its diag `serve`)."""
+    first = live.robots[0]
+    rows = [[name, topic, fmt(us, 0)] for name in ROBOT_SERVICES for topic, us in sorted(live.serve.get((first, name), {}).items())]
+    if not rows:
+        return []
+    return [
+        "",
+        "Serving one message in the service's own process (diag `serve`, the window's last second: decoding it, "
+        "the handler, publishing what it returned), mean [us]. The `profile` section times the same work with "
+        "every service in one process, back to back and paced: deployed, each message finds the process cold.",
+        "",
+        *table(["service", "input", "us"], rows),
     ]
 
 

@@ -308,6 +308,7 @@ class Service:
         self._held: list[tuple[int, float, float, float, tuple]] = []
         self._arrived: float | None = None  # stack time a held input being served arrived
         self._other_clock: set[str] = set()  # suffixes stamped on another stack's clock: not held to this one's horizon
+        self._serve_time: dict[str, list] = {}  # suffix -> [wall seconds serving its messages, messages] since the last diag
 
     # ------------------------------------------------------------ helpers
     def key(self, suffix: str) -> str:
@@ -725,6 +726,7 @@ class Service:
                 self.counters.inc("errors")
                 self.warn(f"live:{fn.__name__}", f"liveliness handler {fn.__name__} failed:\n{traceback.format_exc()}")
             return
+        start = time.perf_counter()
         if kind != "clock":
             self.counters.inc("msgs_in")
             self.counters.seen(suffix)
@@ -746,6 +748,12 @@ class Service:
             self.warn(f"err:{suffix}", f"handler for {suffix} failed:\n{traceback.format_exc()}")
             return
         self._publish_result(fn, out)
+        if kind != "clock":
+            spent = self._serve_time.get(suffix)
+            if spent is None:
+                spent = self._serve_time[suffix] = [0.0, 0]
+            spent[0] += time.perf_counter() - start
+            spent[1] += 1
 
     def _publish_result(self, fn: Callable, out: Any) -> None:
         target = getattr(fn, "_zenav_pub", None)
@@ -834,6 +842,8 @@ class Service:
         busy = (cpu - self._cpu_mark[1]) / max(wall - self._cpu_mark[0], 1e-3)
         self._cpu_mark = (wall, cpu)
         self.counters.window = {}
+        serve = {k: round(spent / n * 1e6, 1) for k, (spent, n) in self._serve_time.items()}
+        self._serve_time = {}
         status, message = self.status, self.status_message
         if self._others:
             status = "error"
@@ -848,6 +858,7 @@ class Service:
             message=message,
             queue=self._inbox.qsize() + len(self._held),
             cpu=round(busy, 4),
+            serve=serve,
         )
 
     def _publish_diag(self, now: float) -> None:

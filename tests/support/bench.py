@@ -39,6 +39,7 @@ def live(robots=1, cpu=0.5, speed=1.0, overruns=0, busy=0.3, failures=(), hot=No
         rss={**{k: 40 * 2**20 for k in keys}, ProcStack.ROUTER: 30 * 2**20},
         waits={k: (0.03, 1000) for k in keys},
         counters=counters,
+        serve={k: {"odom": 180.0, "sensors/imu": 40.0} if k[1] == "localizer" else {} for k in keys},
         diag_span={k: 10.0 for k in keys},
         chain={END_TO_END: [2.0, 3.0, 4.0]},
         bench_cpu=0.2,

@@ -47,6 +47,8 @@ def test_the_performance_sections_are_written(tmp_path):
     wait = "a thread of the robot's services 30 us each time it got one, 100 times a second a service; a bare relay's 20 us, 450 times"
     assert wait in text
     assert "waiting for a core, peers" not in text
+    # what serving one message took each robot service in its own process, from its diag: the localizer's two inputs
+    assert "| service | input | us |\n|---|---|---|\n| localizer | odom | 180 |\n| localizer | sensors/imu | 40 |\n" in text
     assert "Delivery p50 reached 2x the one-robot figure at 5 robots." in text
     assert "The robot's services (odometry, localizer, navigator, motor): 0.050 of a core together." in text
     assert "every robot heard on every host: yes" in text

@@ -149,6 +149,37 @@ def test_diag_reports_the_process_cpu_since_the_previous_one(svc):
     assert d.cpu is not None and 0.0 < d.cpu
 
 
+class Slow(Service):
+    """A motor whose handler takes at least `work` seconds of wall time (a bounded busy loop)."""
+
+    name = "motor"
+    work = 0.002
+
+    @subscribe("cmd_vel")
+    def on_cmd(self, msg: m.CmdVel) -> None:
+        end = time.perf_counter() + self.work
+        for _ in range(10_000_000):  # bounded: a few seconds at most on any host
+            if time.perf_counter() >= end:
+                break
+
+
+def test_diag_says_how_long_serving_one_message_of_each_input_took():
+    bus, clock = MemoryBus(), ManualClock()
+    s = Slow(Settings.load(None), bus, clock)
+    s.start()
+    try:
+        s.drain()
+        for i in range(3):
+            bus.publish("zenav/r1/cmd_vel", codec.encode(m.CmdVel(t=i * 0.1, v=0.1, omega=0.0)))
+        bus.publish("zenav/r1/cmd_vel", b"\xc1")  # bad input: dropped before any handler, not timed
+        s.drain()
+        d = s.diag(clock.now())
+        assert set(d.serve) == {"cmd_vel"} and Slow.work * 1e6 <= d.serve["cmd_vel"] < 1e6
+        assert s.diag(clock.now()).serve == {}  # each diag covers what came since the one before
+    finally:
+        s.close()
+
+
 def test_liveliness_token_while_up():
     bus = MemoryBus()
     s = Echo(Settings.load(None, deployment={"robot": "bot_7"}), bus, ManualClock())
