@@ -188,7 +188,8 @@ class Diag(Topic, frozen=True, kw_only=True):
     queue: int = 0  # inputs waiting for the worker when this diag was sent
     cpu: Finite | None = None  # [cores] the service's process's CPU time per wall second since the previous diag
     # [us] per input topic, the mean wall time serving one of its messages since the previous diag (decoding
-    # it, the handler, publishing what it returned), in the service's own process as deployed
+    # it, the handler, publishing what it returned), in the service's own process as deployed (composed: publishing
+    # includes the work of the services in the process that take the output at once)
     serve: dict[str, Finite] = {}
 
 
