@@ -135,11 +135,17 @@ def predict(s: Vec, P: Mat, u: Step, nz: Noise) -> tuple[Vec, Mat]:
     kx, ky = -ds_t * sn, ds_t * c  # d(x, y)/d(theta)
     ex, ey = u.ds * c, u.ds * sn  # d(x, y)/d(es)
     hx, hy = half * c, half * sn  # d(x, y)/d(ed)
+
+    def along(v: Vec) -> tuple[float, float, float]:
+        """A v, v a column of the state's size."""
+        jv = sum(j * v[i] for i, j in J)
+        return v[X] + ax * jv + kx * v[TH] + ex * v[ES] + hx * v[ED], v[Y] + ay * jv + ky * v[TH] + ey * v[ES] + hy * v[ED], v[TH] + jv
+
     (i0, j0), *more = J
     JP = [j0 * p for p in P[i0]]  # J P
     for i, j in more:
         JP = [a + j * p for a, p in zip(JP, P[i])]
-    AP = (  # A P
+    AP = (  # A P: `along` applied to each of P's columns, row by row
         [p + ax * q + kx * t + ex * e + hx * d for p, q, t, e, d in zip(P[X], JP, P[TH], P[ES], P[ED])],
         [p + ay * q + ky * t + ey * e + hy * d for p, q, t, e, d in zip(P[Y], JP, P[TH], P[ES], P[ED])],
         [t + q for t, q in zip(P[TH], JP)],
@@ -149,14 +155,7 @@ def predict(s: Vec, P: Mat, u: Step, nz: Noise) -> tuple[Vec, Mat]:
     g = ((c, ax), (sn, ay), (0.0, 1.0))
     M = [(a * vs + b * cv, a * cv + b * vd) for a, b in g]  # G M
     (qxx, qxy, qxt), (_, qyy, qyt), (_, _, qtt) = ([m0 * a + m1 * b for a, b in g] for m0, m1 in M)
-    # A P A^T (symmetric): A's rows applied to those of A P as they were to P's, jx.. their products with J
-    (ap_x, ap_y, ap_t), (jx, jy, jt) = AP, (sum(j * row[i] for i, j in J) for row in AP)
-    pxx = ap_x[X] + ax * jx + kx * ap_x[TH] + ex * ap_x[ES] + hx * ap_x[ED]
-    pxy = ap_x[Y] + ay * jx + ky * ap_x[TH] + ey * ap_x[ES] + hy * ap_x[ED]
-    pxt = ap_x[TH] + jx
-    pyy = ap_y[Y] + ay * jy + ky * ap_y[TH] + ey * ap_y[ES] + hy * ap_y[ED]
-    pyt = ap_y[TH] + jy
-    ptt = ap_t[TH] + jt
+    (pxx, pxy, pxt), (_, pyy, pyt), (_, _, ptt) = (along(row) for row in AP)  # A P A^T, symmetric
     out = [
         [pxx + qxx, pxy + qxy, pxt + qxt, *AP[0][3:]],
         [pxy + qxy, pyy + qyy, pyt + qyt, *AP[1][3:]],
