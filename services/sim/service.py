@@ -98,7 +98,7 @@ class Sim(Service):
         self.count("command_timeouts", 0)
         self.count("contacts", 0)
         self._behind: tuple[float, str] | None = None  # (scheduling-clock time, why) of the last fall behind
-        self._after: list[tuple[str, m.Clock | m.Truth | m.Body]] = []  # the last steps' clock ticks and truth, sent on the next tick
+        self._after: list[tuple[str, m.Clock | m.Truth | m.Body]] = []  # the last step's clock tick and truth, sent on the next tick
 
     @classmethod
     def make_clock(cls, settings: Settings) -> Clock:
@@ -161,9 +161,7 @@ class Sim(Service):
     def tick(self, now: float) -> None:
         """Send what the last steps left for later, then take every step owed up to `now` of the scheduling clock,
         at most max_burst."""
-        after, self._after = self._after, []
-        for suffix, msg in after:
-            self.publish(suffix, msg)
+        self.send_after()
         owed = math.floor((now - self.base) * self.rate + 1e-6) - self.steps
         if owed > self.cfg.max_burst:
             # Too far behind (host too slow for the rtf, or stalled): drop the lost time.
@@ -174,8 +172,16 @@ class Sim(Service):
             self.check_health(now)
             owed = self.cfg.max_burst
             self.base = now - (self.steps + owed) / self.rate
-        for _ in range(owed):
+        for k in range(owed):
+            if k:  # catching up: a step's clock tick goes out before the next step's sensors, which it admits
+                self.send_after()
             self.advance()
+
+    def send_after(self) -> None:
+        """Send the clock tick and truth the last step left for later."""
+        after, self._after = self._after, []
+        for suffix, msg in after:
+            self.publish(suffix, msg)
 
     def advance(self) -> None:
         """One physics step of 1/rate seconds, then publish what the sensors saw (the step's clock tick and truth

@@ -95,6 +95,20 @@ def test_fixed_steps_catch_up_a_late_tick():
     assert rig.svc.counters.values["overruns"] == 0
 
 
+def test_a_catch_up_sends_each_steps_clock_tick_before_the_next_steps_sensors():
+    """A services' clock admits a sample up to one tick ahead: a burst's samples must not outrun its ticks."""
+    rig = Rig(Sim, sim={"clock_rate_hz": 100.0})
+    rig.advance(0.3)  # one late tick: thirty steps at once
+    settle(rig)
+    clock, ahead = -1.0, []
+    for key, data in rig.bus.published:
+        if key == rig.key("clock"):
+            clock = codec.decode(data, m.Clock).t
+        elif key == rig.key("sensors/encoders"):
+            ahead.append(round(codec.decode(data, m.Encoders).t - clock, 6))
+    assert ahead == [0.01 + 1.0] + [0.01] * 29  # the first before any tick
+
+
 def test_burst_is_bounded_then_resyncs():
     rig = Rig(Sim)
     rig.advance(2.0)  # a stall: at most 50 steps, the rest of the time is dropped
