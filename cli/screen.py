@@ -35,8 +35,15 @@ def pose_line(label: str, msg: Any, truth: Any) -> str:
 DROPPED = ("dropped_stale", "dropped_future", "dropped_overflow", "dropped_superseded", "oversize")
 
 
+def rate(topic: str, hz: float, serve: Mapping[str, float]) -> str:
+    """A topic's rate, and for an input what serving one of its messages took the service."""
+    us = serve.get(topic)
+    return f"{topic} {hz:.0f}" + (f" ({us:.0f} us)" if us is not None else "")
+
+
 def service_rows(names: Sequence[str], diags: Mapping[str, Any], alive: set[str], sup: Any | None = None) -> list[str]:
-    rows = [f"{'service':<10} {'alive':<5} {'status':<9} {'restarts':>8}  {'in/out':>13} {'bad':>4} {'dropped':>7} {'cpu':>6}  rates [Hz]"]
+    head = f"{'service':<10} {'alive':<5} {'status':<9} {'restarts':>8}  {'in/out':>13} {'bad':>4} {'dropped':>7} {'cpu':>6}"
+    rows = [f"{head}  rates [Hz] (serving one [us])"]
     for n in names:
         d = diags.get(n)
         d = d.msg if d is not None and hasattr(d, "msg") else d
@@ -47,7 +54,7 @@ def service_rows(names: Sequence[str], diags: Mapping[str, Any], alive: set[str]
         bad = str(d.counters.get("bad_input", 0)) if d is not None else "-"
         dropped = str(sum(d.counters.get(k, 0) for k in DROPPED)) if d is not None else "-"
         cpu = f"{d.cpu * 100:.1f}%" if d is not None and d.cpu is not None else "-"  # of one core, the process's
-        rates = ", ".join(f"{k} {v:.0f}" for k, v in sorted(d.rates.items()) if not k.startswith("diag/")) if d else ""
+        rates = ", ".join(rate(k, v, d.serve) for k, v in sorted(d.rates.items()) if not k.startswith("diag/")) if d else ""
         up = "yes" if n in alive else "NO"
         rows.append(f"{n:<10} {up:<5} {status:<9} {restarts:>8}  {io:>13} {bad:>4} {dropped:>7} {cpu:>6}  {rates}")
         if d is not None and d.message:

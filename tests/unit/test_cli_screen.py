@@ -1,5 +1,7 @@
 """The status table of `zenav up`, `status` and `watch` (pure formatting)."""
 
+import msgspec
+
 from zenav.cli.screen import pose_line, service_rows
 from zenav.common import messages as m
 
@@ -23,6 +25,13 @@ def test_input_let_go_unserved_shows_beside_bad_input():
     assert header[5:7] == ["bad", "dropped"] and nav[5:7] == ["2", "45"]  # a handler's errors are not input let go
     _, quiet = (r.split() for r in service_rows(["motor"], {"motor": diag("motor", 0.01)}, {"motor"}))
     assert quiet[5:7] == ["0", "0"]
+
+
+def test_each_input_rate_shows_what_serving_one_message_took():
+    d = msgspec.structs.replace(diag("localizer", 0.05), rates={"odom": 100.0, "pose": 99.6}, serve={"odom": 161.4})
+    header, row = service_rows(["localizer"], {"localizer": d}, {"localizer"})
+    assert header.endswith("rates [Hz] (serving one [us])")
+    assert row.endswith("odom 100 (161 us), pose 100")  # pose is an output: nothing served
 
 
 def test_a_pose_whose_wheels_slip_says_so():
