@@ -140,6 +140,13 @@ def background_thread() -> None:
         logging.getLogger("zenav").warning("could not lower a background thread's priority: %s", e)
 
 
+def format_refusal(fmt: str | None) -> str | None:
+    """Why a query's reply format (its `_format` parameter, None: not given) cannot be served; None if it can."""
+    if fmt is None or fmt in FORMATS:
+        return None
+    return f"{FORMAT_PARAM}={clip(fmt, 40)}: expected one of {', '.join(FORMATS)}"
+
+
 def reply_format(q: Query) -> str:
     """The encoding a query asked its replies in (`_format=json`: JSON; otherwise msgpack)."""
     if not q.params_size:
@@ -767,10 +774,10 @@ class Service:
             self.warn("wildcard", f"refused a query on {q.key}: it acts, so only {exact} is served")
             reply_error(q, "invalid_argument", f"{q.key}: this query acts; ask it on its exact key {exact}")
             return
-        fmt = q.params.get(FORMAT_PARAM) if q.params_size else None
-        if fmt is not None and fmt not in FORMATS:
+        refused = format_refusal(q.params.get(FORMAT_PARAM) if q.params_size else None)
+        if refused is not None:
             self.counters.inc("bad_input")
-            reply_error(q, "invalid_argument", f"{FORMAT_PARAM}={clip(fmt, 40)}: expected one of {', '.join(FORMATS)}")
+            reply_error(q, "invalid_argument", refused)
             return
         try:
             params = {k: v for k, v in q.params.items() if not k.startswith("_")} if q.params_size else {}

@@ -17,6 +17,7 @@ from hypothesis import HealthCheck, Phase, settings
 from hypothesis import strategies as st
 
 from zenav.common import keys
+from zenav.common.runtime import FORMAT_PARAM
 
 TOPIC_TYPES = list(dict.fromkeys(keys.TOPICS.values()))
 REQUEST_TYPES = list(dict.fromkeys(req for req, _ in keys.QUERIES.values()))
@@ -286,6 +287,9 @@ def malformed_params(typ: type) -> st.SearchStrategy[tuple[dict[str, str], str |
         ),
     ]
     options += [st.builds(lambda p, x, n=name: ({**p, n: x}, None), params_of(info), text_of_bad) for name in sorted(names)]
+    # With zenav's own `_format`, the reply's encoding: one it does not know is refused, a known one encodes the error.
+    formats = st.one_of(st.sampled_from(["json", "msgpack", "", "JSON", "yaml"]), st.text(max_size=12))
+    options.append(st.builds(lambda case, f: ({**case[0], FORMAT_PARAM: f}, None), st.one_of(options), formats))
     return st.one_of(options)
 
 

@@ -18,6 +18,7 @@ from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import msgspec
 import pytest
 import zenoh
 from hypothesis import Phase, given, settings
@@ -26,7 +27,8 @@ from hypothesis import strategies as st
 from tests.support.fuzz import FUZZ, malformed, malformed_params, not_utf8_payloads
 from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common.bus import ZenohBus
+from zenav.common.bus import JSON, ZenohBus
+from zenav.common.runtime import FORMAT_PARAM, format_refusal
 from zenav.services import NAMES
 
 pytestmark = pytest.mark.system
@@ -135,8 +137,10 @@ def payloads(topics: dict[str, dict[str, int]], queries: dict[str, str], total: 
 
         def with_params(case, suffix=suffix, t=typ, key=key) -> Get | None:
             selector = zenoh.Selector(key, str(zenoh.Parameters(case[0])))
-            seen = {k: v for k, v in dict(selector.parameters).items() if not k.startswith("_")}  # `_` names are Zenoh's, ignored
-            error = refusal(lambda: codec.from_params(seen, t))  # what the service will see
+            params = dict(selector.parameters)
+            seen = {k: v for k, v in params.items() if not k.startswith("_")}  # `_` names are Zenoh's, ignored
+            # zenav's own `_format` (the reply's encoding) is read first; then the request (what the service will see)
+            error = format_refusal(params.get(FORMAT_PARAM)) or refusal(lambda: codec.from_params(seen, t))
             return Get(suffix, selector, None, error) if error else None
 
         gets += draw(malformed(typ), per_target, with_payload) + draw(malformed_params(typ), per_target, with_params)
@@ -150,9 +154,12 @@ def answer(replies: list[zenoh.Reply]) -> object:
         return f"{len(replies)} replies"
     if replies[0].err is None:
         return ("ok", replies[0].ok.payload.to_bytes())
+    err = replies[0].err
     try:
-        return codec.decode(replies[0].err.payload.to_bytes(), m.ErrorReply)
-    except codec.BadInput as e:
+        if str(err.encoding) == JSON:  # asked for with `_format=json`
+            return msgspec.json.decode(err.payload.to_bytes(), type=m.ErrorReply)
+        return codec.decode(err.payload.to_bytes(), m.ErrorReply)
+    except (codec.BadInput, msgspec.DecodeError) as e:
         return ("error reply not an ErrorReply", str(e))
 
 
