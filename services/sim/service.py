@@ -159,7 +159,7 @@ class Sim(Service):
 
     @timer("tick_period")
     def tick(self, now: float) -> None:
-        """Send what the last steps left for later, then take every step owed up to `now` of the scheduling clock,
+        """Send what the last step left for later, then take every step owed up to `now` of the scheduling clock,
         at most max_burst."""
         self.send_after()
         owed = math.floor((now - self.base) * self.rate + 1e-6) - self.steps
