@@ -29,19 +29,24 @@ def test_odometry_increment_is_corrected_by_the_calibration():
     assert out[model.Y] == pytest.approx(2.0 + 0.101 * math.sin(dth / 2))
 
 
-def test_transition_jacobian_matches_finite_differences():
-    s, u = np.array(state()), model.Step(0.05, 0.1, 0.1)
-    eps = 1e-6
+def jacobian(s: list[float], u: model.Step, nz: model.Noise, eps: float = 1e-6) -> np.ndarray:
+    """F = d(predicted state)/d(state), by central differences of the state the step predicts."""
     J = np.zeros((8, 8))
     for i in range(8):
         d = np.zeros(8)
         d[i] = eps
-        ahead, behind = model.predict((s + d).tolist(), zeros(), u, QUIET)[0], model.predict((s - d).tolist(), zeros(), u, QUIET)[0]
+        ahead, behind = (model.predict((np.array(s) + k * d).tolist(), zeros(), u, nz)[0] for k in (1.0, -1.0))
         J[:, i] = (np.array(ahead) - np.array(behind)) / (2 * eps)
+    return J
+
+
+def test_transition_jacobian_matches_finite_differences():
+    s, u = state(), model.Step(0.05, 0.1, 0.1)
+    J = jacobian(s, u, QUIET)
     for i in range(8):  # P = e_i e_i^T  ->  F P F^T = F[:, i] F[:, i]^T
         P = zeros()
         P[i][i] = 1.0
-        _, P_new = model.predict(s.tolist(), P, u, QUIET)
+        _, P_new = model.predict(s, P, u, QUIET)
         assert np.allclose(P_new, np.outer(J[:, i], J[:, i]), atol=1e-6)
 
 
@@ -53,15 +58,7 @@ def test_the_step_keeps_the_covariance_symmetric_and_equal_to_f_p_ft_plus_q():
     s, u = state(), model.Step(0.05, 0.1, 0.1)  # no gyro: the step is F P F^T + Q alone
     _, P_new = model.predict(s, P.tolist(), u, nz)
     _, from_zero = model.predict(s, zeros(), u, nz)  # Q
-    eps, J = 1e-6, np.zeros((8, 8))
-    for i in range(8):
-        d = np.zeros(8)
-        d[i] = eps
-        ahead, behind = (
-            model.predict((np.array(s) + d).tolist(), zeros(), u, nz)[0],
-            model.predict((np.array(s) - d).tolist(), zeros(), u, nz)[0],
-        )
-        J[:, i] = (np.array(ahead) - np.array(behind)) / (2 * eps)
+    J = jacobian(s, u, nz)
     assert P_new == np.array(P_new).T.tolist()  # exactly
     assert np.allclose(P_new, J @ P @ J.T + np.array(from_zero), atol=1e-9)
 
