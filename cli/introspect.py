@@ -12,7 +12,6 @@ Exit codes: 0 done, 1 nothing came (echo --timeout, hz) or an internal error rep
 from __future__ import annotations
 
 import argparse
-import os
 import queue
 import sys
 import time
@@ -97,9 +96,6 @@ def command(args: argparse.Namespace, body: Body) -> int:
         return fail(args.command, e)
     try:
         return body(args, key, bus)
-    except BrokenPipeError:  # `zenav echo pose | head -1`: the reader is done
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return EXIT_OK
     finally:
         bus.close()
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
+import select
 import sys
 from collections.abc import Sequence
 
@@ -63,13 +65,29 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        return int(args.func(args) or 0)
+        code = int(args.func(args) or 0)
+        sys.stdout.flush()  # here, not at exit: a reader that left must be met below
+        return code
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:
+        if not reader_gone(sys.stdout.fileno()):
+            raise  # a pipe other than the output broke: a failure to show
+        # `zenav status | head -4`: the reader has what it wanted. Python's last flush of
+        # stdout at exit must not fail again with a traceback.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
     except ImportError as e:  # an optional package: recording, view, plots and bench need the `tools` extra
         extra = EXTRAS.get((e.name or "").split(".")[0], "tools")
         print(f"zenav {args.command}: needs the optional package {e.name!r}: pip install 'zenav[{extra}]'", file=sys.stderr)
         return EXIT_USAGE
+
+
+def reader_gone(fd: int) -> bool:
+    """Whether the pipe or socket `fd` writes to has no reader left (poll reports an error on it)."""
+    poller = select.poll()
+    poller.register(fd, select.POLLOUT)
+    return any(ev & (select.POLLERR | select.POLLHUP) for _, ev in poller.poll(0))
 
 
 if __name__ == "__main__":

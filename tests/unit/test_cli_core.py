@@ -1,5 +1,6 @@
 """The core `zenav` command works without the optional `tools` extra (as in the docker image)."""
 
+import os
 import subprocess
 import sys
 
@@ -38,3 +39,27 @@ def test_bench_sections_named_by_the_cli_are_the_bench_s():
     from zenav.cli.bench import SECTIONS as CLI
 
     assert CLI == SECTIONS
+
+
+def test_output_to_a_reader_that_left_ends_quietly():
+    """`zenav ... | head -1`: the reader is gone before the command writes; no traceback, exit 0."""
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        code = "from zenav.cli.main import main; import sys; sys.exit(main(['completion', 'bash']))"
+        done = subprocess.run([sys.executable, "-c", code], stdout=write, stderr=subprocess.PIPE, text=True, timeout=60)
+    finally:
+        os.close(write)
+    assert done.returncode == 0 and done.stderr == ""
+
+
+def test_a_pipe_is_told_apart_once_its_reader_left():
+    from zenav.cli.main import reader_gone
+
+    read, write = os.pipe()
+    try:
+        assert not reader_gone(write)
+        os.close(read)
+        assert reader_gone(write)
+    finally:
+        os.close(write)
