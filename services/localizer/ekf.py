@@ -41,6 +41,9 @@ class _Fix:
 TRACTION_WINDOW = 0.5  # [s] of fixes over which the wheels' traction is judged
 TRACTION_TRAVEL = 0.08  # [m] of odometry travel over it, at least, to judge it (the fixes' noise is ~0.02 m)
 TRACTION = 0.5  # [-] the fixes moved less than this share of the odometry's travel: the wheels slip
+# [s] no fix for this long: the fixes stopped (the camera lost the robot). The odometry ran alone
+# meanwhile, so fixes that disagree once they come back re-acquire its drift, not a slip.
+FIX_GAP = 1.0
 
 
 @dataclass
@@ -81,6 +84,8 @@ class Ekf(Mode):
         self.rejections = 0  # consecutive rejected fixes
         self.initialised = False  # a fix or a full set_pose has placed the robot in the map
         self.candidate: _Candidate | None = None  # the newest unused fix, to confirm the next one
+        self.heard: float | None = None  # [s] capture time of the newest fix heard, used or not
+        self.after_gap = False  # the rejections in a row began after FIX_GAP without a fix
         self.gyro = GyroIntegral(cfg.history, cfg.gyro_max_gap)
         self.gyro_used = False
         tick = 2.0 * math.pi * robot.wheel_radius / (robot.ticks_per_rev or 360)
@@ -238,6 +243,9 @@ class Ekf(Mode):
         else:
             prev = self.history[k - 1]
             s, P = self._advance(prev.s, prev.P, prev.t, e, t)
+        R = R + model.rounding_cov(self.noise, s[model.TH], heading=e.u.gyro is None)
+        gap = self.heard is None or t - self.heard > FIX_GAP
+        self.heard = t if self.heard is None else max(self.heard, t)
         nu, S, d2 = model.innovation(s, P, z, R)
         innovation = (float(nu[0]), float(nu[1]), float(nu[2]))
         reason = "accepted"
@@ -250,6 +258,8 @@ class Ekf(Mode):
                     return FixResult(False, "unconfirmed", innovation, d2)
                 reason = "initialised"
             else:
+                if self.rejections == 0:
+                    self.after_gap = gap
                 self.rejections += 1
                 if self.rejections < self.cfg.recover_after or not confirmed:
                     if self._slipping(t, z, False):  # the odometry, not the fix, is wrong: the next one is weighed so
@@ -257,7 +267,9 @@ class Ekf(Mode):
                     return FixResult(False, "outlier", innovation, d2)
                 reason = "reacquired"
         self.rejections, self.candidate, self.initialised = 0, None, True
-        self._slipping(t, z, reason == "reacquired")
+        # Re-acquired while the fixes kept coming: the robot went where the odometry did not take it (a push,
+        # a hold). Re-acquired as they came back after a gap: the odometry drifted meanwhile.
+        self._slipping(t, z, reason == "reacquired" and not self.after_gap)
         f = _Fix(t, z, R, reacquire=reason == "reacquired")
         if in_place:
             e.s, e.P = self._apply(e.s, e.P, f)

@@ -169,6 +169,27 @@ def predict(s: Vec, P: Mat, u: Step, nz: Noise) -> tuple[Vec, Mat]:
     return [x + ds_t * c, y + ds_t * sn, wrap_angle(th + dth), es, ew, ed, bg, sg], out
 
 
+def rounding_cov(nz: Noise, theta: float, heading: bool) -> np.ndarray:
+    """The 3x3 covariance of the odometry's pose rounded to whole ticks, at heading theta [rad].
+
+    Each wheel's count is its travel rounded to a tick (uniform: variance tick^2 / 12). The
+    counts are cumulative, so the rounding never accumulates (the prediction leaves it out),
+    but the pose at any time is off by it: along the heading by the two wheels' mean, and,
+    where the encoders turn the heading (`heading`: no gyro), by their difference over the
+    track. A fix compares with that pose, so its covariance takes this on: with a camera
+    more precise than a tick, sixteen-tick encoders would find most fixes outliers.
+    """
+    v = nz.tick**2 / 12.0  # [m^2] each wheel's
+    along = v / 2.0  # [m^2] the mean of the two
+    c, s = math.cos(theta), math.sin(theta)
+    R = np.zeros((3, 3))
+    R[0, 0], R[0, 1], R[1, 1] = along * c * c, along * c * s, along * s * s
+    R[1, 0] = R[0, 1]
+    if heading:
+        R[2, 2] = 2.0 * v / nz.track**2
+    return R
+
+
 def pose_cov(P: Mat) -> np.ndarray:
     """The 3x3 covariance of (x, y, theta)."""
     return np.array((P[0][:3], P[1][:3], P[2][:3]))

@@ -2,6 +2,7 @@
 
 import math
 
+import msgspec
 import numpy as np
 import pytest
 
@@ -174,6 +175,35 @@ def test_outliers_are_rejected_and_a_moved_robot_is_reacquired():
     assert reasons[:4] == ["outlier"] * 3 + ["reacquired"]
     assert all(r == "accepted" for r in reasons[4:])
     assert ekf.get_pose().y == pytest.approx(1.0, abs=0.03)
+
+
+@pytest.mark.parametrize("gap", [False, True])
+def test_a_reacquisition_finds_a_slip_only_where_the_fixes_kept_coming(gap):
+    """Fixes 0.5 m ahead of the odometry: the robot was pushed while the camera saw it (a slip: a move that
+    stopped then is not moved again), or the odometry drifted while the camera had lost it for 5 s."""
+    ekf = tracking(3.0)
+    start = 8.1 if gap else 3.1
+    straight(ekf, 3.01, start - 0.1)
+    found, slipping = [], []
+    for k in range(round(start * 10), round(start * 10) + 12):
+        t = k / 10
+        straight(ekf, t - 0.09, t)
+        found.append(ekf.on_fix(fix(t - 0.3, 0.3 * (t - 0.3) + 0.5), t).reason)
+        slipping.append(ekf.get_pose().slipping)
+    assert "reacquired" in found
+    assert any(slipping) != gap
+
+
+def test_fixes_finer_than_a_tick_are_followed_through_coarse_encoders():
+    """A camera to the millimetre, encoders of 13 mm a tick: the odometry's pose is off by its ticks' rounding at
+    any time, which a fix's comparison allows for. Without it a fifth of the fixes were outliers, and the
+    re-acquisitions that followed were taken for slipping wheels."""
+    sc = msgspec.structs.replace(scenario("coarse"), vps_noise_xy=0.001, vps_noise_theta_deg=0.2)
+    r = drive_square(sc, 8)
+    ekf = Ekf(LocalizerConfig(), Robot(ticks_per_rev=sc.ticks_per_rev))
+    s = evaluate(ekf, r.odom, r.fixes, r.truth, r.imu)
+    assert s.fixes_rejected <= 0.02 * (s.fixes_accepted + s.fixes_rejected) and s.rmse < 0.004
+    assert ekf.slip == (math.inf, -math.inf)  # never found slipping
 
 
 def pinned(accel=None, **cfg) -> list[float]:
