@@ -12,7 +12,7 @@ from msgspec import Struct
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.config import Camera as CameraConfig
-from zenav.common.runtime import Service, timer
+from zenav.common.runtime import Duplicate, Service, timer
 from zenav.services.vps import calibration
 from zenav.services.vps.calibration import Calibration
 from zenav.services.vps.frames import FrameError, check_fits
@@ -62,8 +62,26 @@ class Vps(Service):
         if self.reader is None:
             self.subscribe("sim/truth", m.Truth, self.on_truth)
         else:
+            self._claim_robots()
             # A detector slower than the camera reads the newest frame each time, not one ever older.
             self.subscribe("camera/frame", m.CameraFrame, self.on_frame, latest=True)
+
+    def _claim_robots(self) -> None:
+        """Every robot this camera serves besides its own must have no other vps (its own stack's, or another
+        camera's), or its localizer would get two streams of fixes: Duplicate, naming it, if one runs. Each then
+        gets this instance's token, `zenav/<robot>/instance/vps/<id>`, which a vps starting for it finds and
+        refuses to run beside, as it would beside a vps of its own robot."""
+        others = [robot for robot in self.queues if robot != self.robot]  # its own: the runtime's check
+        for robot in others:
+            found = self.bus.tokens(keys.key(robot, "instance/vps/*")) or self.bus.tokens(keys.alive(robot, "vps"))
+            if found:
+                names = ", ".join(sorted(k.rsplit("/", 1)[-1] for k in found))
+                raise Duplicate(
+                    f"[camera] robots has {robot}, for which another vps already runs ({names}): stop that vps, or take"
+                    f" {robot} out of [camera] robots here"
+                )
+        for robot in others:
+            self._handles.append(self.bus.token(keys.key(robot, f"instance/vps/{self.instance}")))
 
     def _restarted(self, t: float) -> None:
         if t < self._last_t:

@@ -9,7 +9,10 @@ from tests.support.procs import niceness
 from tests.support.rig import Rig
 from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common.config import Camera
+from zenav.common.bus import MemoryBus
+from zenav.common.clock import ManualClock
+from zenav.common.config import Camera, Settings
+from zenav.common.runtime import Duplicate
 from zenav.services.sim.camera import FieldCamera, Shutter
 from zenav.services.sim.service import Sim
 from zenav.services.vps import calibration, detect
@@ -252,3 +255,26 @@ def test_the_camera_vps_detects_at_a_lower_priority_than_the_control_loop(render
     worker.join(10.0)
     rig.close()
     assert served_at == [min(niceness() + 10, 19)]  # its worker's; this thread keeps its own
+
+
+def test_a_robot_the_camera_serves_gets_no_second_vps(cal_file):
+    """r1's camera vps serves r1 and r2 ([camera] robots): r2 must run no vps of its own, in either order."""
+    rig = make(cal_file)  # serves r2 too: r2's vps finds it and refuses, as a second vps of its own robot
+    r2 = Vps(Settings.load(None, deployment={"robot": "r2"}), rig.bus, ManualClock(0.0))
+    with pytest.raises(Duplicate, match=f"another vps already runs for robot r2 \\({rig.svc.instance}\\)"):
+        r2.start()
+    r2.close()
+    bus = MemoryBus()  # r2's vps up first: the camera vps refuses to start, naming it
+    first = Vps(Settings.load(None, deployment={"robot": "r2"}), bus, ManualClock(0.0))
+    first.start()
+    camera = Vps(Settings.load(None, vps={"source": "camera"}, camera={"calibration": cal_file, "robots": ROBOTS}), bus, ManualClock(0.0))
+    with pytest.raises(Duplicate, match=f"\\[camera\\] robots has r2, for which another vps already runs \\({first.instance}\\)"):
+        camera.start()
+    camera.close()
+    assert bus.tokens(keys.key("r2", "instance/vps/*")) == [keys.key("r2", f"instance/vps/{first.instance}")]
+    first.close()
+
+
+def test_a_camera_serving_only_its_own_robot_claims_no_other(cal_file):
+    rig = make(cal_file, robots={"r1": 0})
+    assert rig.bus.tokens("zenav/*/instance/vps/*") == [keys.key("r1", f"instance/vps/{rig.svc.instance}")]
