@@ -619,10 +619,14 @@ class Service:
 
     def _refuse_duplicate(self) -> None:
         """Raise Duplicate, naming the other instance, if this service's token is declared."""
-        found = self.bus.tokens(self.key(f"instance/{self.name}/*")) or self.bus.tokens(keys.alive(self.robot, self.name))
-        if found:
-            names = ", ".join(sorted(k.rsplit("/", 1)[-1] for k in found))
+        names = self.running_for(self.robot)
+        if names is not None:
             raise Duplicate(f"another {self.name} already runs for robot {self.robot} ({names}); stop it first")
+
+    def running_for(self, robot: str) -> str | None:
+        """The ids of the instances of this service that run for `robot` (its tokens), comma-separated; None: none."""
+        found = self.bus.tokens(keys.key(robot, f"instance/{self.name}/*")) or self.bus.tokens(keys.alive(robot, self.name))
+        return ", ".join(sorted(k.rsplit("/", 1)[-1] for k in found)) if found else None
 
     def _instance_enqueuer(self, mine: str) -> Callable[[str, bool], None]:
         def enqueue(key: str, alive: bool) -> None:

@@ -73,9 +73,8 @@ class Vps(Service):
         refuses to run beside, as it would beside a vps of its own robot."""
         others = [robot for robot in self.queues if robot != self.robot]  # its own: the runtime's check
         for robot in others:
-            found = self.bus.tokens(keys.key(robot, "instance/vps/*")) or self.bus.tokens(keys.alive(robot, "vps"))
-            if found:
-                names = ", ".join(sorted(k.rsplit("/", 1)[-1] for k in found))
+            names = self.running_for(robot)
+            if names is not None:
                 raise Duplicate(
                     f"[camera] robots has {robot}, for which another vps already runs ({names}): stop that vps, or take"
                     f" {robot} out of [camera] robots here"
