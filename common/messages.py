@@ -65,6 +65,11 @@ class Encoders(Topic, frozen=True, kw_only=True):
     t: Time
     left: Ticks  # cumulative ticks, wrapping signed 32-bit
     right: Ticks
+    # [rad/s] the wheel speeds commanded while the counts were taken (the sim's command, the board's
+    # target): a commanded wheel whose count stays still is a frozen encoder or a stalled wheel.
+    # 0: not commanded, or not known (no such check).
+    cmd_left: Velocity = 0.0
+    cmd_right: Velocity = 0.0
 
 
 class Imu(Topic, frozen=True, kw_only=True):

@@ -82,6 +82,7 @@ class Trial:
         self.steps = 0
         self.streams = Streams()
         self.odom: m.Odom | None = None  # the newest odometry pose
+        self.cmd = (0.0, 0.0)  # [rad/s] the wheel commands of the newest step
         self._sample()
 
     @property
@@ -91,7 +92,7 @@ class Trial:
 
     def step(self, left: float, right: float) -> None:
         """One sensor period under wheel commands [rad/s], then the sample at its end."""
-        self.odometry = od.command(self.odometry, left, right)
+        self.cmd = (left, right)
         self.bot.step(left, right, self.dt, self.others)
         self.steps += 1
         self._sample()
@@ -123,7 +124,7 @@ class Trial:
         left, right = self.bot.encoders()
         left = self.hold.apply(fx, left)
         for _ in range(fx.copies):
-            self.odometry, odom, event = od.update(self.odometry, self.params, left, right, fx.stamp)
+            self.odometry, odom, event = od.update(self.odometry, self.params, left, right, fx.stamp, self.cmd)
             if event == od.BASELINE:  # the odom frame's origin, so that every stream starts at t = 0
                 odom = m.Odom(t=fx.stamp, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)
             if odom is not None:

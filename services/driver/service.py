@@ -175,7 +175,10 @@ class Driver(Service):
         self.jumps = 0
         self.board_prev, self.read_t = (left, right), t
         self.out = (p.wrap32(self.out[0] + dl), p.wrap32(self.out[1] + dr))
-        self.publish("sensors/encoders", m.Encoders(t=t, left=self.out[0], right=self.out[1]))
+        # The target the board ran while it counted: a commanded wheel whose count stays still is found by the odometry.
+        run, rate, tpr = self.sent or STOP, self.cfg.pid_rate, self.ticks_per_rev
+        cmd = (p.wheel_speed(run[0], tpr, rate), p.wheel_speed(run[1], tpr, rate))
+        self.publish("sensors/encoders", m.Encoders(t=t, left=self.out[0], right=self.out[1], cmd_left=cmd[0], cmd_right=cmd[1]))
 
     def _handshake(self, now: float) -> None:
         """A fresh link: clear the board's parser, check it answers, reset, take the counts' baseline."""

@@ -1,6 +1,6 @@
 """The odometry state machine: encoder samples (and heading sensors) in, odom poses out.
 
-Pure: `update(state, params, left, right, t)` returns the new state, the odom message
+Pure: `update(state, params, left, right, t, cmd)` returns the new state, the odom message
 of the sample (None when the sample only sets a baseline or is dropped) and what
 happened. The covariance carries a per-wheel noise model (variance of a wheel's
 travel = k * |travel|) and the heading source's noise through the integrator's
@@ -123,13 +123,11 @@ def _propagate(
     return (c00, c01, c02, c01, c11, c12, c02, c12, c22)  # symmetric: the upper triangle mirrored
 
 
-def command(s: OdometryState, left: float, right: float) -> OdometryState:
-    """The wheel speeds commanded [rad/s] (motors/wheels): an encoder silent meanwhile is watched for."""
-    return s._replace(watch=stall.command(s.watch, left, right))
-
-
-def update(s: OdometryState, p: Params, left: int, right: int, t: float) -> tuple[OdometryState, m.Odom | None, str]:
-    """One encoder sample (cumulative ticks, time t [s]): new state, odom or None, event.
+def update(
+    s: OdometryState, p: Params, left: int, right: int, t: float, cmd: tuple[float, float] = (0.0, 0.0)
+) -> tuple[OdometryState, m.Odom | None, str]:
+    """One encoder sample (cumulative ticks, time t [s], the wheel speeds commanded meanwhile [rad/s]):
+    new state, odom or None, event.
 
     A wheel commanded to turn whose encoder shows nothing (s.watch.silent) adds the
     travel it was commanded to the covariance, as unmeasured (stall.py).
@@ -140,7 +138,7 @@ def update(s: OdometryState, p: Params, left: int, right: int, t: float) -> tupl
     if dt <= 0.0:  # duplicate or out of order
         return s, None, STALE
     n_left, n_right = tick_delta(left, s.left), tick_delta(right, s.right)
-    watch, unmeasured, _ = stall.step(s.watch, p.stall, t, dt, (n_left, n_right))
+    watch, unmeasured, _ = stall.step(s.watch, p.stall, t, dt, (n_left, n_right), cmd)
     limit = p.max_tick_rate * dt + 1.0  # one tick of quantisation always passes
     if abs(n_left) > limit or abs(n_right) > limit:
         return s._replace(t=t, left=left, right=right, t_moved=t, watch=watch), None, RESET

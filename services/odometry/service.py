@@ -93,17 +93,14 @@ class Odometry(Service):
         # The sim restarted: its time and encoders start again, and so does the odom frame.
         self.state = od.OdometryState()
 
-    @subscribe("motors/wheels")
-    def on_wheels(self, msg: m.Wheels) -> None:
-        """The wheel speeds commanded: an encoder that shows nothing meanwhile is silent."""
-        self.state = od.command(self.state, msg.left, msg.right)
-
     @subscribe("sensors/encoders")
     @publish("odom")
     def on_encoders(self, msg: m.Encoders) -> m.Odom | None:
-        """One encoder sample: an odom pose, or None (baseline, dropped, reset)."""
+        """One encoder sample: an odom pose, or None (baseline, dropped, reset). A wheel the sample says was
+        commanded (`cmd_left`, `cmd_right`) and whose count stays still is silent."""
         was = self.state.watch.silent
-        self.state, odom, event = od.update(self.state, self.params, msg.left, msg.right, msg.t)
+        cmd = (msg.cmd_left, msg.cmd_right)
+        self.state, odom, event = od.update(self.state, self.params, msg.left, msg.right, msg.t, cmd)
         self._silence(was, msg.t)
         if event == od.STALE:
             self.count("dropped_stale")

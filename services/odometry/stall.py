@@ -1,7 +1,7 @@
 """A wheel commanded to turn whose encoder shows nothing: a frozen encoder or a stalled wheel.
 
-Pure: the commanded wheel speeds (motors/wheels) and each encoder step come in as
-arguments. A wheel counts as silent once it should have turned `min_ticks` ticks
+Pure: each encoder step comes in with the wheel speeds commanded while its counts were
+taken (the encoder sample's `cmd_left`, `cmd_right`). A wheel counts as silent once it should have turned `min_ticks` ticks
 at its commanded speed and `min_time` has passed without one tick; from then on the
 travel it was commanded is reported as unmeasured, so the odometry's covariance (and
 the localizer's) grows by it instead of trusting a count that says "still".
@@ -24,37 +24,34 @@ class StallParams(NamedTuple):
 class Watch(NamedTuple):
     """Per wheel (left, right): since when it has been commanded but silent, and how far it was told to turn."""
 
-    cmd: tuple[float, float] = (0.0, 0.0)  # [rad/s] newest command
+    cmd: tuple[float, float] = (0.0, 0.0)  # [rad/s] the newest step's command
     since: tuple[float | None, float | None] = (None, None)  # [s]
     owed: tuple[float, float] = (0.0, 0.0)  # [rad] commanded turn since then
     silent: tuple[bool, bool] = (False, False)  # each encoder silent at the newest step
 
 
-def command(w: Watch, left: float, right: float) -> Watch:
-    """A new motors/wheels command [rad/s]."""
-    return w._replace(cmd=(left, right))
-
-
-def step(w: Watch, p: StallParams, t: float, dt: float, ticks: tuple[int, int]) -> tuple[Watch, tuple[float, float], tuple[bool, bool]]:
-    """One encoder step ending at t [s], dt [s] long, with each wheel's tick count change.
+def step(
+    w: Watch, p: StallParams, t: float, dt: float, ticks: tuple[int, int], cmd: tuple[float, float]
+) -> tuple[Watch, tuple[float, float], tuple[bool, bool]]:
+    """One encoder step ending at t [s], dt [s] long, with each wheel's tick count change and its command [rad/s].
 
     Returns the new watch, each wheel's unmeasured travel this step [m] and whether it is silent.
     """
     since, owed, unmeasured, silent = list(w.since), list(w.owed), [0.0, 0.0], [False, False]
     for i in (0, 1):
-        cmd = w.cmd[i]
-        if ticks[i] != 0 or abs(cmd) < p.min_speed:
+        speed = cmd[i]
+        if ticks[i] != 0 or abs(speed) < p.min_speed:
             since[i], owed[i] = None, 0.0
             continue
         start = since[i]
         if start is None:
             start = since[i] = t - dt
-        owed[i] += abs(cmd) * dt
+        owed[i] += abs(speed) * dt
         if owed[i] * p.ticks_per_rad >= p.min_ticks and t - start >= p.min_time:
             silent[i] = True
-            unmeasured[i] = abs(cmd) * dt * p.radius
+            unmeasured[i] = abs(speed) * dt * p.radius
     flags = (silent[0], silent[1])
-    return Watch(w.cmd, (since[0], since[1]), (owed[0], owed[1]), flags), (unmeasured[0], unmeasured[1]), flags
+    return Watch(cmd, (since[0], since[1]), (owed[0], owed[1]), flags), (unmeasured[0], unmeasured[1]), flags
 
 
 def params(ticks_per_rev: int, radius: float, min_speed: float, min_ticks: float, min_time: float) -> StallParams:

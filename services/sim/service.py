@@ -201,7 +201,8 @@ class Sim(Service):
                 self.log.info("drove into %s at (%.3f, %.3f): held there, the wheels slipping", what, s.x, s.y)
         fx = faults.at(self.scen, t)
         left, right = self.bot.encoders()
-        encoders = m.Encoders(t=fx.stamp, left=self.hold.apply(fx, left), right=right)
+        # With the command the wheels ran at this step: a commanded wheel whose count holds is found by the odometry.
+        encoders = m.Encoders(t=fx.stamp, left=self.hold.apply(fx, left), right=right, cmd_left=self.cmd[0], cmd_right=self.cmd[1])
         gyro_z, accel_x, accel_y = self.bot.imu()
         imu = m.Imu(t=fx.stamp, gyro_z=gyro_z, accel_x=accel_x, accel_y=accel_y)
         # The sample's instant on the host, once its sensors are read (as a driver stamps a reading):

@@ -97,16 +97,25 @@ def test_an_undeclared_local_subscription_gets_nothing_more(pair):
 
 def test_composed_services_each_keep_their_token_and_diag(router, client):
     settings = Settings.load(None, deployment={"connect": router, "clock": "wall"})
-    with ComposedStack(settings, ["motor", "odometry"]) as stack:
-        client.wait_alive(["motor", "odometry"], timeout=WAIT)
+    names = ["motor", "odometry", "localizer"]
+    with ComposedStack(settings, names) as stack:
+        client.wait_alive(names, timeout=WAIT)
         diag = client.latest("diag/motor").wait(timeout=WAIT)
         assert diag.service == "motor"
         wheels = client.latest("motors/wheels")
         client.publish("cmd_vel", m.CmdVel(t=0.0, v=0.1, omega=0.0))
         assert wheels.wait(lambda w: w.left > 0.0, timeout=WAIT).right > 0.0
-        # the wheel command reached the odometry beside it directly (its subscriptions take no local sample from Zenoh)
-        odometry = client.latest("diag/odometry").wait(lambda d: d is not None and d.counters["msgs_in"] >= 1, timeout=WAIT)
-        assert odometry.service == "odometry" and set(stack.services) == {"motor", "odometry"}
+        odom = client.latest("odom")
+        for i in range(20):  # the first sample is the odometry's baseline (and a new publisher's first may take a retry)
+            client.publish("sensors/encoders", m.Encoders(t=0.01 * i, left=i, right=i))
+            try:
+                odom.wait(timeout=0.5)
+                break
+            except TimeoutError:
+                continue
+        # the odometry's pose reached the localizer beside it directly (its subscriptions take no local sample from Zenoh)
+        localizer = client.latest("diag/localizer").wait(lambda d: d.counters["msgs_in"] >= 1, timeout=WAIT)
+        assert localizer.service == "localizer" and set(stack.services) == set(names)
 
 
 def test_a_driver_waiting_on_a_silent_board_holds_up_no_service_beside_it(router, client):

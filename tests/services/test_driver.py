@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import threading
 import time
 
@@ -100,6 +102,16 @@ def test_the_counts_published_follow_the_board(emu):
         assert live.wait(lambda: live.encoders()[-1].left >= left and live.encoders()[-1].right >= right)
         last = live.encoders()[-1]
         assert left <= last.left <= emu.counts()[0] and right <= last.right <= emu.counts()[1]
+
+
+def test_each_count_carries_the_speed_the_board_ran_at(emu):
+    with Live(emu) as live:
+        assert live.wait(lambda: live.svc.synced)
+        assert live.wait(lambda: live.encoders())
+        assert (live.encoders()[-1].cmd_left, live.encoders()[-1].cmd_right) == (0.0, 0.0)  # stopped since the handshake
+        live.wheels(10.0, -5.0)  # the board runs 19 and -10 ticks per 1/30 s frame
+        speeds = (19 * 30 * 2 * math.pi / 360, -10 * 30 * 2 * math.pi / 360)
+        assert live.wait(lambda: (live.encoders()[-1].cmd_left, live.encoders()[-1].cmd_right) == pytest.approx(speeds))
 
 
 def test_a_driver_behind_its_commands_sends_the_board_the_newest(emu):

@@ -62,6 +62,32 @@ def test_only_the_heading_source_topics_are_subscribed():
         rig.close()
 
 
+def frozen_left(rig, seconds, cmd):
+    """Encoder samples of a wheel pair commanded `cmd` [rad/s] whose left count holds still."""
+    for i in range(round(seconds / DT)):
+        t = rig.clock.advance(DT)
+        rig.put("sensors/encoders", m.Encoders(t=t, left=0, right=ticks(cmd[1] * t), cmd_left=cmd[0], cmd_right=cmd[1]))
+
+
+def test_a_wheel_its_samples_say_was_commanded_whose_count_holds_is_silent():
+    rig = make(heading_source="encoders")
+    frozen_left(rig, 1.0, (5.0, 5.0))
+    svc = rig.svc
+    assert svc.status == "degraded" and "left encoder silent while commanded" in svc.status_message
+    assert svc.counters.values["encoder_silent"] == 1
+    last = rig.got("odom")[-1]
+    assert last.unmeasured_left == pytest.approx(5.0 * DT * R) and last.unmeasured_right == 0.0
+
+
+def test_the_commands_come_with_the_samples_not_from_motors_wheels():
+    rig = make(heading_source="encoders")
+    rig.put("motors/wheels", m.Wheels(t=0.0, left=5.0, right=5.0))  # not read: the samples below say nothing was commanded
+    frozen_left(rig, 1.0, (0.0, 0.0))
+    svc = rig.svc
+    assert svc.status == "ok" and svc.counters.values.get("encoder_silent", 0) == 0
+    assert svc.counters.values["msgs_in"] == 100  # the encoder samples only
+
+
 def test_duplicate_and_out_of_order_samples_are_counted_stale():
     rig = make(heading_source="encoders")
     drive(rig, 0.5, 0.2, 0.0)

@@ -170,9 +170,13 @@ def test_command_timeout_stops_the_wheels():
     command(rig, -5.0, 5.0)
     rig.run(0.4)
     assert rig.got("sim/truth")[-1].omega > 1.0
+    enc = rig.got("sensors/encoders")[-1]
+    assert (enc.cmd_left, enc.cmd_right) == (-5.0, 5.0)  # each sample says what its wheels were commanded
     rig.run(0.6)
     truth = rig.got("sim/truth")
     assert abs(truth[-1].omega) < 1e-3 and abs(truth[-1].v) < 1e-3
+    enc = rig.got("sensors/encoders")[-1]
+    assert (enc.cmd_left, enc.cmd_right) == (0.0, 0.0)
     assert rig.svc.counters.values["command_timeouts"] == 1
     omega = {round(x.t, 2): x.omega for x in truth}
     assert omega[0.5] > 2.5 and omega[0.65] < 0.3  # full speed until the timeout, then the 50 ms lag
