@@ -38,6 +38,9 @@ class LocalizerConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=T
 
     mode: ModeName = "ekf"  # fusion rule (see services/localizer/README.md): ekf is the best measured
     history: Annotated[float, Meta(ge=0.1, le=60.0)] = 1.5  # [s] odometry kept to apply late fixes at capture time
+    # ekf: odom samples one step of that history spans at most; a late fix re-integrates the history since its capture
+    # step by step (1: every sample a step of its own)
+    history_samples: Annotated[int, Meta(ge=1, le=100)] = 2
     future_tolerance: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.05  # [s] a fix this far past the newest odom applies to it
     max_odom_step: Pos = 0.2  # [m] a larger odom increment is a jump (odometry restart), not motion
     gate: Pos = 16.3  # squared Mahalanobis distance above which a fix is an outlier (chi2, 3 dof, 99.9 %)

@@ -1,6 +1,9 @@
 """The default mode: an EKF with a time-indexed history that applies late fixes at capture time.
 
-Every odom sample appends (t, increment, state, covariance) to the history. A fix
+Every odom sample extends the history's newest step (t, increment, state, covariance)
+by its increment, or begins a new step once that one spans `history_samples` samples:
+each sample's pose is predicted from the step before over the whole increment since,
+and a late fix re-integrates a step, not each sample, since its capture. A fix
 captured at t_c is compared with the state interpolated at t_c, gated by its
 Mahalanobis distance, inserted there, and the history is re-integrated forward to
 the newest sample. A long run of rejected fixes means the filter, not the camera, is
@@ -55,11 +58,13 @@ class _Candidate:
 
 @dataclass
 class _Entry:
-    t: float  # [s] odom sample time
+    t: float  # [s] time of the newest odom sample it spans
     u: model.Step  # the increment from the previous entry
     s: model.Vec  # state after the increment and the fixes captured in (previous t, t]
     P: model.Mat
     fixes: list[_Fix] = field(default_factory=list)  # accepted, by capture time
+    samples: int = 1  # odom samples the increment spans
+    closed: bool = False  # takes no more samples (a fix was applied to its state in place)
 
 
 def _forget(P: model.Mat, rows: Sequence[int], variances: Sequence[float]) -> model.Mat:
@@ -210,12 +215,21 @@ class Ekf(Mode):
         self.history = [_Entry(self.last.t, model.Step(0.0, 0.0, 0.0), [*pose, 0.0, 0.0, 0.0, 0.0, 0.0], P)]
 
     def _move(self, ds: float, dth: float, t0: float, t: float) -> None:
+        unmeasured = (self.last.unmeasured_left**2, self.last.unmeasured_right**2)
         last = self.history[-1]
-        g = self.gyro.between(t0, t)
+        if len(self.history) > 1 and last.samples < self.cfg.history_samples and not last.closed and last.t == t0:
+            # The newest step takes this sample too: predicted again from the step before, over both.
+            prev, u = self.history[-2], last.u
+            g = self.gyro.between(prev.t, t)
+            last.u = model.Step(u.ds + ds, u.dth + dth, t - prev.t, g, (u.unmeasured[0] + unmeasured[0], u.unmeasured[1] + unmeasured[1]))
+            last.t, last.samples = t, last.samples + 1
+            last.s, last.P = self._advance(prev.s, prev.P, prev.t, last)
+        else:
+            g = self.gyro.between(t0, t)
+            u = model.Step(ds, dth, t - t0, g, unmeasured)
+            s, P = self._predict(last.s, last.P, u, t)
+            self.history.append(_Entry(t, u, s, P))
         self.gyro_used = self.gyro_used or g is not None
-        u = model.Step(ds, dth, t - t0, g, (self.last.unmeasured_left**2, self.last.unmeasured_right**2))
-        s, P = self._predict(last.s, last.P, u, t)
-        self.history.append(_Entry(t, u, s, P))
         drop = bisect.bisect_left(self.history, t - self.cfg.history, key=lambda e: e.t)
         if drop > 1:
             del self.history[: drop - 1]
@@ -273,11 +287,12 @@ class Ekf(Mode):
         f = _Fix(t, z, R, reacquire=reason == "reacquired")
         if in_place:
             e.s, e.P = self._apply(e.s, e.P, f)
+            e.closed = True  # re-predicted from the step before, its state would lose the fix
             k += 1
         else:
             bisect.insort(e.fixes, f, key=lambda x: x.t)
         self._replay(k)
-        return FixResult(True, reason, innovation, d2, len(self.history) - k)
+        return FixResult(True, reason, innovation, d2, sum(e.samples for e in self.history[k:]))
 
     def _set(self, x: float | None, y: float | None, theta: float | None) -> None:
         last = self.history[-1]

@@ -64,7 +64,7 @@ def test_only_the_heading_source_topics_are_subscribed():
 
 def frozen_left(rig, seconds, cmd):
     """Encoder samples of a wheel pair commanded `cmd` [rad/s] whose left count holds still."""
-    for i in range(round(seconds / DT)):
+    for _ in range(round(seconds / DT)):
         t = rig.clock.advance(DT)
         rig.put("sensors/encoders", m.Encoders(t=t, left=0, right=ticks(cmd[1] * t), cmd_left=cmd[0], cmd_right=cmd[1]))
 

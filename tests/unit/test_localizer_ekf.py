@@ -113,12 +113,15 @@ def test_applying_fixes_at_capture_time_beats_ignoring_the_delay(default_run, de
     assert as_now.rmse > 3 * default_scored[1].rmse
 
 
-def test_a_late_fix_is_compared_with_the_past_and_replayed():
-    ekf = tracking(3.0)
+@pytest.mark.parametrize(("samples", "depth"), [(1, 31), (2, 32), (3, 33)])
+def test_a_late_fix_is_compared_with_the_past_and_replayed(samples, depth):
+    ekf = tracking(3.0, history_samples=samples)
     rec = ekf.on_fix(fix(2.7, 0.81), 3.0)
     assert rec.accepted and rec.reason == "accepted"
     assert max(abs(v) for v in rec.innovation) < 0.01  # the robot was there at 2.7, not now
-    assert rec.replay_depth == 31  # samples 2.70 (where it is applied) .. 3.00
+    # Re-integrated: every sample from the step that holds 2.70 to 3.00 (in steps of two, it begins at 2.69; of three, 2.68).
+    assert rec.replay_depth == depth
+    assert len(ekf.history) - 1 == pytest.approx(ekf.cfg.history / 0.01 / samples, abs=1)  # steps kept: 1.5 s of them
     p = ekf.get_pose()
     assert p.t == 3.0 and p.x == pytest.approx(0.9, abs=0.01)
 
