@@ -126,6 +126,18 @@ def test_a_late_fix_is_compared_with_the_past_and_replayed(samples, depth):
     assert p.t == 3.0 and p.x == pytest.approx(0.9, abs=0.01)
 
 
+@pytest.mark.parametrize("delayed", [True, False])
+def test_steps_of_two_samples_track_as_a_step_per_sample_does(default_run, delayed):
+    """The same 20 s of streams in steps of one and of two samples; without delay every fix is applied to the
+    newest step in place, which must keep it when the next sample extends that step."""
+    r, n = default_run, 2000
+    fixes = [(t, f) for t, f in r.fixes if t <= r.odom[n - 1].t]
+    scores = [
+        evaluate(Ekf(LocalizerConfig(history_samples=k), ROBOT, delayed=delayed), r.odom[:n], fixes, r.truth[:n], r.imu[:n]) for k in (1, 2)
+    ]
+    assert scores[1].rmse == pytest.approx(scores[0].rmse, abs=0.001) and scores[1].max == pytest.approx(scores[0].max, abs=0.002)
+
+
 def test_no_delay_mode_sees_the_motion_as_an_innovation():
     ekf = tracking(3.0, gate=1e3)
     ekf.delayed = False
