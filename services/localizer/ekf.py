@@ -217,7 +217,7 @@ class Ekf(Mode):
     def _move(self, ds: float, dth: float, t0: float, t: float) -> None:
         unmeasured = (self.last.unmeasured_left**2, self.last.unmeasured_right**2)
         last = self.history[-1]
-        if len(self.history) > 1 and last.samples < self.cfg.history_samples and not last.closed and last.t == t0:
+        if len(self.history) > 1 and last.samples < self.cfg.history_samples and not last.closed:
             # The newest step takes this sample too: predicted again from the step before, over both.
             prev, u = self.history[-2], last.u
             g = self.gyro.between(prev.t, t)

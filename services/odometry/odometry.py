@@ -78,7 +78,7 @@ class OdometryState(NamedTuple):
     cov: tuple[float, ...] = m.ZERO_COV  # 3x3 row-major over (x, y, theta)
     imu: hd.Imu = hd.Imu()
     compass: hd.Compass = hd.Compass()
-    watch: stall.Watch = stall.Watch()  # the wheel commands and each encoder's silence
+    watch: stall.Watch = stall.Watch()  # each encoder's silence while commanded
 
 
 def tick_delta(new: int, old: int) -> int:

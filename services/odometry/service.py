@@ -101,7 +101,7 @@ class Odometry(Service):
         was = self.state.watch.silent
         cmd = (msg.cmd_left, msg.cmd_right)
         self.state, odom, event = od.update(self.state, self.params, msg.left, msg.right, msg.t, cmd)
-        self._silence(was, msg.t)
+        self._silence(was, msg.t, cmd)
         if event == od.STALE:
             self.count("dropped_stale")
         elif event == od.RESET:
@@ -121,11 +121,10 @@ class Odometry(Service):
         if last is not None and now - last > ENCODERS_SILENT:
             self.set_status("error", f"no encoder sample for {now - last:.1f} s: no odometry (is the sim or driver running?)")
 
-    def _silence(self, was: tuple[bool, bool], t: float) -> None:
-        """Count, log and report each wheel whose encoder went silent while commanded (`was`: before this sample)."""
-        watch = self.state.watch
-        silent = watch.silent
-        for name, before, now, cmd in zip(("left", "right"), was, silent, watch.cmd):
+    def _silence(self, was: tuple[bool, bool], t: float, cmds: tuple[float, float]) -> None:
+        """Count, log and report each wheel whose encoder went silent while commanded `cmds` (`was`: before this sample)."""
+        silent = self.state.watch.silent
+        for name, before, now, cmd in zip(("left", "right"), was, silent, cmds):
             if now and not before:
                 self.count("encoder_silent")
                 self.warn(f"silent_{name}", f"{name} encoder shows no motion at t={t:.2f} while commanded {cmd:.1f} rad/s")

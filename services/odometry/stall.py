@@ -1,8 +1,8 @@
 """A wheel commanded to turn whose encoder shows nothing: a frozen encoder or a stalled wheel.
 
 Pure: each encoder step comes in with the wheel speeds commanded while its counts were
-taken (the encoder sample's `cmd_left`, `cmd_right`). A wheel counts as silent once it should have turned `min_ticks` ticks
-at its commanded speed and `min_time` has passed without one tick; from then on the
+taken (the encoder sample's `cmd_left`, `cmd_right`). A wheel counts as silent once it
+should have turned `min_ticks` ticks at its commanded speed and `min_time` has passed without one tick; from then on the
 travel it was commanded is reported as unmeasured, so the odometry's covariance (and
 the localizer's) grows by it instead of trusting a count that says "still".
 """
@@ -24,7 +24,6 @@ class StallParams(NamedTuple):
 class Watch(NamedTuple):
     """Per wheel (left, right): since when it has been commanded but silent, and how far it was told to turn."""
 
-    cmd: tuple[float, float] = (0.0, 0.0)  # [rad/s] the newest step's command
     since: tuple[float | None, float | None] = (None, None)  # [s]
     owed: tuple[float, float] = (0.0, 0.0)  # [rad] commanded turn since then
     silent: tuple[bool, bool] = (False, False)  # each encoder silent at the newest step
@@ -51,7 +50,7 @@ def step(
             silent[i] = True
             unmeasured[i] = abs(speed) * dt * p.radius
     flags = (silent[0], silent[1])
-    return Watch(cmd, (since[0], since[1]), (owed[0], owed[1]), flags), (unmeasured[0], unmeasured[1]), flags
+    return Watch((since[0], since[1]), (owed[0], owed[1]), flags), (unmeasured[0], unmeasured[1]), flags
 
 
 def params(ticks_per_rev: int, radius: float, min_speed: float, min_ticks: float, min_time: float) -> StallParams:
