@@ -38,7 +38,7 @@ def report(client: Client, timeout: float) -> int:
     """Print the stack's state; EXIT_UNAVAILABLE if a service is missing."""
     with client:
         diags = {n: client.latest(f"diag/{n}") for n in services.ALL}
-        truth, pose = client.latest("sim/truth"), client.latest("pose")
+        truth, pose = client.newest("sim/truth"), client.newest("pose")
         alive = client.alive(timeout=1.0)
         names = services.running(alive)  # the sim's or the real robot's
         # diag comes once a second: wait until every live service has sent one, or the timeout.

@@ -318,7 +318,7 @@ def run(args: argparse.Namespace) -> int:
         say(f"all {len(names)} services alive in {time.monotonic() - t0:.1f} s")
         alive: set[str] = set()
         client.bus.watch_tokens(client.key("alive/*"), lambda key, up: (alive.add if up else alive.discard)(key.rsplit("/", 1)[-1]))
-        topics = {s: client.latest(s) for s in ("sim/truth", "odom", "pose", "nav/state")}
+        topics = {s: client.newest(s) for s in ("sim/truth", "odom", "pose", "nav/state")}  # read as the screen is drawn
         diags = {n: client.latest(f"diag/{n}") for n in names}
         if args.demo:
             threading.Thread(target=demo_loop, args=(bot, done, say), daemon=True).start()

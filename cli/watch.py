@@ -19,7 +19,7 @@ from zenav.cli.nav import open_client, progress
 from zenav.cli.screen import pose_line, service_rows
 from zenav.common import messages as m
 from zenav.common.app import deployment_args
-from zenav.common.client import Client, Unavailable
+from zenav.common.client import Client, Latest, Sampled, Unavailable
 from zenav.common.track import Track
 
 TRUTH_KEEP = 500  # truth samples kept to match a pose's t (5 s at 100 Hz)
@@ -39,7 +39,10 @@ class View:
 
     def __init__(self, client: Client) -> None:
         self.robot = client.robot
-        self.latest = {s: client.latest(s) for s in ("nav/state", "pose", "localizer/fixes", *(f"diag/{n}" for n in services.ALL))}
+        self.latest: dict[str, Latest | Sampled] = {
+            s: client.latest(s) for s in ("nav/state", "localizer/fixes", *(f"diag/{n}" for n in services.ALL))
+        }
+        self.latest["pose"] = client.newest("pose")  # 100 Hz: read as the view is drawn
         self.truths: deque = deque(maxlen=TRUTH_KEEP)  # in arrival order, which is t order
         self.alive: set[str] = set()
         client.subscribe("sim/truth", self.truths.append)

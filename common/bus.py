@@ -60,6 +60,15 @@ def undeclare_all(handles: list[Handle]) -> None:
     handles.clear()
 
 
+class Newest(Protocol):
+    """The newest sample of a subscription, taken when asked (no callback per sample)."""
+
+    def take(self) -> bytes | None:
+        """The newest payload that came since the last take (None: none came)."""
+
+    def undeclare(self) -> None: ...
+
+
 class Bus(Protocol):
     def publish(self, key: str, data: bytes) -> None: ...
 
@@ -87,6 +96,24 @@ class _MemHandle:
     def undeclare(self) -> None:
         if self._entry in self._table:
             self._table.remove(self._entry)
+
+
+class Subscribed:
+    """Newest through a plain subscription (a bus with no buffer of its own: in memory, a test's fake)."""
+
+    def __init__(self, bus: Bus, key: str) -> None:
+        self._data: bytes | None = None
+        self._handle = bus.subscribe(key, self._put)
+
+    def _put(self, key: str, data: bytes) -> None:
+        self._data = data
+
+    def take(self) -> bytes | None:
+        data, self._data = self._data, None
+        return data
+
+    def undeclare(self) -> None:
+        self._handle.undeclare()
 
 
 class MemoryQuery:
@@ -132,6 +159,9 @@ class MemoryBus:
         entry = (zenoh.KeyExpr(key), callback)
         self._subs.append(entry)
         return _MemHandle(self._subs, entry)
+
+    def newest(self, key: str) -> Newest:
+        return Subscribed(self, key)
 
     def queryable(self, key: str, callback: QueryCallback, urgent: bool = False) -> Handle:
         entry = (zenoh.KeyExpr(key), callback)
@@ -277,6 +307,18 @@ class _ZQuery:
         self._q.drop()
 
 
+class _ZNewest:
+    def __init__(self, sub: zenoh.Subscriber) -> None:
+        self._sub = sub
+
+    def take(self) -> bytes | None:
+        sample = self._sub.try_recv()
+        return None if sample is None else sample.payload.to_bytes()
+
+    def undeclare(self) -> None:
+        self._sub.undeclare()
+
+
 class ZenohBus:
     """A bus on one Zenoh session (closed with the bus), and for urgent queryables a second one.
 
@@ -337,6 +379,13 @@ class ZenohBus:
         h = self.session.declare_subscriber(key, _direct(on_sample if wildcard else on_own_key))
         self._handles.append(h)
         return h
+
+    def newest(self, key: str) -> Newest:
+        """Keep the newest sample of `key` in Zenoh's own one-slot buffer: no Python runs per sample, for a
+        view that reads a 100 Hz topic at its own slow rate (the screen of `zenav up`, on the robot's computer)."""
+        sub = self.session.declare_subscriber(key, zenoh.handlers.RingChannel(1))
+        self._handles.append(sub)
+        return _ZNewest(sub)
 
     def queryable(self, key: str, callback: QueryCallback, urgent: bool = False) -> Handle:
         session = self.session

@@ -16,7 +16,7 @@ import zenoh
 
 from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common.bus import Bus, Handle, ZenohBus, undeclare_all, zenoh_config
+from zenav.common.bus import Bus, Handle, Newest, ZenohBus, undeclare_all, zenoh_config
 from zenav.common.keys import DEFAULT_CONNECT
 
 
@@ -70,6 +70,8 @@ class QueryBus(Bus, Protocol):
 
     def get(self, selector: str, payload: bytes | None = None, timeout: float = 5.0, urgent: bool = False) -> list[tuple[bool, bytes]]: ...
 
+    def newest(self, key: str) -> Newest: ...
+
 
 class Latest:
     """The newest message of one topic, and a way to wait for a condition on it."""
@@ -95,6 +97,25 @@ class Latest:
                     raise TimeoutError(f"condition not met in {timeout} s (last: {self.msg!r})")
                 self._cond.wait(left)
             return self.msg
+
+
+class Sampled:
+    """The newest message of one topic as of each read of `msg`: a view's rate, not the topic's (Client.newest)."""
+
+    def __init__(self, newest: Newest, typ: type) -> None:
+        self._newest, self._typ = newest, typ
+        self._msg: Any = None
+
+    @property
+    def msg(self) -> Any:
+        """The newest valid message yet (None: none came)."""
+        data = self._newest.take()
+        if data is not None:
+            try:
+                self._msg = codec.decode(data, self._typ)
+            except codec.BadInput:
+                pass
+        return self._msg
 
 
 class Client:
@@ -186,6 +207,12 @@ class Client:
             self._latest[suffix] = Latest()
             self.subscribe(suffix, self._latest[suffix].put)
         return self._latest[suffix]
+
+    def newest(self, suffix: str) -> Sampled:
+        """Follow a topic to read its newest message now and then, at no cost per message (Latest: to wait on one)."""
+        newest = self.bus.newest(self.key(suffix))
+        self._handles.append(newest)
+        return Sampled(newest, keys.TOPICS[suffix])
 
     def alive(self, timeout: float = 1.0) -> set[str]:
         """The services whose liveliness token is present now (a Zenoh session's bus only)."""

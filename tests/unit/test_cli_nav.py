@@ -10,6 +10,7 @@ from zenav.cli.checks import Failed
 from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_UNAVAILABLE, EXIT_USAGE, build_parser
 from zenav.common import codec
 from zenav.common import messages as m
+from zenav.common.bus import Subscribed
 from zenav.common.client import Client, Internal, InvalidArgument, Unavailable
 
 
@@ -41,6 +42,9 @@ class FakeBus:
         self.subscribed.append(key)
         self.subs.append((key, cb))
         return Handle(self.subs, self.subs[-1])
+
+    def newest(self, key):
+        return Subscribed(self, key)
 
     def token(self, key):
         self.tokens.append(key)
