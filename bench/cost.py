@@ -68,6 +68,12 @@ class Load:
     why: str  # what ran out, when it did not keep up
 
 
+def transport_floor(costs: list[ServiceCost], relay_cores: float, rate: float) -> float:
+    """[cores] what the messages the processes `costs` take and send would cost at a bare relay's price per message
+    (a relay takes and sends one topic at `rate`, for `relay_cores`): their CPU with no work of their own."""
+    return sum(c.msgs_in + c.msgs_out for c in costs) * relay_cores / (2.0 * rate)
+
+
 def load(live: Live) -> Load:
     """Summarise a live run as a sweep point."""
     ncores = os.cpu_count() or 1

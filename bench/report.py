@@ -16,6 +16,7 @@ from matplotlib.figure import Figure
 
 from zenav.bench import cost, tables
 from zenav.bench.latency import END_TO_END, Stats
+from zenav.bench.profile import RATE
 from zenav.bench.run import Results
 from zenav.bench.speed import highest_by_harness
 from zenav.bench.tables import TARGET_P50_RATIO, TARGET_P99_RATIO, fmt, ratios, table
@@ -137,6 +138,8 @@ def _targets(res: Results) -> list[str]:
         if cpu > TARGET_CPU:
             top = sorted(costs, key=lambda c: -c.cpu_per_sim_s)[:3]
             notes.append("CPU: the largest are " + ", ".join(f"{c.name} {fmt(c.cpu_per_sim_s, 3)}" for c in top) + ".")
+        if "client" in res.chains:
+            notes.append(_floor_note(costs, res.chains["client"].relay_cores))
     if res.robots:
         kept = [ld.robots for ld in res.robots if ld.keeps_up]
         rows.append(["robots one router keeps up with (100 Hz)", "-", str(max(kept, default=0)), "-"])
@@ -146,6 +149,21 @@ def _targets(res: Results) -> list[str]:
     if res.plan.limit is not None:
         rows.append(["whole bench run", f"< {res.plan.limit:g} s", f"{res.duration:.0f} s", _met(res.duration < res.plan.limit)])
     return table(["target", "goal", "measured", "met"], rows) + [line for note in notes for line in ("", note)]
+
+
+def _floor_note(costs: list[cost.ServiceCost], relay: float) -> str:
+    """What the CPU goals stand on on this machine: the stack's messages at a bare relay's price each."""
+    robot = [c for c in costs if c.name in ROBOT_SERVICES]
+    stack = [c for c in costs if c.name != "router"]
+    n_in, n_out = sum(c.msgs_in for c in robot), sum(c.msgs_out for c in robot)
+    return (
+        f"CPU floor: a bare relay (one topic in and out at {RATE:g} Hz) took {fmt(relay, 3)} of a core in this run. At its "
+        f"price per message, the {n_in:.0f} messages a second the robot's services take and the {n_out:.0f} they send "
+        f"would cost {fmt(cost.transport_floor(robot, relay, RATE), 3)} of a core with no work of theirs (goal "
+        f"{TARGET_ROBOT_CPU:g}), every stack process's but the router's {fmt(cost.transport_floor(stack, relay, RATE), 3)} "
+        f"(goal for the whole stack, the router's {fmt(sum(c.cpu_per_sim_s for c in costs if c.name == 'router'), 3)} "
+        f"included: {TARGET_CPU:g})."
+    )
 
 
 def _ratio_rows(res: Results) -> list[list[str]]:

@@ -8,6 +8,8 @@ from tests.support.bench import headings, results, sections, summary
 from zenav.bench import camera as camera_bench
 from zenav.bench import plan, report
 from zenav.bench.accuracy import Spec
+from zenav.bench.chain import Chain
+from zenav.bench.latency import END_TO_END, STAGES
 from zenav.bench.run import Results
 
 
@@ -67,3 +69,17 @@ def test_the_busy_computer_table_has_a_row_per_run_and_says_why_when_not_run(tmp
     text = report.write(res, tmp_path).read_text()
     assert "Not run: real-time priority refused on this host (PermissionError: [Errno 1] Operation not permitted)." in text
     assert "| one core busy" not in text
+
+
+def test_the_targets_say_what_the_cpu_goals_stand_on_here(tmp_path):
+    """The stack's messages at a bare relay's price each: the CPU the goals leave for the services' work."""
+    bare = Chain({s: [1.0, 2.0, 3.0] for s in (*STAGES, END_TO_END)}, relay_cores=0.04, relay_wait=1e-4, relay_runs=500.0)
+    text = report.write(replace(results(), chains={"client": bare}), tmp_path).read_text()
+    # Every service takes 100 messages a second and sends 50 (tests/support/bench.py); a relay 100 and 100.
+    assert (
+        "CPU floor: a bare relay (one topic in and out at 100 Hz) took 0.040 of a core in this run. At its price per "
+        "message, the 400 messages a second the robot's services take and the 200 they send would cost 0.120 of a core "
+        "with no work of theirs (goal 0.15), every stack process's but the router's 0.180 (goal for the whole stack, the "
+        "router's 0.080 included: 0.35)."
+    ) in text
+    assert "CPU floor" not in report.write(results(), tmp_path).read_text()  # no bare chain run, no floor
