@@ -316,7 +316,6 @@ class Service:
         self._arrived: float | None = None  # stack time a held input being served arrived
         self._other_clock: set[str] = set()  # suffixes stamped on another stack's clock: not held to this one's horizon
         self._serve_time: dict[str, list] = {}  # suffix -> [wall seconds serving its messages, messages] since the last diag
-        self._later: list[Callable[[], Any]] = []  # work of the input being served that waits until its output is out
 
     # ------------------------------------------------------------ helpers
     def key(self, suffix: str) -> str:
@@ -335,11 +334,6 @@ class Service:
     def arrived(self) -> float:
         """The stack time the input being served arrived: now, or when a held one came."""
         return self.clock.now() if self._arrived is None else self._arrived
-
-    def later(self, fn: Callable[[], Any]) -> None:
-        """From a topic handler: run fn once what the handler returns is published, before the next input
-        (work its output need not wait for: the localizer's covariance). A handler that fails drops it."""
-        self._later.append(fn)
 
     def call_at(self, t: float, fn: Callable[[float], Any]) -> None:
         """Run `fn(now)` once, as a timer, when the stack clock reaches `t` (at once if it has): work
@@ -761,31 +755,16 @@ class Service:
         try:
             out = fn(msg)
         except Exception:
-            self._later.clear()
             self.counters.inc("errors")
             self.warn(f"err:{suffix}", f"handler for {suffix} failed:\n{traceback.format_exc()}")
             return
-        try:
-            self._publish_result(fn, out)
-        finally:
-            self._run_later()
+        self._publish_result(fn, out)
         if kind != "clock":
             spent = self._serve_time.get(suffix)
             if spent is None:
                 spent = self._serve_time[suffix] = [0.0, 0]
             spent[0] += time.perf_counter() - start
             spent[1] += 1
-
-    def _run_later(self) -> None:
-        """The work the handler left for after its output (`later`), in order; one that fails is counted and logged."""
-        while self._later:
-            fn = self._later.pop(0)
-            try:
-                fn()
-            except Exception:
-                self.counters.inc("errors")
-                name = getattr(fn, "__name__", "later")
-                self.warn(f"later:{name}", f"{name}, after the output, failed:\n{traceback.format_exc()}", logging.ERROR)
 
     def _publish_result(self, fn: Callable, out: Any) -> None:
         target = getattr(fn, "_zenav_pub", None)

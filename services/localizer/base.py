@@ -212,10 +212,6 @@ class Mode:
             latency_sigma=None if est is None else est.sigma,
         )
 
-    def settle(self) -> None:
-        """Finish the newest odom sample's work that its pose does not wait for (the ekf's covariance): the service
-        calls it once the pose is out; the mode's other hooks do first."""
-
     def on_imu(self, imu: m.Imu) -> str | None:
         """Take a gyro sample (a mode whose `sensors` name sensors/imu); returns why it was dropped."""
         return None

@@ -91,8 +91,6 @@ class Ekf(Mode):
         self.candidate: _Candidate | None = None  # the newest unused fix, to confirm the next one
         self.heard: float | None = None  # [s] capture time of the newest fix heard, used or not
         self.after_gap = False  # the rejections in a row began after FIX_GAP without a fix
-        # (the newest entry, the one it is predicted from) while its state is out and its covariance is not yet (settle)
-        self._unsettled: tuple[_Entry, _Entry] | None = None
         self.gyro = GyroIntegral(cfg.history, cfg.gyro_max_gap)
         self.gyro_used = False
         tick = 2.0 * math.pi * robot.wheel_radius / (robot.ticks_per_rev or 360)
@@ -189,7 +187,6 @@ class Ekf(Mode):
 
     # ------------------------------------------------------------ mode hooks
     def on_imu(self, imu: m.Imu) -> str | None:
-        self.settle()
         if not self.gyro.add(imu.t, imu.gyro_z):
             return "stale"
         if self.impact is not None:
@@ -217,47 +214,33 @@ class Ekf(Mode):
         P = [[v if i == j else 0.0 for j in range(model.N)] for i, v in enumerate(variances)]
         self.history = [_Entry(self.last.t, model.Step(0.0, 0.0, 0.0), [*pose, 0.0, 0.0, 0.0, 0.0, 0.0], P)]
 
-    def settle(self) -> None:
-        """Propagate the newest sample's covariance, its state being out already (_move). Every other hook settles
-        first; until then the pose carries the covariance of the sample before."""
-        if self._unsettled is not None:
-            e, start = self._unsettled
-            self._unsettled = None
-            e.s, e.P = self._predict(start.s, start.P, e.u, e.t)
-
     def _move(self, ds: float, dth: float, t0: float, t: float) -> None:
-        self.settle()
         unmeasured = (self.last.unmeasured_left**2, self.last.unmeasured_right**2)
         last = self.history[-1]
         if len(self.history) > 1 and last.samples < self.cfg.history_samples and not last.closed:
             # The newest step takes this sample too: predicted again from the step before, over both.
-            e, start, u = last, self.history[-2], last.u
-            g = self.gyro.between(start.t, t)
-            e.u = model.Step(u.ds + ds, u.dth + dth, t - start.t, g, (u.unmeasured[0] + unmeasured[0], u.unmeasured[1] + unmeasured[1]))
-            e.t, e.samples = t, e.samples + 1
+            prev, u = self.history[-2], last.u
+            g = self.gyro.between(prev.t, t)
+            last.u = model.Step(u.ds + ds, u.dth + dth, t - prev.t, g, (u.unmeasured[0] + unmeasured[0], u.unmeasured[1] + unmeasured[1]))
+            last.t, last.samples = t, last.samples + 1
+            last.s, last.P = self._advance(prev.s, prev.P, prev.t, last)
         else:
             g = self.gyro.between(t0, t)
-            e, start = _Entry(t, model.Step(ds, dth, t - t0, g, unmeasured), last.s, last.P), last
-            self.history.append(e)
-        if e.fixes:  # a fix inside the increment: its update needs the covariance, all of it now
-            e.s, e.P = self._advance(start.s, start.P, start.t, e)
-        else:  # the state now, for the pose; the covariance once the pose is out (settle)
-            e.s = model.predict_mean(start.s, start.P, e.u, self.noise)
-            self._unsettled = (e, start)
+            u = model.Step(ds, dth, t - t0, g, unmeasured)
+            s, P = self._predict(last.s, last.P, u, t)
+            self.history.append(_Entry(t, u, s, P))
         self.gyro_used = self.gyro_used or g is not None
         drop = bisect.bisect_left(self.history, t - self.cfg.history, key=lambda e: e.t)
         if drop > 1:
             del self.history[: drop - 1]
         if self.impact is not None and self.impact.on_odom(t0, t, ds):
             # The accelerometer found it, half its window back: the increments from there are re-weighed as slipping.
-            since = t - self.impact.window / 2.0
-            if self._slip(since, t):
+            start = t - self.impact.window / 2.0
+            if self._slip(start, t):
                 self.impacts += 1
-                self.settle()
-                self._replay(max(bisect.bisect_right(self.history, since, key=lambda e: e.t), 1))
+                self._replay(max(bisect.bisect_right(self.history, start, key=lambda e: e.t), 1))
 
     def _fix(self, fix: m.VpsPose, t: float, t_arrival: float) -> FixResult:
-        self.settle()
         z = np.array([fix.x, fix.y, fix.theta])
         R = fix_cov(fix, self.cfg)
         if self.delayed:
@@ -312,7 +295,6 @@ class Ekf(Mode):
         return FixResult(True, reason, innovation, d2, sum(e.samples for e in self.history[k:]))
 
     def _set(self, x: float | None, y: float | None, theta: float | None) -> None:
-        self.settle()
         last = self.history[-1]
         s, rows, variances = last.s[:], [], []
         for i, value, sigma in (

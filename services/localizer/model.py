@@ -78,9 +78,8 @@ def _wheel_vars(u: Step, nz: Noise) -> tuple[float, float, float]:
 # ten times fewer and off the control chain, use numpy.
 
 
-def _gyro_gain(s: Vec, P: Mat, u: Step, var_odom: float, nz: Noise) -> tuple[list[float], list[float], float] | None:
-    """(gain K, P h, innovation) of the update with the odometry's heading increment, predicted from the gyro's;
-    None when the two part too far (the odometry's heading was corrected: no update).
+def _learn_from_gyro(s: Vec, P: Mat, u: Step, var_odom: float, nz: Noise) -> tuple[Vec, Mat]:
+    """Update (state, covariance) with the odometry's heading increment, predicted from the gyro's.
 
     The gyro's is the far less noisy one; the other way round, tick rounding in the
     odometry's increment would bias the scale estimates.
@@ -97,34 +96,9 @@ def _gyro_gain(s: Vec, P: Mat, u: Step, var_odom: float, nz: Noise) -> tuple[lis
     S = Ph[3] * h3 + Ph[4] * h4 + Ph[5] * h5 + Ph[6] * h6 + Ph[7] * h7 + var_odom + nz.gyro_var * u.dt
     nu = u.dth - pred
     if nu * nu > ODOM_GATE * S:  # not the wheels' doing: the odometry's heading was corrected
-        return None
-    return [p / S for p in Ph], Ph, nu
-
-
-def predict_mean(s: Vec, P: Mat, u: Step, nz: Noise) -> Vec:
-    """The state `predict` gives, without its covariance: what a pose needs at once (P is read, not changed)."""
-    var_sum, _, rounding = _wheel_vars(u, nz)
-    if u.gyro is not None:
-        gain = _gyro_gain(s, P, u, (var_sum + rounding) / nz.track**2, nz)
-        if gain is not None:
-            K, _, nu = gain
-            s = [a + k * nu for a, k in zip(s, K)]
-    return _moved(s, u, _turned(s, u, nz), nz)
-
-
-def _turned(s: Vec, u: Step, nz: Noise) -> float:
-    """[rad] the heading increment: the calibrated odometry's, or the gyro's corrected by its bias and scale."""
-    if u.gyro is None:
-        return (u.dth * (1.0 + s[ES]) + 2.0 * s[ED] * u.ds / nz.track) / (1.0 + s[EW])
-    return (u.gyro - s[BG] * u.dt) / (1.0 + s[SG])
-
-
-def _moved(s: Vec, u: Step, dth: float, nz: Noise) -> Vec:
-    """The state after the increment, its heading turned by dth [rad]."""
-    x, y, th, es, ew, ed, bg, sg = s
-    ds_t = u.ds * (1.0 + es) + ed * (nz.track * u.dth / 2.0)
-    phi = th + dth / 2.0
-    return [x + ds_t * math.cos(phi), y + ds_t * math.sin(phi), wrap_angle(th + dth), es, ew, ed, bg, sg]
+        return s, P
+    K = [p / S for p in Ph]
+    return [a + k * nu for a, k in zip(s, K)], [[p - k * q for p, q in zip(row, Ph)] for row, k in zip(P, K)]
 
 
 def predict(s: Vec, P: Mat, u: Step, nz: Noise) -> tuple[Vec, Mat]:
@@ -136,21 +110,19 @@ def predict(s: Vec, P: Mat, u: Step, nz: Noise) -> tuple[Vec, Mat]:
     var_sum, var_diff, rounding = _wheel_vars(u, nz)
     track = nz.track
     if u.gyro is not None:
-        gain = _gyro_gain(s, P, u, (var_sum + rounding) / track**2, nz)
-        if gain is not None:
-            K, Ph, nu = gain
-            s, P = [a + k * nu for a, k in zip(s, K)], [[p - k * q for p, q in zip(row, Ph)] for row, k in zip(P, K)]
+        s, P = _learn_from_gyro(s, P, u, (var_sum + rounding) / track**2, nz)
     x, y, th, es, ew, ed, bg, sg = s
-    dth = _turned(s, u, nz)
     if u.gyro is None:  # the odometry's heading increment corrected by the calibration
         k = 1.0 + ew
         # Wheels: nominal travel dl, dr = ds -+ track*dth/2; true = nominal*(1 + es -+ ed).
+        dth = (u.dth * (1.0 + es) + 2.0 * ed * u.ds / track) / k
         # J: d(dth)/d(state), (index, value) where it is not naught
         J: tuple[tuple[int, float], ...] = ((ES, u.dth / k), (EW, -dth / k), (ED, 2.0 * u.ds / (track * k)))
         kb = track * k
         var_dth, cov_ds_dth = var_sum / kb**2, var_diff / (2.0 * kb)
     else:  # the gyro's, corrected by its bias and scale
         k = 1.0 + sg
+        dth = (u.gyro - bg * u.dt) / k
         J = ((BG, -u.dt / k), (SG, -dth / k))
         var_dth, cov_ds_dth = nz.gyro_var * u.dt, 0.0
     half = track * u.dth / 2.0
@@ -194,7 +166,7 @@ def predict(s: Vec, P: Mat, u: Step, nz: Noise) -> tuple[Vec, Mat]:
     out[EW][EW] += walk
     out[ED][ED] += walk
     out[BG][BG] += nz.bias_var * u.dt
-    return _moved(s, u, dth, nz), out
+    return [x + ds_t * c, y + ds_t * sn, wrap_angle(th + dth), es, ew, ed, bg, sg], out
 
 
 def rounding_cov(nz: Noise, theta: float, heading: bool) -> np.ndarray:

@@ -43,7 +43,6 @@ class Localizer(Service):
         """One odom sample: the pose at its t."""
         impacts = self.mode.impacts
         dropped = self.mode.on_odom(msg)
-        self.later(self.mode.settle)  # the covariance once the pose is out: the chain does not wait for it
         if self.mode.impacts > impacts:
             self.count("impacts")
             self.warn(

@@ -360,37 +360,3 @@ def test_a_fix_after_the_odometry_restarted_is_used():
     assert ekf.get_pose().x == pytest.approx(x) and ekf.get_pose().t == 4.0
     rec = ekf.on_fix(fix(3.7, x), 4.0)  # captured during the gap
     assert rec.accepted, rec
-
-
-@pytest.mark.parametrize("samples", [1, 2], ids=["steps of one sample", "steps of two"])
-def test_the_pose_goes_out_before_its_covariance_and_nothing_else_changes(harsh_run, samples):
-    """Each odom sample's state is the whole step's at once; its covariance follows in settle (the service runs it
-    once the pose is out), or at the next hook at the latest: the same filter either way, and meanwhile the pose
-    carries the covariance of the sample before."""
-    r = harsh_run
-    settled, lazy = (Ekf(LocalizerConfig(history_samples=samples), ROBOT) for _ in range(2))
-    fixes, imu = iter(sorted(r.fixes, key=lambda a: a[0])), iter(r.imu)  # (arrival, fix)
-    next_fix, next_imu = next(fixes, None), next(imu, None)
-    held = 0  # samples whose pose went out with the covariance of the one before
-    for o in r.odom[:600]:
-        while next_fix is not None and next_fix[0] <= o.t:  # fixes first, then the gyro, then odometry (evaluate)
-            assert settled.on_fix(next_fix[1], next_fix[0]) == lazy.on_fix(next_fix[1], next_fix[0])
-            next_fix = next(fixes, None)
-        while next_imu is not None and next_imu.t <= o.t:
-            for f in (settled, lazy):
-                f.on_imu(next_imu)
-            next_imu = next(imu, None)
-        before, impacts = settled.get_pose(), settled.impacts
-        settled.on_odom(o)
-        lazy.on_odom(o)
-        out = settled.get_pose()
-        settled.settle()
-        after = settled.get_pose()
-        assert (out.x, out.y, out.theta) == (after.x, after.y, after.theta)  # the state was the step's already
-        if before is not None and settled.impacts == impacts:  # an impact re-weighs the history at once
-            assert out.cov == before.cov  # the sample before's, until settled
-            held += out.cov != after.cov
-        assert lazy.get_pose().x == after.x
-    lazy.settle()
-    assert [(e.t, e.s, e.P) for e in lazy.history] == [(e.t, e.s, e.P) for e in settled.history]
-    assert held > 500 and settled.impacts > 0

@@ -100,23 +100,3 @@ def test_gyro_integral_between_samples_and_gaps():
     assert not g.add(0.05, 1.0)  # not newer
     g.add(0.5, 1.0)  # after a silence: restarts from here
     assert g.between(0.05, 0.5) is None and g.newest == 0.5
-
-
-@pytest.mark.parametrize(
-    "u",
-    [
-        model.Step(0.05, 0.1, 0.1),  # the odometry turns the heading
-        model.Step(0.05, 0.1, 0.1, gyro=0.098),  # the gyro does, and teaches the calibration
-        model.Step(0.05, 0.1, 0.1, gyro=0.9),  # the two part too far: no update from the gyro
-    ],
-    ids=["odometry", "gyro", "gyro gated"],
-)
-def test_the_mean_alone_is_the_step_s_state_to_the_last_bit(u):
-    rng = np.random.default_rng(5)
-    B = rng.normal(size=(8, 8))
-    P = (B @ B.T * 1e-4).tolist()
-    nz = model.Noise(TRACK, 0.001, 1e-4, 1e-5, 1e-6, 1e-8)
-    s = state()
-    before = [row[:] for row in P]
-    assert model.predict_mean(s, P, u, nz) == model.predict(s, P, u, nz)[0]
-    assert P == before  # read, not changed

@@ -13,7 +13,7 @@ from zenav.common import messages as m
 from zenav.common.bus import MemoryBus
 from zenav.common.clock import ManualClock, SimClock
 from zenav.common.config import Settings
-from zenav.common.runtime import Service, publish, query, subscribe
+from zenav.common.runtime import Service, query, subscribe
 
 
 def started(clock):
@@ -753,44 +753,3 @@ def test_a_clock_restart_forgets_the_calls_asked_for():
         s.drain()
     assert calls == [] and s.counters.values["clock_resets"] == 1 and clock.now() > 5.1  # a time of the sim's previous run
     s.close()
-
-
-class Deferring(Service):
-    """cmd_vel to wheels, with work left for after the wheels are out (`later`); v > 100 fails that work, v < 0 the
-    handler after asking for it."""
-
-    name = "motor"
-
-    def __init__(self, *a):
-        super().__init__(*a)
-        self.seen: list[tuple[float, int]] = []  # (t, wheels published when the later work ran)
-
-    @subscribe("cmd_vel")
-    @publish("motors/wheels")
-    def on_cmd(self, msg: m.CmdVel) -> m.Wheels:
-        self.later(lambda: self.after(msg))
-        if msg.v < 0:
-            raise RuntimeError("handler failed")
-        return m.Wheels(t=msg.t, left=msg.v, right=msg.omega)
-
-    def after(self, msg: m.CmdVel) -> None:
-        if msg.v > 100:
-            raise RuntimeError("later work failed")
-        self.seen.append((msg.t, len(published(self.bus, "motors/wheels"))))
-
-
-def test_work_left_for_later_runs_once_the_output_is_out_and_before_the_next_input():
-    bus = MemoryBus()
-    s = Deferring(Settings.load(None), bus, ManualClock())
-    s.start()
-    try:
-        for t, v in ((1.0, 0.1), (2.0, -1.0), (3.0, 200.0), (4.0, 0.2)):
-            bus.publish("zenav/r1/cmd_vel", codec.encode(m.CmdVel(t=t, v=v, omega=0.0)))
-        s.drain()
-        # 1: after its wheels; 2: its handler failed, its later work dropped; 3: the later work failed, counted;
-        # 4: after its own wheels, the 3rd's out before it.
-        assert s.seen == [(1.0, 1), (4.0, 3)]
-        assert [w.t for w in published(bus, "motors/wheels")] == [1.0, 3.0, 4.0]
-        assert s.counters.values["errors"] == 2
-    finally:
-        s.close()
