@@ -2,9 +2,10 @@
 
 Pure: each encoder step comes in with the wheel speeds commanded while its counts were
 taken (the encoder sample's `cmd_left`, `cmd_right`). A wheel counts as silent once it
-should have turned `min_ticks` ticks at its commanded speed and `min_time` has passed without one tick; from then on the
-travel it was commanded is reported as unmeasured, so the odometry's covariance (and
-the localizer's) grows by it instead of trusting a count that says "still".
+should have turned `min_ticks` ticks at its commanded speed and `min_time` has passed
+without one tick; from then on the travel it was commanded is reported as unmeasured,
+so the odometry's covariance (and the localizer's) grows by it instead of trusting a
+count that says "still".
 """
 
 from __future__ import annotations
