@@ -26,6 +26,7 @@ class ServiceCost:
     rss_mb: float  # [MiB]
     msgs_in: float  # [per simulated s]
     msgs_out: float  # [per simulated s]
+    ticks_in: float = 0.0  # [per simulated s] sim clock ticks taken (not in msgs_in)
 
 
 def services(live: Live) -> list[ServiceCost]:
@@ -40,7 +41,8 @@ def services(live: Live) -> list[ServiceCost]:
         cpu = live.cpu[key] / max(live.sim[r1], 1e-9)
         if key in live.counters:
             c, span = live.counters[key], max(live.diag_span[key], 1e-9)
-            out.append(ServiceCost(svc, cpu, live.rss[key] / 2**20, c["msgs_in"] / span, c["msgs_out"] / span))
+            rates = (c["msgs_in"] / span, c["msgs_out"] / span, c.get("clock_ticks", 0) / span)
+            out.append(ServiceCost(svc, cpu, live.rss[key] / 2**20, *rates))
         else:
             out.append(ServiceCost(svc, cpu, live.rss[key] / 2**20, nan, nan))
     router = ProcStack.ROUTER
@@ -69,9 +71,9 @@ class Load:
 
 
 def transport_floor(costs: list[ServiceCost], relay_cores: float, rate: float) -> float:
-    """[cores] what the messages the processes `costs` take and send would cost at a bare relay's price per message
-    (a relay takes and sends one topic at `rate`, for `relay_cores`): their CPU with no work of their own."""
-    return sum(c.msgs_in + c.msgs_out for c in costs) * relay_cores / (2.0 * rate)
+    """[cores] what the messages the processes `costs` take (clock ticks too) and send would cost at a bare relay's price
+    per message (a relay takes and sends one topic at `rate`, for `relay_cores`): their CPU with no work of their own."""
+    return sum(c.msgs_in + c.ticks_in + c.msgs_out for c in costs) * relay_cores / (2.0 * rate)
 
 
 def load(live: Live) -> Load:

@@ -155,10 +155,11 @@ def _floor_note(costs: list[cost.ServiceCost], relay: float) -> str:
     """What the CPU goals stand on on this machine: the stack's messages at a bare relay's price each."""
     robot = [c for c in costs if c.name in ROBOT_SERVICES]
     stack = [c for c in costs if c.name != "router"]
-    n_in, n_out = sum(c.msgs_in for c in robot), sum(c.msgs_out for c in robot)
+    n_in, n_out, ticks = (sum(getattr(c, f) for c in robot) for f in ("msgs_in", "msgs_out", "ticks_in"))
+    with_ticks = f" (and {ticks:.0f} sim clock ticks)" if ticks else ""
     return (
         f"CPU floor: a bare relay (one topic in and out at {RATE:g} Hz) took {fmt(relay, 3)} of a core in this run. At its "
-        f"price per message, the {n_in:.0f} messages a second the robot's services take and the {n_out:.0f} they send "
+        f"price per message, the {n_in:.0f} messages a second the robot's services take{with_ticks} and the {n_out:.0f} they send "
         f"would cost {fmt(cost.transport_floor(robot, relay, RATE), 3)} of a core with no work of theirs (goal "
         f"{TARGET_ROBOT_CPU:g}), every stack process's but the router's {fmt(cost.transport_floor(stack, relay, RATE), 3)} "
         f"(goal for the whole stack, the router's {fmt(sum(c.cpu_per_sim_s for c in costs if c.name == 'router'), 3)} "

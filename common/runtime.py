@@ -376,6 +376,7 @@ class Service:
         self._handles.append(self.bus.watch_tokens(self.key(f"instance/{self.name}/*"), self._instance_enqueuer(mine)))
         if isinstance(self.clock, SimClock):
             self.counters.values.setdefault("clock_refused", 0)
+            self.counters.values.setdefault("clock_ticks", 0)
             self._handles.append(self.bus.subscribe(self.key("clock"), self._enqueue_clock))
         for attr in dir(type(self)):
             fn = getattr(type(self), attr, None)
@@ -741,6 +742,8 @@ class Service:
         if kind != "clock":
             self.counters.inc("msgs_in")
             self.counters.seen(suffix)
+        else:
+            self.counters.inc("clock_ticks")  # taken like any message (the transport's cost), not input of the service's
         try:
             msg = codec.decode(data, typ)
         except codec.BadInput as e:

@@ -75,11 +75,12 @@ def test_the_targets_say_what_the_cpu_goals_stand_on_here(tmp_path):
     """The stack's messages at a bare relay's price each: the CPU the goals leave for the services' work."""
     bare = Chain({s: [1.0, 2.0, 3.0] for s in (*STAGES, END_TO_END)}, relay_cores=0.04, relay_wait=1e-4, relay_runs=500.0)
     text = report.write(replace(results(), chains={"client": bare}), tmp_path).read_text()
-    # Every service takes 100 messages a second and sends 50 (tests/support/bench.py); a relay 100 and 100.
+    # Every service takes 100 messages a second and sends 50, all but the sim 20 clock ticks (tests/support/bench.py);
+    # a relay 100 and 100.
     assert (
         "CPU floor: a bare relay (one topic in and out at 100 Hz) took 0.040 of a core in this run. At its price per "
-        "message, the 400 messages a second the robot's services take and the 200 they send would cost 0.120 of a core "
-        "with no work of theirs (goal 0.15), every stack process's but the router's 0.180 (goal for the whole stack, the "
-        "router's 0.080 included: 0.35)."
+        "message, the 400 messages a second the robot's services take (and 80 sim clock ticks) and the 200 they send "
+        "would cost 0.136 of a core with no work of theirs (goal 0.15), every stack process's but the router's 0.200 "
+        "(goal for the whole stack, the router's 0.080 included: 0.35)."
     ) in text
     assert "CPU floor" not in report.write(results(), tmp_path).read_text()  # no bare chain run, no floor

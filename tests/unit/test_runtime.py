@@ -492,6 +492,8 @@ def test_implausible_clock_ticks_are_refused_and_counted(sim_svc):
     tick(bus, s, 10.02, rtf=200.0)  # an absurd rtf
     tick(bus, s, 20.0)  # ten seconds ahead of a tick just taken
     assert clock.now() < 10.1 and s.counters.values["clock_refused"] == 2
+    # Every tick taken is counted, refused or not, and none as a service's input.
+    assert s.counters.values["clock_ticks"] == 4 and s.counters.values["msgs_in"] == 0
     tick(bus, s, 10.03)
     assert 10.03 <= clock.now() < 10.1
     tick(bus, s, 2.0)  # far back: the sim restarted
