@@ -155,7 +155,7 @@ def _floor_note(costs: list[cost.ServiceCost], relay: float) -> str:
     """What the CPU goals stand on on this machine: the stack's messages at a bare relay's price each."""
     robot = [c for c in costs if c.name in ROBOT_SERVICES]
     stack = [c for c in costs if c.name != "router"]
-    n_in, n_out, ticks = (sum(getattr(c, f) for c in robot) for f in ("msgs_in", "msgs_out", "ticks_in"))
+    n_in, n_out, ticks = sum(c.msgs_in for c in robot), sum(c.msgs_out for c in robot), sum(c.ticks_in for c in robot)
     with_ticks = f" (and {ticks:.0f} sim clock ticks)" if ticks else ""
     return (
         f"CPU floor: a bare relay (one topic in and out at {RATE:g} Hz) took {fmt(relay, 3)} of a core in this run. At its "

@@ -28,14 +28,14 @@ def live(robots=1, cpu=0.5, speed=1.0, overruns=0, busy=0.3, failures=(), hot=No
     """A 10 s window of `robots` robots, each service using `cpu` CPU s in it (`hot`: 9.5 s)."""
     ids = tuple(f"r{i + 1}" for i in range(robots))
     keys = [(r, s) for r in ids for s in NAMES]
-    sim_clock = {"clock_ticks": 200}  # every service but the sim takes its ticks
+    # Every service but the sim takes the sim's clock ticks.
     counters = {
         k: {
             "msgs_in": 1000,
             "msgs_out": 500,
             "dropped_stale": 1,
             "overruns": overruns * (k[1] == "sim"),
-            **({} if k[1] == "sim" else sim_clock),
+            "clock_ticks": 200 * (k[1] != "sim"),
         }
         for k in keys
     }
