@@ -15,7 +15,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -101,12 +101,15 @@ def run(
     zenoh_mode: str = "client",
     compose: tuple[str, ...] = (),
     realtime: int = 0,
+    during: Callable[[dict[tuple[str, str], int]], object] | None = None,
 ) -> Live:
     """Start robots r1..rN at `rate` [Hz] and `rtf`, drive them, measure `window` wall seconds.
 
     zenoh_mode: the services' and the observer's (client: all through the router; peer: also linked directly).
     compose: services of each robot run in one process (stack/composed.py), the rest alone.
     realtime: the control loop's and the router's SCHED_FIFO priority (`[deployment] realtime`; 0: normal).
+    during: run in the window instead of waiting it out, given every process's pid by (robot, service), for
+    about `window` seconds (bench/spy.py's sampling).
     """
     ids = tuple(f"r{i + 1}" for i in range(robots))
     args = ["--scenario", scenario, "--set", f"sim.rtf={rtf}", "--set", f"scenario.sensor_rate_hz={rate}", "--zenoh-mode", zenoh_mode]
@@ -134,7 +137,10 @@ def run(
         before = {r: {s: d.wait() for s, d in ds.items()} for r, ds in diags.items()}
         p0, busy0, self0 = stack.sample(), machine_cpu(), os.times()
         w0, sim0 = time.monotonic(), {r: c.msg.t for r, c in clocks.items()}
-        time.sleep(window)  # the window: the robots drive, the observer stamps
+        if during is None:
+            time.sleep(window)  # the window: the robots drive, the observer stamps
+        else:
+            during(stack.pids())
         chain = observer.stages()
         p1, busy1, self1 = stack.sample(), machine_cpu(), os.times()
         w1, sim1 = time.monotonic(), {r: c.msg.t for r, c in clocks.items()}

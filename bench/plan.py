@@ -36,6 +36,7 @@ class Plan:
     peers: bool = True  # the latency run again with the services as Zenoh peers, beside a bare chain of peers
     busy: bool = True  # the latency run again with one core kept busy, at normal and at real-time priority
     profile_seconds: float = 10.0  # [s] of stack time each service is timed over (bench/profile.py)
+    spy_seconds: int = 10  # [s] py-spy samples the robot's service processes as deployed (bench/spy.py)
     fleet_robots: tuple[int, ...] = (1, 2, 5, 10, 20)  # robots' traffic played through one router (bench/fleet.py)
     fleet_window: float = 10.0  # [s] each robot count plays
     fleet_hosts: int = 3  # namespaces, one router each (0: not run)
@@ -91,6 +92,7 @@ QUICK = Plan(
     peers=False,
     busy=False,
     profile_seconds=3.0,
+    spy_seconds=3,
     fleet_robots=(1, 5),
     fleet_window=3.0,
     settle_trials=3,

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import msgspec
 
-from zenav.bench import accuracy, chain, cost, fleet, live, profile, settle, speed
+from zenav.bench import accuracy, chain, cost, fleet, live, profile, settle, speed, spy
 from zenav.bench import camera as camera_bench
 from zenav.bench.accuracy import Spec, Summary
 from zenav.bench.chain import Chain
@@ -68,6 +68,7 @@ class Results:
     costs_paced: dict[str, Cost] = field(default_factory=dict)  # the same, one wall period between steps (as deployed)
     relays: tuple[float, float] = (0.0, 0.0)  # [us] a bare chain relay's CPU per message: back to back, paced
     hot: dict[str, list[Hot]] = field(default_factory=dict)  # service -> its costliest functions
+    spied: spy.Deployed | str | None = None  # the robot's service processes sampled as deployed, or why they were not
     fleet: list[Point] = field(default_factory=list)  # the router under N robots' traffic
     hosts: HostsResult | str | None = None  # the fleet over several hosts, or why it was not run
     settle: dict[str, str] = field(default_factory=dict)  # pose error -> the settle table (markdown)
@@ -131,6 +132,8 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
         res.hot = profile.profile(min(plan.profile_seconds, 5.0))
         robot = sum(res.costs[n].cores(profile.RATE) for n in profile.ROBOT_SERVICES)
         note(f"profile: the robot's services take {robot:.3f} of a core at {profile.RATE:g} Hz")
+        res.spied = spy.refused() or spy.deployed(plan.spy_seconds, logs)
+        note(f"profile as deployed: {res.spied if isinstance(res.spied, str) else 'sampled'}")
     if "fleet" in plan.sections:
         res.fleet = fleet.router_load(plan.fleet_robots, plan.fleet_window, logs)
         note(f"router load: {', '.join(f'{p.robots}: {p.per_robot:.3f} cores/robot' for p in res.fleet)}")

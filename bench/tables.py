@@ -17,6 +17,7 @@ from zenav.bench.live import Live
 from zenav.bench.profile import RATE
 from zenav.bench.scoring import summary
 from zenav.bench.speed import METRICS, highest_by_harness
+from zenav.bench.spy import Deployed
 from zenav.common.config import Camera
 from zenav.common.scenarios import HEADINGS, PATH
 from zenav.stack.composed import ROBOT_SERVICES
@@ -663,6 +664,36 @@ def profile(res: Results) -> list[str]:
     for name, hot in res.hot.items():
         out += ["", f"{name}: costliest functions by own time under cProfile (us per period, own / with callees):", ""]
         out += table(["own", "total", "calls", "function"], [[fmt(h.own, 1), fmt(h.total, 1), str(h.calls), f"`{h.where}`"] for h in hot])
+    return out + _deployed(res.spied)
+
+
+def _deployed(d: Deployed | str | None, top: int = 10) -> list[str]:
+    """The robot's service processes as deployed, sampled by py-spy: their threads' time in Python, and where it went."""
+    if d is None:
+        return []
+    if isinstance(d, str):
+        return ["", "### As deployed", "", f"Not sampled: {d}."]
+    rows = [
+        [name, fmt(d.cores[name], 3), fmt(d.active(s.samples), 3), ", ".join(f"{t} {d.active(n):.3f}" for t, n in s.threads.most_common())]
+        for name, s in d.spied.items()
+    ]
+    out = [
+        "",
+        "### As deployed",
+        "",
+        f"One robot's stack as separate processes at {RATE:g} Hz (as `zenav up` runs it), each of the robot's service processes "
+        f"sampled by py-spy from outside, without stopping it, {d.rate} times a second for {d.sampled} s (bench/spy.py). "
+        "A sample is a thread found active (on a core, or ready and waiting for one) with Python on its stack. `CPU`: the "
+        "process's over the window (/proc); `Python`: its threads' time active in Python, by thread (Zenoh's readers `rx-*` "
+        "serve a sample on the thread that brought it; `MainThread` is the service's worker, and `Condition.wait` below "
+        "it waking). What no sample sees is Zenoh's own work in Rust (sockets, routing, waking threads). [cores]",
+        "",
+        *table(["service", "CPU", "Python", "Python by thread"], rows),
+    ]
+    for name, s in d.spied.items():
+        out += ["", f"{name} as deployed: costliest functions by own samples (us active per period, own / with callees):", ""]
+        rows = [[fmt(d.per_period(n), 1), fmt(d.per_period(s.total[f]), 1), f"`{f}`"] for f, n in s.own.most_common(top)]
+        out += table(["own", "total", "function"], rows)
     return out
 
 

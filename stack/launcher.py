@@ -277,9 +277,13 @@ class Launcher:
                 tail = c.log.path.read_text(errors="replace")[-1500:]
                 raise RuntimeError(f"{c.name} {exit_reason(c.proc.returncode)}:\n{tail}")
 
+    def running(self) -> dict[str, int]:
+        """The pid of every running child."""
+        return {n: c.proc.pid for n, c in self.children.items() if c.proc is not None and c.proc.poll() is None}
+
     def sample(self) -> dict[str, ProcSample]:
         """CPU time and memory of every running child now."""
-        return {n: read_proc(c.proc.pid) for n, c in self.children.items() if c.proc is not None and c.proc.poll() is None}
+        return {n: read_proc(pid) for n, pid in self.running().items()}
 
     def stop(self, groups: Sequence[Sequence[str]], between: Callable[[Sequence[str]], None] = lambda group: None) -> None:
         """Stop the groups in order: SIGTERM a group's children, wait for them (SIGKILL after
@@ -371,10 +375,19 @@ class ProcStack:
         """Raise RuntimeError naming any process that has exited, with its log's tail."""
         self.launcher.check()
 
+    def _keys(self) -> dict[str, tuple[str, str]]:
+        """Each process's name -> its (robot, service)."""
+        return {f"{r}-{s}": (r, s) for r in self.robots for s in self.processes} | {"router": self.ROUTER}
+
     def sample(self) -> dict[tuple[str, str], ProcSample]:
         """CPU time and memory of every process now, by (robot, service)."""
-        keys = {f"{r}-{s}": (r, s) for r in self.robots for s in self.processes} | {"router": self.ROUTER}
+        keys = self._keys()
         return {keys[n]: s for n, s in self.launcher.sample().items()}
+
+    def pids(self) -> dict[tuple[str, str], int]:
+        """The pid of every running process, by (robot, service)."""
+        keys = self._keys()
+        return {keys[n]: pid for n, pid in self.launcher.running().items()}
 
     def stop(self) -> None:
         """SIGTERM every service, in the registry's stop order without waiting between them (no
