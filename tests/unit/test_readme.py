@@ -101,3 +101,22 @@ def test_version(capsys):
     with pytest.raises(SystemExit) as e:
         main(["--version"])
     assert e.value.code == 0 and capsys.readouterr().out == f"zenav {__version__}\n"
+
+
+def test_the_figures_readme_quotes_are_the_committed_reports():
+    """README's "How well it works" measures nothing itself: each figure it gives (the targets' measured
+    column, and its paragraphs) is one docs/bench/report.md prints."""
+    readme = (REPO / "README.md").read_text()
+    section = readme[readme.index("## How well it works") : readme.index("Each part alone")]
+    quoted = []
+    for line in section.splitlines():
+        cells = line.split("|")
+        if line.startswith("|") and len(cells) == 6 and not set(cells[3]) <= set("-: "):
+            quoted.append(cells[3])  # a target's measured figures (its goal is no measurement)
+        elif not line.startswith("|"):
+            quoted.append(line)
+    decimals = re.compile(r"(?<![\w.])\d+\.\d+(?![\w.])")
+    printed = set(decimals.findall((REPO / "docs" / "bench" / "report.md").read_text()))
+    figures = [x for text in quoted for x in decimals.findall(text)]
+    assert len(figures) > 20
+    assert [x for x in figures if x not in printed] == []
