@@ -3,16 +3,16 @@
 The profile section's cProfile run has every service in one process, on an in-memory bus.
 Deployed, each service has a process of its own that takes its messages off the network on
 Zenoh's threads, serves them there or on its worker, and sits idle between them. Here the
-stack runs as `zenav up` runs it (separate processes, one router, the navigator driving
-squares) and py-spy samples each of the robot's service processes from outside for the
-window, without stopping it (`--nonblocking`). A sample is a thread py-spy found active
-(running, or ready to run and waiting for a core: without stopping the process it cannot
-tell the two apart) with Python on its stack. For each process: its CPU over the window
-(/proc), the time its threads were active in Python, by thread (Zenoh's readers `rx-*`,
-which serve a sample on the thread that brought it, and the service's worker,
-`MainThread`), and its costliest functions by own samples. `Condition.wait` there is the
-worker waking (taking its lock back). What no sample sees is Zenoh's own work in Rust:
-reading and writing the sockets, routing, waking threads.
+stack runs as in the latency section's first run (separate processes, clients of one
+router, the navigator driving squares) and py-spy samples each of the robot's service
+processes from outside for the window, without stopping it (`--nonblocking`). A sample is
+a thread py-spy found active (running, or ready to run and waiting for a core: without
+stopping the process it cannot tell the two apart) with Python on its stack. For each
+process: its CPU over the window (/proc), the time its threads were active in Python, by
+thread (Zenoh's readers `rx-*`, which serve a sample on the thread that brought it, and
+the service's worker, `MainThread`), and its costliest functions by own samples.
+`Condition.wait` there is the worker waking (taking its lock back). What no sample sees
+is Zenoh's own work in Rust: reading and writing the sockets, routing, waking threads.
 
 py-spy must be installed (`pip install py-spy`) and allowed to read other processes' memory
 (ptrace: root, or `kernel.yama.ptrace_scope` 0); where it is not, the section says why.

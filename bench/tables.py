@@ -681,8 +681,9 @@ def _deployed(d: Deployed | str | None, top: int = 10) -> list[str]:
         "",
         "### As deployed",
         "",
-        f"One robot's stack as separate processes at {RATE:g} Hz (as `zenav up` runs it), each of the robot's service processes "
-        f"sampled by py-spy from outside, without stopping it, {d.rate} times a second for {d.sampled} s (bench/spy.py). "
+        f"One robot's stack as separate processes at {RATE:g} Hz, clients of one router (as in the latency section), each of "
+        f"the robot's service processes sampled by py-spy from outside, without stopping it, {d.rate} times a second for "
+        f"{d.sampled} s (bench/spy.py). "
         "A sample is a thread found active (on a core, or ready and waiting for one) with Python on its stack. `CPU`: the "
         "process's over the window (/proc); `Python`: its threads' time active in Python, by thread (Zenoh's readers `rx-*` "
         "serve a sample on the thread that brought it; `MainThread` is the service's worker, and `Condition.wait` below "
