@@ -161,7 +161,7 @@ def record(pids: dict[str, int], seconds: int, rate: int = SAMPLE_RATE) -> dict[
 class Deployed:
     """The robot's service processes sampled over one window of the live stack."""
 
-    sampled: float  # [s] py-spy sampled each process
+    sampled: int  # [s] py-spy sampled each process (whole seconds: its --duration)
     rate: int  # [Hz] py-spy's samples
     cores: dict[str, float]  # service -> [cores] its process's CPU over the window (/proc; py-spy's start included)
     spied: dict[str, Spied]  # service -> its samples
