@@ -37,6 +37,7 @@ class Plan:
     busy: bool = True  # the latency run again with one core kept busy, at normal and at real-time priority
     profile_seconds: float = 10.0  # [s] of stack time each service is timed over (bench/profile.py)
     spy_seconds: int = 10  # [s] py-spy samples the robot's service processes as deployed (bench/spy.py)
+    board_window: float = 20.0  # [s] each deployment of the robot profile on the emulated board (bench/board.py; 0: not run)
     fleet_robots: tuple[int, ...] = (1, 2, 5, 10, 20)  # robots' traffic played through one router (bench/fleet.py)
     fleet_window: float = 10.0  # [s] each robot count plays
     fleet_hosts: int = 3  # namespaces, one router each (0: not run)
@@ -93,6 +94,7 @@ QUICK = Plan(
     busy=False,
     profile_seconds=3.0,
     spy_seconds=3,
+    board_window=0.0,
     fleet_robots=(1, 5),
     fleet_window=3.0,
     settle_trials=3,

@@ -20,9 +20,10 @@ from pathlib import Path
 
 import msgspec
 
-from zenav.bench import accuracy, chain, cost, fleet, live, profile, settle, speed, spy
+from zenav.bench import accuracy, board, chain, cost, fleet, live, profile, settle, speed, spy
 from zenav.bench import camera as camera_bench
 from zenav.bench.accuracy import Spec, Summary
+from zenav.bench.board import BoardRun
 from zenav.bench.chain import Chain
 from zenav.bench.cost import Load
 from zenav.bench.fleet import HostsResult, Point
@@ -56,6 +57,7 @@ class Results:
     busy_refused: str = ""  # why the busy runs were not made (real-time priority refused)
     rates: list[Load] = field(default_factory=list)
     robots: list[Load] = field(default_factory=list)
+    boards: dict[str, BoardRun] = field(default_factory=dict)  # deployment -> the robot profile on the emulated board
     speed: list[Row] = field(default_factory=list)
     rtf: float = 0.0  # the accuracy runs' realtime factor
     modes: dict[str, Summary] = field(default_factory=dict)  # live, default scenario, first seed
@@ -127,6 +129,10 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
             note(f"{n} robots: keeps up {res.robots[-1].keeps_up} {res.robots[-1].why}")
             if res.robots[-1].why.startswith("did not come up"):
                 break  # more robots would not either: the table says where it stopped
+        if plan.board_window:
+            res.boards = board.measure(plan.board_window, logs)
+            cores = ", ".join(f"{r.robot:.3f}" for r in res.boards.values())
+            note(f"the robot profile on the emulated board: {cores} of a core besides the router")
     if "profile" in plan.sections:
         res.costs, res.costs_paced, res.relays = profile.measure_both(plan.profile_seconds)
         res.hot = profile.profile(min(plan.profile_seconds, 5.0))

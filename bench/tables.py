@@ -8,6 +8,7 @@ import statistics
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+from zenav.bench import board
 from zenav.bench import camera as camera_bench
 from zenav.bench.accuracy import Summary
 from zenav.bench.chain import Chain
@@ -20,6 +21,8 @@ from zenav.bench.speed import METRICS, highest_by_harness
 from zenav.bench.spy import Deployed
 from zenav.common.config import Camera
 from zenav.common.scenarios import HEADINGS, PATH
+from zenav.services.driver.protocol import BAUD
+from zenav.services.driver.service import DriverConfig
 from zenav.stack.composed import ROBOT_SERVICES
 
 if TYPE_CHECKING:
@@ -358,6 +361,8 @@ def cost(res: Results) -> list[str]:
         lines += ["", f"### Robots on one router (100 Hz, realtime, {res.plan.sweep_window:g} s windows)", ""]
         lines += table(["robots", *LOAD_HEADER], [_load_row(str(ld.robots), ld) for ld in res.robots])
         lines += ["", _robots_verdict(res.robots)]
+    if res.boards:
+        lines += ["", *boards(res)]
     lines += [
         "",
         "`sim speed`: stack time advanced over wall time asked (1.0 = kept its clock); `overruns`: times a sim fell "
@@ -365,6 +370,27 @@ def cost(res: Results) -> list[str]:
         "full or stale); `stack cores`: CPU of every stack process and the router over the wall window.",
     ]
     return lines
+
+
+def boards(res: Results) -> list[str]:
+    """What the robot computer spends: the robot profile on the emulated board, per deployment."""
+    rows = []
+    for name, r in res.boards.items():
+        each = ", ".join(f"{p} {fmt(c, 3)}" for p, c in r.cores.items() if p != "router")
+        failed = "; ".join(r.goal_failures) or "none"
+        rows.append([name, f"**{fmt(r.robot, 3)}**", each, fmt(r.cores.get("router", math.nan), 3), fmt(r.encoders_hz, 0), failed])
+    return [
+        f"### The robot computer: the robot profile on the emulated board ({res.plan.board_window:g} s windows)",
+        "",
+        "A real robot runs the driver where the simulation runs the sim. `zenav up --profile robot`'s services (driver, "
+        "motor, odometry, localizer, navigator on the wall clock, as Zenoh peers) on the emulated ROSArduinoBridge "
+        f"board (a pseudo-terminal at {BAUD} baud, in the bench's process: its CPU is the board's), while a program "
+        f"drives a {board.SQUARE[0][0]:g} m square at {board.SPEED:g} m/s with no VPS. CPU per wall second from /proc; "
+        "the encoder samples the odometry took a second, over the window's last (the driver's `sensor_rate`: "
+        f"{DriverConfig().sensor_rate:g}). Also `python -m zenav.bench.board --seconds 20`.",
+        "",
+        *table(["deployment", "cores, router aside", "by process", "router", "encoders/s", "goals failed"], rows),
+    ]
 
 
 def _robots_verdict(loads: Sequence[Load]) -> str:

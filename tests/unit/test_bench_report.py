@@ -8,6 +8,7 @@ from tests.support.bench import headings, results, sections, summary
 from zenav.bench import camera as camera_bench
 from zenav.bench import plan, report
 from zenav.bench.accuracy import Spec
+from zenav.bench.board import BoardRun
 from zenav.bench.chain import Chain
 from zenav.bench.latency import END_TO_END, STAGES
 from zenav.bench.run import Results
@@ -49,6 +50,19 @@ def test_the_camera_section_compares_the_camera_vps_with_the_synthetic(tmp_path)
     assert "| default, path | synthetic | 1 | 1.00 / 1.00 | 0.57 | 0.50 / 0.00 / 0.50 | 0 |" in text
     assert "| default, path | camera | 1 | 1.00 / 1.00 | 0.57 | 0.50 / 0.00 / 0.50 | 1 |" in text
     assert "- default, path camera seed 1: timeout" in text
+
+
+def test_the_robot_profiles_deployments_on_the_emulated_board_are_a_table_of_the_cost_section(tmp_path):
+    res = results()
+    res.plan = replace(res.plan, board_window=20.0)  # the full run's part
+    res.boards = {
+        "every service its own process": BoardRun((), {"router": 0.02, "driver": 0.06, "motor": 0.03}, 100.0, []),
+        "all five in one process": BoardRun(("driver", "motor"), {"router": 0.01, "composed": 0.064}, 99.6, ["(0.5, 0.0): aborted"]),
+    }
+    text = report.write(res, tmp_path).read_text()
+    assert "### The robot computer: the robot profile on the emulated board (20 s windows)" in text
+    assert "| every service its own process | **0.090** | driver 0.060, motor 0.030 | 0.020 | 100 | none |" in text
+    assert "| all five in one process | **0.064** | composed 0.064 | 0.010 | 100 | (0.5, 0.0): aborted |" in text
 
 
 def test_the_settle_section_writes_a_table_per_pose_error(tmp_path):

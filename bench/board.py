@@ -1,0 +1,135 @@
+"""What the robot computer spends: the `robot` profile on the emulated motor board.
+
+The board (tools/arduino_emulator.py on a pseudo-terminal, in this process: its CPU is
+the board's, not the robot computer's) and the profile's services as `zenav up
+--profile robot` starts them (the wall clock, services as Zenoh peers of one router),
+while a program drives a square at SPEED with no VPS (its pose set at the start). Each
+deployment in turn: every service its own process, the four robot services in one, all
+five in one. Over the window: each process's CPU (/proc); and the rate the odometry took
+the driver's encoder samples at (its diag: whether the driver kept its sensor rate).
+
+`python -m zenav.bench.board --seconds 20` runs it alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from zenav import services
+from zenav.common.client import ZenavError
+from zenav.robot import Robot
+from zenav.stack.composed import ROBOT_SERVICES
+from zenav.stack.launcher import ProcStack
+from zenav.tools.arduino_emulator import Emulator
+
+TICKS = 1440  # [ticks/rev] the emulated encoders, and [robot] ticks_per_rev
+SPEED = 0.15  # [m/s] what the board's PID holds on the emulated motors
+SQUARE = ((0.5, 0.0), (0.5, 0.5), (0.0, 0.5), (0.0, 0.0))  # [m] corners driven in a loop
+GOAL_WAIT = 20.0  # [s] one corner, at most
+START_TIMEOUT = 30.0  # [s] for the services to come up and the navigator to take goals
+SETTLE = 2.0  # [s] of driving before the window opens
+DIAG_WAIT = 5.0  # [s] for the odometry's diag after the window (one a second)
+DEPLOYMENTS: dict[str, tuple[str, ...]] = {
+    "every service its own process": (),
+    "the four robot services in one process": ROBOT_SERVICES,
+    "all five in one process": (*ROBOT_SERVICES, "driver"),
+}
+
+
+@dataclass(frozen=True)
+class BoardRun:
+    """One deployment of the robot profile over the window."""
+
+    compose: tuple[str, ...]
+    cores: dict[str, float]  # process ("composed" for the composed one, "router") -> [cores] over the window
+    encoders_hz: float  # [1/s] encoder samples the odometry took, over the last second of the window
+    goal_failures: list[str]
+
+    @property
+    def robot(self) -> float:
+        """[cores] every process but the router."""
+        return sum(c for name, c in self.cores.items() if name != "router")
+
+
+def args(link: str) -> list[str]:
+    """The services' arguments: the robot profile's config, the emulated board's port and geometry, no VPS."""
+    sets = [*services.PROFILES["robot"].sets(), f'driver.port="{link}"', "driver.open_delay=0", f"robot.ticks_per_rev={TICKS}"]
+    sets += ['odometry.heading_source="encoders"', "localizer.calib_sigma=0.002"]  # a board with no IMU; a calibrated robot
+    return ["--zenoh-mode", "peer", *(a for s in sets for a in ("--set", s))]
+
+
+def run(window: float, log_dir: Path, compose: tuple[str, ...] = ()) -> BoardRun:
+    """Start the board and the profile's services (`compose` in one process), drive, measure `window` wall seconds."""
+    names = services.PROFILES["robot"].services
+    with tempfile.TemporaryDirectory(prefix="zenav-board-") as tmp, Emulator(f"{tmp}/board", ticks_per_rev=TICKS) as emu:
+        stack = ProcStack(("r1",), names, log_dir, args(emu.link), compose=compose).start()
+        stop, failures = threading.Event(), list[str]()
+        try:
+            with Robot("r1", stack.endpoint, lease=False) as bot:
+                bot.client.wait_alive(names, timeout=START_TIMEOUT)
+                bot.set_pose(0.0, 0.0, 0.0)
+                bot.wait_ready(timeout=START_TIMEOUT)
+                diag = bot.client.latest("diag/odometry")
+                driver = threading.Thread(target=_drive, args=(bot, stop, failures), daemon=True)
+                driver.start()
+                stop.wait(SETTLE)
+                stack.check()
+                p0, w0 = stack.sample(), time.monotonic()
+                stop.wait(window)  # the window: the program drives, the board turns the wheels
+                p1, w1, end = stack.sample(), time.monotonic(), time.time()
+                stack.check()
+                rate = diag.wait(lambda d: d.t >= end, timeout=DIAG_WAIT).rates.get("sensors/encoders", 0.0)
+                stop.set()
+                try:
+                    bot.stop()  # ends the running goal at once, and with it the program's loop
+                except ZenavError:
+                    pass  # a navigator that does not answer: its goal ends when the stack stops
+                driver.join(timeout=GOAL_WAIT)
+        finally:
+            stop.set()
+            stack.stop()
+    span = w1 - w0
+    cores = {key[1]: (p1[key].cpu - p0[key].cpu) / span for key in p1 if key in p0}
+    return BoardRun(tuple(compose), cores, rate, failures)
+
+
+def _drive(bot: Robot, stop: threading.Event, failures: list[str]) -> None:
+    """The square's corners in a loop until `stop`; goals that did not succeed are noted."""
+    while not stop.is_set():
+        for x, y in SQUARE:
+            if stop.is_set():
+                break
+            try:
+                end = bot.move_to_point(x, y, speed=SPEED, tolerance=0.03).wait(timeout=GOAL_WAIT)
+            except (ZenavError, TimeoutError) as e:
+                failures.append(f"({x}, {y}): {e}")
+                continue
+            if not end.succeeded and not stop.is_set():
+                failures.append(f"({x}, {y}): {end}")
+
+
+def measure(window: float, log_dir: Path) -> dict[str, BoardRun]:
+    """Every deployment of DEPLOYMENTS in turn."""
+    return {name: run(window, log_dir / f"board-{i}", compose) for i, (name, compose) in enumerate(DEPLOYMENTS.items())}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m zenav.bench.board", description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=20.0, help="[s] window of each deployment")
+    a = parser.parse_args(argv)
+    with tempfile.TemporaryDirectory(prefix="zenav-bench-board-") as logs:
+        for name, r in measure(a.seconds, Path(logs)).items():
+            each = ", ".join(f"{p} {c:.3f}" for p, c in r.cores.items())
+            print(f"{name}: {r.robot:.3f} of a core besides the router ({each}); encoders {r.encoders_hz:.0f}/s")
+            for f in r.goal_failures:
+                print(f"  goal failed: {f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,15 @@
+"""The robot computer's cost: the robot profile's real processes on the emulated board over a pty."""
+
+from __future__ import annotations
+
+from zenav.bench import board
+from zenav.stack.composed import ROBOT_SERVICES
+
+
+def test_the_robot_profile_drives_the_emulated_board_and_each_process_is_measured(tmp_path):
+    r = board.run(2.0, tmp_path, compose=ROBOT_SERVICES)
+    assert set(r.cores) == {"router", "driver", "composed"}  # the driver apart, the four together
+    assert all(c > 0.0 for c in r.cores.values()), r.cores
+    assert r.robot == r.cores["driver"] + r.cores["composed"]
+    assert r.encoders_hz > 50.0  # the driver polls the board at its sensor rate (100 Hz), the odometry takes them
+    assert r.goal_failures == []
