@@ -361,14 +361,14 @@ def cost(res: Results) -> list[str]:
         lines += ["", f"### Robots on one router (100 Hz, realtime, {res.plan.sweep_window:g} s windows)", ""]
         lines += table(["robots", *LOAD_HEADER], [_load_row(str(ld.robots), ld) for ld in res.robots])
         lines += ["", _robots_verdict(res.robots)]
-    if res.boards:
-        lines += ["", *boards(res)]
     lines += [
         "",
         "`sim speed`: stack time advanced over wall time asked (1.0 = kept its clock); `overruns`: times a sim fell "
         "more than its max_burst steps behind and dropped time; `dropped`: inputs dropped by the services (queue "
         "full or stale); `stack cores`: CPU of every stack process and the router over the wall window.",
     ]
+    if res.boards:
+        lines += ["", *boards(res)]
     return lines
 
 
