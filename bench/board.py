@@ -45,7 +45,6 @@ DEPLOYMENTS: dict[str, tuple[str, ...]] = {
 class BoardRun:
     """One deployment of the robot profile over the window."""
 
-    compose: tuple[str, ...]
     cores: dict[str, float]  # process ("composed" for the composed one, "router") -> [cores] over the window
     encoders_hz: float  # [1/s] encoder samples the odometry took, over the last second of the window
     goal_failures: list[str]
@@ -75,8 +74,8 @@ def run(window: float, log_dir: Path, compose: tuple[str, ...] = ()) -> BoardRun
                 bot.set_pose(0.0, 0.0, 0.0)
                 bot.wait_ready(timeout=START_TIMEOUT)
                 diag = bot.client.latest("diag/odometry")
-                driver = threading.Thread(target=_drive, args=(bot, stop, failures), daemon=True)
-                driver.start()
+                program = threading.Thread(target=_drive, args=(bot, stop, failures), daemon=True)
+                program.start()
                 stop.wait(SETTLE)
                 stack.check()
                 p0, w0 = stack.sample(), time.monotonic()
@@ -89,13 +88,13 @@ def run(window: float, log_dir: Path, compose: tuple[str, ...] = ()) -> BoardRun
                     bot.stop()  # ends the running goal at once, and with it the program's loop
                 except ZenavError:
                     pass  # a navigator that does not answer: its goal ends when the stack stops
-                driver.join(timeout=GOAL_WAIT)
+                program.join(timeout=GOAL_WAIT)
         finally:
             stop.set()
             stack.stop()
     span = w1 - w0
     cores = {key[1]: (p1[key].cpu - p0[key].cpu) / span for key in p1 if key in p0}
-    return BoardRun(tuple(compose), cores, rate, failures)
+    return BoardRun(cores, rate, failures)
 
 
 def _drive(bot: Robot, stop: threading.Event, failures: list[str]) -> None:

@@ -56,8 +56,8 @@ def test_the_robot_profiles_deployments_on_the_emulated_board_are_a_table_of_the
     res = results()
     res.plan = replace(res.plan, board_window=20.0)  # the full run's part
     res.boards = {
-        "every service its own process": BoardRun((), {"router": 0.02, "driver": 0.06, "motor": 0.03}, 100.0, []),
-        "all five in one process": BoardRun(("driver", "motor"), {"router": 0.01, "composed": 0.064}, 99.6, ["(0.5, 0.0): aborted"]),
+        "every service its own process": BoardRun({"router": 0.02, "driver": 0.06, "motor": 0.03}, 100.0, []),
+        "all five in one process": BoardRun({"router": 0.01, "composed": 0.064}, 99.6, ["(0.5, 0.0): aborted"]),
     }
     text = report.write(res, tmp_path).read_text()
     assert "### The robot computer: the robot profile on the emulated board (20 s windows)" in text
