@@ -5,8 +5,11 @@ the board's, not the robot computer's) and the profile's services as `zenav up
 --profile robot` starts them (the wall clock, services as Zenoh peers of one router),
 while a program drives a square at SPEED with no VPS (its pose set at the start). Each
 deployment in turn: every service its own process, the four robot services in one, all
-five in one. Over the window: each process's CPU (/proc); and the rate the odometry took
-the driver's encoder samples at (its diag: whether the driver kept its sensor rate).
+five in one. Over the window: each process's CPU (/proc); the rate the odometry took the
+driver's encoder samples at (its diag: whether the driver kept its sensor rate); and each
+`motors/wheels` command's age as it reached this process, from the driver's stamp of the
+encoder sample it was computed from (its `t`, on the wall clock): the control loop's
+latency on the robot computer, the serial link's replies aside.
 
 `python -m zenav.bench.board --seconds 20` runs it alone.
 """
@@ -21,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from zenav import services
+from zenav.bench.latency import Stats
 from zenav.common.client import ZenavError
 from zenav.robot import Robot
 from zenav.stack.composed import ROBOT_SERVICES
@@ -47,6 +51,7 @@ class BoardRun:
 
     cores: dict[str, float]  # process ("composed" for the composed one, "router") -> [cores] over the window
     encoders_hz: float  # [1/s] encoder samples the odometry took, over the last second of the window
+    latency: Stats  # [ms] encoder sample (the driver's stamp) to its wheel command, here (another process)
     goal_failures: list[str]
 
     @property
@@ -74,11 +79,13 @@ def run(window: float, log_dir: Path, compose: tuple[str, ...] = ()) -> BoardRun
                 bot.set_pose(0.0, 0.0, 0.0)
                 bot.wait_ready(timeout=START_TIMEOUT)
                 diag = bot.client.latest("diag/odometry")
+                wheels: list[tuple[float, float]] = []  # (wall arrival, the sample's t) of each command (Zenoh's thread)
+                bot.client.subscribe("motors/wheels", lambda msg: wheels.append((time.time(), msg.t)))
                 program = threading.Thread(target=_drive, args=(bot, stop, failures), daemon=True)
                 program.start()
                 stop.wait(SETTLE)
                 stack.check()
-                p0, w0 = stack.sample(), time.monotonic()
+                p0, w0, start = stack.sample(), time.monotonic(), time.time()
                 stop.wait(window)  # the window: the program drives, the board turns the wheels
                 p1, w1, end = stack.sample(), time.monotonic(), time.time()
                 stack.check()
@@ -94,7 +101,8 @@ def run(window: float, log_dir: Path, compose: tuple[str, ...] = ()) -> BoardRun
             stack.stop()
     span = w1 - w0
     cores = {key[1]: (p1[key].cpu - p0[key].cpu) / span for key in p1 if key in p0}
-    return BoardRun(cores, rate, failures)
+    ages = [1e3 * (arrival - t) for arrival, t in list(wheels) if start <= arrival <= end]
+    return BoardRun(cores, rate, Stats.of(ages), failures)
 
 
 def _drive(bot: Robot, stop: threading.Event, failures: list[str]) -> None:
@@ -124,7 +132,8 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="zenav-bench-board-") as logs:
         for name, r in measure(a.seconds, Path(logs)).items():
             each = ", ".join(f"{p} {c:.3f}" for p, c in r.cores.items())
-            print(f"{name}: {r.robot:.3f} of a core besides the router ({each}); encoders {r.encoders_hz:.0f}/s")
+            lat = f"sample to wheels p50 {r.latency.p50:.2f} ms, p99 {r.latency.p99:.2f} ms"
+            print(f"{name}: {r.robot:.3f} of a core besides the router ({each}); encoders {r.encoders_hz:.0f}/s; {lat}")
             for f in r.goal_failures:
                 print(f"  goal failed: {f}")
     return 0

@@ -378,7 +378,8 @@ def boards(res: Results) -> list[str]:
     for name, r in res.boards.items():
         each = ", ".join(f"{p} {fmt(c, 3)}" for p, c in r.cores.items() if p != "router")
         failed = "; ".join(r.goal_failures) or "none"
-        rows.append([name, f"**{fmt(r.robot, 3)}**", each, fmt(r.cores.get("router", math.nan), 3), fmt(r.encoders_hz, 0), failed])
+        router, lat = fmt(r.cores.get("router", math.nan), 3), f"{fmt(r.latency.p50)} / {fmt(r.latency.p99)}"
+        rows.append([name, f"**{fmt(r.robot, 3)}**", each, router, fmt(r.encoders_hz, 0), lat, failed])
     return [
         f"### The robot computer: the robot profile on the emulated board ({res.plan.board_window:g} s windows)",
         "",
@@ -387,9 +388,14 @@ def boards(res: Results) -> list[str]:
         f"board (a pseudo-terminal at {BAUD} baud, in the bench's process: its CPU is the board's), while a program "
         f"drives a {board.SQUARE[0][0]:g} m square at {board.SPEED:g} m/s with no VPS. CPU per wall second from /proc; "
         "the encoder samples the odometry took a second, over the window's last (the driver's `sensor_rate`: "
-        f"{DriverConfig().sensor_rate:g}). Also `python -m zenav.bench.board --seconds 20`.",
+        f"{DriverConfig().sensor_rate:g}); `sample to wheels`: from the driver's stamp of an encoder sample to the "
+        "`motors/wheels` command made from it reaching the bench's process (composed, the driver has it a hop "
+        "sooner), the serial link's replies aside. Also `python -m zenav.bench.board --seconds 20`.",
         "",
-        *table(["deployment", "cores, router aside", "by process", "router", "encoders/s", "goals failed"], rows),
+        *table(
+            ["deployment", "cores, router aside", "by process", "router", "encoders/s", "sample to wheels p50 / p99 [ms]", "goals failed"],
+            rows,
+        ),
     ]
 
 

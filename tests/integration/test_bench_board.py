@@ -12,3 +12,4 @@ def test_the_robot_profile_drives_the_emulated_board_and_each_process_is_measure
     assert all(c > 0.0 for c in r.cores.values()), r.cores
     assert r.robot == r.cores["driver"] + r.cores["composed"]
     assert r.encoders_hz > 50.0  # the driver polls the board at its sensor rate (100 Hz), the odometry takes them
+    assert r.latency.n > 50 and 0.0 < r.latency.p50 < r.latency.max  # each command's age, from the sample it was made from
