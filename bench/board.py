@@ -5,11 +5,13 @@ the board's, not the robot computer's) and the profile's services as `zenav up
 --profile robot` starts them (the wall clock, services as Zenoh peers of one router),
 while a program drives a square at SPEED with no VPS (its pose set at the start). Each
 deployment in turn: every service its own process, the four robot services in one, all
-five in one. Over the window: each process's CPU (/proc); the rate the odometry took the
-driver's encoder samples at (its diag: whether the driver kept its sensor rate); and each
-`motors/wheels` command's age as it reached this process, from the driver's stamp of the
-encoder sample it was computed from (its `t`, on the wall clock): the control loop's
-latency on the robot computer, the serial link's replies aside.
+five in one. Over the window: each process's CPU (/proc), and the rate the odometry took
+the driver's encoder samples at (its diag: whether the driver kept its sensor rate). Then,
+for half a window more, each `motors/wheels` command's age as it reaches this process,
+from the driver's stamp of the encoder sample it was made from (its `t`, on the wall
+clock): the control loop's latency on the robot computer, the serial link's replies
+aside. Not in the CPU window: composed, the command leaves the process only for someone
+outside who listens, and would cost it that.
 
 `python -m zenav.bench.board --seconds 20` runs it alone.
 """
@@ -68,7 +70,8 @@ def args(link: str) -> list[str]:
 
 
 def run(window: float, log_dir: Path, compose: tuple[str, ...] = ()) -> BoardRun:
-    """Start the board and the profile's services (`compose` in one process), drive, measure `window` wall seconds."""
+    """Start the board and the profile's services (`compose` in one process), drive: CPU over `window` wall seconds,
+    then the commands' ages over half as long."""
     names = services.PROFILES["robot"].services
     with tempfile.TemporaryDirectory(prefix="zenav-board-") as tmp, Emulator(f"{tmp}/board", ticks_per_rev=TICKS) as emu:
         stack = ProcStack(("r1",), names, log_dir, args(emu.link), compose=compose).start()
@@ -79,17 +82,19 @@ def run(window: float, log_dir: Path, compose: tuple[str, ...] = ()) -> BoardRun
                 bot.set_pose(0.0, 0.0, 0.0)
                 bot.wait_ready(timeout=START_TIMEOUT)
                 diag = bot.client.latest("diag/odometry")
-                wheels: list[tuple[float, float]] = []  # (wall arrival, the sample's t) of each command (Zenoh's thread)
-                bot.client.subscribe("motors/wheels", lambda msg: wheels.append((time.time(), msg.t)))
                 program = threading.Thread(target=_drive, args=(bot, stop, failures), daemon=True)
                 program.start()
                 stop.wait(SETTLE)
                 stack.check()
-                p0, w0, start = stack.sample(), time.monotonic(), time.time()
+                p0, w0 = stack.sample(), time.monotonic()
                 stop.wait(window)  # the window: the program drives, the board turns the wheels
                 p1, w1, end = stack.sample(), time.monotonic(), time.time()
                 stack.check()
                 rate = diag.wait(lambda d: d.t >= end, timeout=DIAG_WAIT).rates.get("sensors/encoders", 0.0)
+                ages: list[float] = []  # [ms] of each command as it comes (on Zenoh's thread)
+                bot.client.subscribe("motors/wheels", lambda msg: ages.append(1e3 * (time.time() - msg.t)))
+                stop.wait(window / 2.0)  # commands' ages, after the CPU window
+                stack.check()
                 stop.set()
                 try:
                     bot.stop()  # ends the running goal at once, and with it the program's loop
@@ -101,8 +106,7 @@ def run(window: float, log_dir: Path, compose: tuple[str, ...] = ()) -> BoardRun
             stack.stop()
     span = w1 - w0
     cores = {key[1]: (p1[key].cpu - p0[key].cpu) / span for key in p1 if key in p0}
-    ages = [1e3 * (arrival - t) for arrival, t in list(wheels) if start <= arrival <= end]
-    return BoardRun(cores, rate, Stats.of(ages), failures)
+    return BoardRun(cores, rate, Stats.of(list(ages)), failures)
 
 
 def _drive(bot: Robot, stop: threading.Event, failures: list[str]) -> None:

@@ -388,9 +388,9 @@ def boards(res: Results) -> list[str]:
         f"board (a pseudo-terminal at {BAUD} baud, in the bench's process: its CPU is the board's), while a program "
         f"drives a {board.SQUARE[0][0]:g} m square at {board.SPEED:g} m/s with no VPS. CPU per wall second from /proc; "
         "the encoder samples the odometry took a second, over the window's last (the driver's `sensor_rate`: "
-        f"{DriverConfig().sensor_rate:g}); `sample to wheels`: from the driver's stamp of an encoder sample to the "
-        "`motors/wheels` command made from it reaching the bench's process (composed, the driver has it a hop "
-        "sooner), the serial link's replies aside. Also `python -m zenav.bench.board --seconds 20`.",
+        f"{DriverConfig().sensor_rate:g}); `sample to wheels`: for half a window after it, from the driver's stamp of an "
+        "encoder sample to the `motors/wheels` command made from it reaching the bench's process (composed, the "
+        "driver has it a hop sooner), the serial link's replies aside. Also `python -m zenav.bench.board --seconds 20`.",
         "",
         *table(
             ["deployment", "cores, router aside", "by process", "router", "encoders/s", "sample to wheels p50 / p99 [ms]", "goals failed"],
