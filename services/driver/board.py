@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import select
 import time
 from collections.abc import Callable
@@ -12,6 +13,8 @@ import serial
 from zenav.services.driver import protocol as p
 
 T = TypeVar("T")
+READ_SIZE = 4096  # [bytes] read at once: more than a tty holds between two looks
+DISCARD_READS = 16  # reads of stray bytes before a command, at most (a port that streams them: the rest count next time)
 
 
 class LinkLost(Exception):
@@ -26,7 +29,10 @@ class Board:
     """A board on a serial port: `ask` writes a command and returns its reply line.
 
     The protocol is strict request-reply, so bytes waiting before a command are stray
-    (a late reply, noise): they are read away and counted in `garbage` first.
+    (a late reply, noise): they are read away and counted in `garbage` first. pyserial
+    opens and sets up the port (non-blocking, a read returning at once); the exchanges
+    use its file descriptor directly: a write, then a select and a read for each chunk
+    of the reply, where pyserial's calls add a select and a size query around each.
     """
 
     def __init__(self, port: str, baud: int, timeout: float) -> None:
@@ -60,29 +66,29 @@ class Board:
 
     def ask(self, cmd: bytes) -> str:
         """Send one command and return its reply line (NoReply, LinkLost)."""
-        ser = self._port()
+        fd = self._fd()
         try:
-            self._discard(ser)
-            ser.write(cmd)
-            return self._read_line(ser, time.monotonic() + self.timeout)
-        except (serial.SerialException, OSError) as e:
+            self._discard(fd)
+            self._write(fd, cmd)
+            return self._read_line(fd, time.monotonic() + self.timeout)
+        except OSError as e:
             self.close()
             raise LinkLost(f"{self.port}: {e}") from None
 
     def resync(self) -> None:
         """Clear the board's half-parsed command with a bare CR, then read its answer away."""
-        ser = self._port()
+        fd = self._fd()
         try:
-            self._discard(ser)
-            ser.write(b"\r")
+            self._discard(fd)
+            self._write(fd, b"\r")
             try:
-                line = self._read_line(ser, time.monotonic() + self.timeout)
+                line = self._read_line(fd, time.monotonic() + self.timeout)
                 if line != p.INVALID:  # the firmware's answer to a bare CR; anything else is stray
                     self.garbage += len(line)
             except NoReply:
                 pass
             self._lines.clear()
-        except (serial.SerialException, OSError) as e:
+        except OSError as e:
             self.close()
             raise LinkLost(f"{self.port}: {e}") from None
 
@@ -117,30 +123,56 @@ class Board:
             self.garbage += len(line)
             raise
 
-    def _port(self) -> serial.Serial:
+    def _fd(self) -> int:
         if self._ser is None:
             raise LinkLost(f"{self.port} is not open")
-        return self._ser
+        return self._ser.fileno()
 
-    def _discard(self, ser: serial.Serial) -> None:
+    def _discard(self, fd: int) -> None:
         """Read away whatever waits; count all but whitespace as garbage."""
-        waiting = ser.in_waiting
-        if waiting:
-            self.garbage += len(ser.read(waiting).strip())
+        for _ in range(DISCARD_READS):
+            data = _read(fd)
+            if not data:
+                break
+            self.garbage += len(data.strip())
         self._lines.clear()
         self.garbage += self._lines.dropped
         self._lines.dropped = 0
 
-    def _read_line(self, ser: serial.Serial, deadline: float) -> str:
+    def _write(self, fd: int, data: bytes) -> None:
+        """All of `data`, waiting for room in the port's buffer at most the reply timeout (OSError then)."""
+        deadline = time.monotonic() + self.timeout
+        while data:
+            try:
+                data = data[os.write(fd, data) :]
+            except BlockingIOError:
+                pass
+            if data and not select.select([], [fd], [], max(deadline - time.monotonic(), 0.0))[1]:
+                raise OSError(f"write timed out after {self.timeout * 1e3:.0f} ms")
+
+    def _read_line(self, fd: int, deadline: float) -> str:
         """The next complete non-empty line before `deadline` (monotonic [s]); earlier lines count as garbage."""
         while True:
             left = deadline - time.monotonic()
             if left <= 0.0:
                 raise NoReply(f"no reply within {self.timeout * 1e3:.0f} ms")
-            ready, _, _ = select.select([ser.fileno()], [], [], left)
-            if not ready:
+            if not select.select([fd], [], [], left)[0]:
                 continue
-            lines = self._lines.feed(ser.read(max(ser.in_waiting, 1)))
+            data = _read(fd)
+            if data is None:
+                continue  # readable a moment ago, not now
+            if not data:
+                raise OSError("the port is readable but returns nothing (unplugged?)")
+            lines = self._lines.feed(data)
             if lines:
                 self.garbage += sum(len(line) for line in lines[:-1])
                 return lines[-1]
+
+
+def _read(fd: int) -> bytes | None:
+    """What the port holds now: b"" when nothing (pyserial sets the tty to return at once), None when a
+    non-blocking read would wait."""
+    try:
+        return os.read(fd, READ_SIZE)
+    except BlockingIOError:
+        return None
