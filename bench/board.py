@@ -26,7 +26,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from zenav import services
+from zenav.bench import trials
 from zenav.bench.latency import Stats
+from zenav.common import messages as m
 from zenav.common.client import ZenavError
 from zenav.robot import Robot
 from zenav.stack.composed import ROBOT_SERVICES
@@ -36,7 +38,8 @@ from zenav.tools.arduino_emulator import Emulator
 TICKS = 1440  # [ticks/rev] the emulated encoders, and [robot] ticks_per_rev
 SPEED = 0.15  # [m/s] what the board's PID holds on the emulated motors
 SQUARE = ((0.5, 0.0), (0.5, 0.5), (0.0, 0.5), (0.0, 0.0))  # [m] corners driven in a loop
-GOAL_WAIT = 20.0  # [s] one corner, at most
+TOLERANCE = 0.03  # [m] a corner reached
+GOAL_WAIT = 20.0  # [s] for the program's goal to end after the stop
 START_TIMEOUT = 30.0  # [s] for the services to come up and the navigator to take goals
 SETTLE = 2.0  # [s] of driving before the window opens
 DIAG_WAIT = 5.0  # [s] for the odometry's diag after the window (one a second)
@@ -75,15 +78,14 @@ def run(window: float, log_dir: Path, compose: tuple[str, ...] = ()) -> BoardRun
     names = services.PROFILES["robot"].services
     with tempfile.TemporaryDirectory(prefix="zenav-board-") as tmp, Emulator(f"{tmp}/board", ticks_per_rev=TICKS) as emu:
         stack = ProcStack(("r1",), names, log_dir, args(emu.link), compose=compose).start()
-        stop, failures = threading.Event(), list[str]()
+        stop, goals = threading.Event(), list[trials.GoalEnd]()
         try:
             with Robot("r1", stack.endpoint, lease=False) as bot:
                 bot.client.wait_alive(names, timeout=START_TIMEOUT)
                 bot.set_pose(0.0, 0.0, 0.0)
-                bot.wait_ready(timeout=START_TIMEOUT)
+                trials.wait_ready(bot, 1.0, START_TIMEOUT, names)
                 diag = bot.client.latest("diag/odometry")
-                program = threading.Thread(target=_drive, args=(bot, stop, failures), daemon=True)
-                program.start()
+                program = trials.drive(bot, goals, stop, 1.0, SQUARE, speed=SPEED, tolerance=TOLERANCE)
                 stop.wait(SETTLE)
                 stack.check()
                 p0, w0 = stack.sample(), time.monotonic()
@@ -91,10 +93,13 @@ def run(window: float, log_dir: Path, compose: tuple[str, ...] = ()) -> BoardRun
                 p1, w1, end = stack.sample(), time.monotonic(), time.time()
                 stack.check()
                 rate = diag.wait(lambda d: d.t >= end, timeout=DIAG_WAIT).rates.get("sensors/encoders", 0.0)
-                ages: list[float] = []  # [ms] of each command as it comes (on Zenoh's thread)
-                bot.client.subscribe("motors/wheels", lambda msg: ages.append(1e3 * (time.time() - msg.t)))
+                ages: list[float] = []  # [ms] of each command made from a sample as it comes (on Zenoh's thread)
+                bot.client.subscribe("motors/wheels", lambda msg: _age(msg, ages))
                 stop.wait(window / 2.0)  # commands' ages, after the CPU window
                 stack.check()
+                taken = ages[:]  # before the stop's zero, which comes from no sample
+                if not program.is_alive():
+                    raise RuntimeError("the program driving the square ended before the window did: see its traceback")
                 stop.set()
                 try:
                     bot.stop()  # ends the running goal at once, and with it the program's loop
@@ -106,22 +111,14 @@ def run(window: float, log_dir: Path, compose: tuple[str, ...] = ()) -> BoardRun
             stack.stop()
     span = w1 - w0
     cores = {key[1]: (p1[key].cpu - p0[key].cpu) / span for key in p1 if key in p0}
-    return BoardRun(cores, rate, Stats.of(list(ages)), failures)
+    return BoardRun(cores, rate, Stats.of(taken), trials.failed(goals))
 
 
-def _drive(bot: Robot, stop: threading.Event, failures: list[str]) -> None:
-    """The square's corners in a loop until `stop`; goals that did not succeed are noted."""
-    while not stop.is_set():
-        for x, y in SQUARE:
-            if stop.is_set():
-                break
-            try:
-                end = bot.move_to_point(x, y, speed=SPEED, tolerance=0.03).wait(timeout=GOAL_WAIT)
-            except (ZenavError, TimeoutError) as e:
-                failures.append(f"({x}, {y}): {e}")
-                continue
-            if not end.succeeded and not stop.is_set():
-                failures.append(f"({x}, {y}): {end}")
+def _age(msg: m.Wheels, ages: list[float]) -> None:
+    """Note a wheel command's age [ms] from the encoder sample it was made from; one stamped t = 0 ("now": a stop,
+    a goal's end) was made from none."""
+    if msg.t > 0.0:
+        ages.append(1e3 * (time.time() - msg.t))
 
 
 def measure(window: float, log_dir: Path) -> dict[str, BoardRun]:

@@ -176,9 +176,7 @@ def run(
         chain=chain,
         bench_cpu=(self1.user + self1.system) - (self0.user + self0.system),
         machine_busy=(busy1[0] - busy0[0]) / max(busy1[1] - busy0[1], 1e-9),
-        goal_failures=[
-            f"{r}: {g.result}: {g.message}" for r, gs in goals.items() for g in gs if g.result not in ("succeeded", "cancelled")
-        ],
+        goal_failures=[f"{r}: {f}" for r, gs in goals.items() for f in trials.failed(gs)],
     )
 
 

@@ -84,10 +84,10 @@ class Trial:
         return [g.t_end - g.t_start for g in self.goals if g.kind == kind and g.result == "succeeded"]
 
 
-def wait_ready(bot: Robot, rtf: float, timeout: float = 60.0) -> None:
-    """Block until the stack clock has passed the warm-up and the navigator would take a goal."""
+def wait_ready(bot: Robot, rtf: float, timeout: float = 60.0, names: Sequence[str] = services.NAMES) -> None:
+    """Block until the stack clock has passed the warm-up and the navigator would take a goal (`names` running)."""
     bot.client.latest("pose").wait(lambda p: p.t >= WARMUP, timeout=timeout + WARMUP / rtf)
-    bot.wait_ready(timeout, services=services.NAMES)
+    bot.wait_ready(timeout, services=names)
 
 
 def _goal(bot: Robot, rtf: float, kind: str, send: Callable[[], Goal], target: tuple) -> GoalEnd:
@@ -114,12 +114,21 @@ def _goal(bot: Robot, rtf: float, kind: str, send: Callable[[], Goal], target: t
     return GoalEnd(kind, target, result, t_start, t_end, message)
 
 
-def square(bot: Robot, goals: list[GoalEnd], rtf: float, laps: float, stop: threading.Event | None = None) -> None:
-    """Seed 003's square: move_to_point around the 1 m square back to the start, `laps` times (or until `stop`)."""
-    for x, y in itertools.islice(itertools.cycle(SQUARE), round(len(SQUARE) * laps)):
+def square(
+    bot: Robot,
+    goals: list[GoalEnd],
+    rtf: float,
+    laps: float,
+    stop: threading.Event | None = None,
+    corners: Sequence[tuple[float, float]] = SQUARE,
+    **move: float,
+) -> None:
+    """Seed 003's square (or `corners`): move_to_point (with `move`'s options) around it back to the start,
+    `laps` times (or until `stop`)."""
+    for x, y in itertools.islice(itertools.cycle(corners), round(len(corners) * laps)):
         if stop is not None and stop.is_set():
             return
-        goals.append(_goal(bot, rtf, "point", partial(bot.move_to_point, x, y), (x, y)))
+        goals.append(_goal(bot, rtf, "point", partial(bot.move_to_point, x, y, **move), (x, y)))
 
 
 def path(bot: Robot, goals: list[GoalEnd], rtf: float) -> None:
@@ -134,8 +143,20 @@ def turns(bot: Robot, goals: list[GoalEnd], rtf: float, headings_deg: Sequence[f
         goals.append(_goal(bot, rtf, "turn", partial(bot.turn_to_heading, heading), (heading,)))
 
 
-def drive(bot: Robot, goals: list[GoalEnd], stop: threading.Event, rtf: float) -> threading.Thread:
+def drive(
+    bot: Robot,
+    goals: list[GoalEnd],
+    stop: threading.Event,
+    rtf: float,
+    corners: Sequence[tuple[float, float]] = SQUARE,
+    **move: float,
+) -> threading.Thread:
     """Drive squares in a thread until `stop` is set and the goal running then ends (Robot.stop ends it at once)."""
-    th = threading.Thread(target=square, args=(bot, goals, rtf, 10**6, stop), name="zenav-bench-drive", daemon=True)
+    th = threading.Thread(target=square, args=(bot, goals, rtf, 10**6, stop, corners), kwargs=move, name="zenav-bench-drive", daemon=True)
     th.start()
     return th
+
+
+def failed(goals: Sequence[GoalEnd]) -> list[str]:
+    """The goals that did not succeed (a stop's cancel aside): target, result, why."""
+    return [f"{g.target}: {g.result}: {g.message}" for g in goals if g.result not in ("succeeded", "cancelled")]
