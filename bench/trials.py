@@ -121,14 +121,15 @@ def square(
     laps: float,
     stop: threading.Event | None = None,
     corners: Sequence[tuple[float, float]] = SQUARE,
-    **move: float,
+    speed: float | None = None,
+    tolerance: float | None = None,
 ) -> None:
-    """Seed 003's square (or `corners`): move_to_point (with `move`'s options) around it back to the start,
-    `laps` times (or until `stop`)."""
+    """Seed 003's square (or `corners`): move_to_point around it back to the start, `laps` times (or until `stop`);
+    speed [m/s] and tolerance [m] default to the navigator's."""
     for x, y in itertools.islice(itertools.cycle(corners), round(len(corners) * laps)):
         if stop is not None and stop.is_set():
             return
-        goals.append(_goal(bot, rtf, "point", partial(bot.move_to_point, x, y, **move), (x, y)))
+        goals.append(_goal(bot, rtf, "point", partial(bot.move_to_point, x, y, speed=speed, tolerance=tolerance), (x, y)))
 
 
 def path(bot: Robot, goals: list[GoalEnd], rtf: float) -> None:
@@ -149,10 +150,13 @@ def drive(
     stop: threading.Event,
     rtf: float,
     corners: Sequence[tuple[float, float]] = SQUARE,
-    **move: float,
+    speed: float | None = None,
+    tolerance: float | None = None,
 ) -> threading.Thread:
     """Drive squares in a thread until `stop` is set and the goal running then ends (Robot.stop ends it at once)."""
-    th = threading.Thread(target=square, args=(bot, goals, rtf, 10**6, stop, corners), kwargs=move, name="zenav-bench-drive", daemon=True)
+    th = threading.Thread(
+        target=square, args=(bot, goals, rtf, 10**6, stop, corners, speed, tolerance), name="zenav-bench-drive", daemon=True
+    )
     th.start()
     return th
 

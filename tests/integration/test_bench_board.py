@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from zenav.bench import board
+from zenav.common import messages as m
 from zenav.stack.composed import ROBOT_SERVICES
 
 
@@ -12,4 +13,13 @@ def test_the_robot_profile_drives_the_emulated_board_and_each_process_is_measure
     assert all(c > 0.0 for c in r.cores.values()), r.cores
     assert r.robot == r.cores["driver"] + r.cores["composed"]
     assert r.encoders_hz > 50.0  # the driver polls the board at its sensor rate (100 Hz), the odometry takes them
-    assert r.latency.n > 50 and 0.0 < r.latency.p50 < r.latency.max  # each command's age, from the sample it was made from
+    assert r.latency.n > 50 and 0.0 < r.latency.p50 < r.latency.max < 1e3  # each command's age, from the sample it was made from
+    assert r.goal_failures == []
+
+
+def test_a_wheel_command_made_from_no_sample_has_no_age():
+    ages: list[float] = []
+    board._age(m.Wheels(t=0.0, left=0.0, right=0.0), ages)  # a stop's zero: "now"
+    assert ages == []
+    board._age(m.Wheels(t=1.0, left=0.0, right=0.0), ages)  # an encoder sample's, stamped on the wall clock
+    assert len(ages) == 1 and ages[0] > 1e6
