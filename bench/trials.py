@@ -27,6 +27,7 @@ from zenav.robot import Goal, Robot
 WARMUP = scoring.WARMUP  # [s] of stack time before the first goal too (the localizer's first fixes)
 GOAL_TIMEOUT = 60.0  # [s] of stack time a goal may take
 RECOVER = 1.0  # [s] of stack time poses must flow again after a failed goal before the next (not a burst of refusals)
+ENDED_WELL = ("succeeded", "cancelled")  # goal results that are no failure (a stop cancels the goal running)
 RECORDED = ("sim/truth", "odom", "pose", "vps/pose", "localizer/fixes", "sensors/imu", "sensors/compass")
 
 
@@ -105,7 +106,7 @@ def _goal(bot: Robot, rtf: float, kind: str, send: Callable[[], Goal], target: t
         result, t_end, message = e.code, math.nan, e.message
     except TimeoutError as e:
         result, t_end, message = "timeout", math.nan, str(e)
-    if result not in ("succeeded", "cancelled"):
+    if result not in ENDED_WELL:
         since = poses.msg.t
         try:
             poses.wait(lambda p: p.t >= since + RECOVER, timeout=GOAL_TIMEOUT / rtf)
@@ -163,4 +164,4 @@ def drive(
 
 def failed(goals: Sequence[GoalEnd]) -> list[str]:
     """The goals that did not succeed (a stop's cancel aside): target, result, why."""
-    return [f"{g.target}: {g.result}: {g.message}" for g in goals if g.result not in ("succeeded", "cancelled")]
+    return [f"{g.target}: {g.result}: {g.message}" for g in goals if g.result not in ENDED_WELL]
