@@ -163,7 +163,7 @@ def _around_fix(res: Results) -> list[str]:
         "the gap after the next odom sample, once that sample's pose is out, so no sample should wait for it. In "
         "each run above, the localizer's stage and end to end of the odom samples that reached the observer within "
         f"{NEAR_FIX * 1e3:g} ms after a fix (those a fix served as it came would hold up), beside the others "
-        "(composed, the services' outputs leave the process together: end to end only). [ms]",
+        "(composed, the services' outputs leave the process after the samples they lead to: end to end only). [ms]",
         "",
         *table(header, rows),
     ]
