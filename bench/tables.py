@@ -64,11 +64,12 @@ def _chain_rows(chain: dict[str, list[float]]) -> list[list[str]]:
 
 
 def _composed_rows(chain: dict[str, list[float]]) -> list[list[str]]:
-    """The chain's rows composed: delivery, the robot's services as one stage (the sum of theirs, sample by
-    sample: whatever order their outputs leave the process in), end to end."""
-    services = [sum(parts) for parts in zip(*(chain[s] for s in STAGES[1:]))]
+    """The chain's rows composed: delivery, the robot's services as one stage (from the encoder sample's arrival
+    to the wheel command's: end to end less delivery, sample by sample), end to end."""
+    delivery, e2e = chain[STAGES[0]], chain[END_TO_END]
+    services = [e - d for e, d in zip(e2e, delivery)]
     name = f"{STAGES[1]} to {STAGES[-1]}, in one process"
-    return [_stats_row(STAGES[0], chain[STAGES[0]]), _stats_row(name, services), _stats_row(f"**{END_TO_END}**", chain[END_TO_END])]
+    return [_stats_row(STAGES[0], delivery), _stats_row(name, services), _stats_row(f"**{END_TO_END}**", e2e)]
 
 
 def latency(res: Results) -> list[str]:
