@@ -155,7 +155,7 @@ def topics(args: argparse.Namespace, key: str, bus: ZenohBus) -> int:
     default the robot's keys and the field's, which every robot shares: the camera, the robots' bodies)."""
     samples = listen(bus, key, keys.field_key("**")) if args.key == "**" else listen(bus, key)
     deadline = time.monotonic() + args.window
-    tokens = [str(r.ok.key_expr) for r in bus.session.liveliness().get(key, timeout=args.window) if r.ok is not None]
+    tokens = bus.tokens(key, timeout=args.window)
     arrivals: dict[str, list[float]] = {}
     sizes: dict[str, int] = {}
     kinds: dict[str, str] = {}

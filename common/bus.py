@@ -83,7 +83,7 @@ class Bus(Protocol):
     def watch_tokens(self, key: str, callback: TokenCallback) -> Handle: ...
 
     def tokens(self, key: str, timeout: float = 2.0) -> list[str]:
-        """Keys of the liveliness tokens matching `key` that are declared now."""
+        """Keys of the liveliness tokens matching `key` that are declared now (this bus's own too), sorted, each once."""
 
     def close(self) -> None: ...
 
@@ -197,7 +197,7 @@ class MemoryBus:
 
     def tokens(self, key: str, timeout: float = 2.0) -> list[str]:
         ke = zenoh.KeyExpr(key)
-        return [k for (k,) in self._tokens if ke.intersects(zenoh.KeyExpr(k))]
+        return sorted({k for (k,) in self._tokens if ke.intersects(zenoh.KeyExpr(k))})
 
     def watch_tokens(self, key: str, callback: TokenCallback) -> Handle:
         entry = (zenoh.KeyExpr(key), callback)
@@ -280,6 +280,22 @@ def _direct(fn: Callable) -> zenoh.handlers.Callback:
 _MSGPACK = zenoh.Encoding(MSGPACK)
 
 
+class _ZToken:
+    """A liveliness token, its key in its bus's list of its own while it is declared."""
+
+    def __init__(self, token: zenoh.LivelinessToken, key: str, own: list[str]) -> None:
+        self._token: zenoh.LivelinessToken | None = token
+        self._key, self._own = key, own
+        own.append(key)
+
+    def undeclare(self) -> None:
+        if self._token is None:
+            return
+        token, self._token = self._token, None
+        self._own.remove(self._key)
+        token.undeclare()
+
+
 class _ZQuery:
     """A Zenoh query as the runtime sees it; replies are sent on the queryable's own key."""
 
@@ -335,6 +351,7 @@ class ZenohBus:
         self._pubs: dict[str, zenoh.Publisher] = {}
         self._lock = threading.Lock()
         self._handles: list = []
+        self._own: list[str] = []  # keys of the tokens this bus holds (a key twice if declared twice)
 
     @classmethod
     def open(
@@ -399,7 +416,7 @@ class ZenohBus:
         return h
 
     def token(self, key: str) -> Handle:
-        h = self.session.liveliness().declare_token(key)
+        h = _ZToken(self.session.liveliness().declare_token(key), key, self._own)
         self._handles.append(h)
         return h
 
@@ -412,7 +429,12 @@ class ZenohBus:
         return h
 
     def tokens(self, key: str, timeout: float = 2.0) -> list[str]:
-        return [str(r.ok.key_expr) for r in self.session.liveliness().get(key, timeout=timeout) if r.ok is not None]
+        # Zenoh answers a session's query for its own token zero to two times (its own reply, the router's
+        # echo): that part comes from what this bus holds
+        ke = zenoh.KeyExpr(key)
+        found = {str(r.ok.key_expr) for r in self.session.liveliness().get(key, timeout=timeout) if r.ok is not None}
+        found.update(k for k in self._own if ke.intersects(zenoh.KeyExpr(k)))
+        return sorted(found)
 
     def get(self, selector: str, payload: bytes | None = None, timeout: float = 5.0, urgent: bool = False) -> list[tuple[bool, bytes]]:
         """Query and collect the replies as (ok, payload) pairs.

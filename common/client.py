@@ -215,14 +215,8 @@ class Client:
         return Sampled(newest, keys.TOPICS[suffix])
 
     def alive(self, timeout: float = 1.0) -> set[str]:
-        """The services whose liveliness token is present now (a Zenoh session's bus only)."""
-        if not isinstance(self.bus, ZenohBus):
-            raise TypeError("alive() asks a Zenoh session; use wait_alive() on other buses")
-        names = set()
-        for rep in self.bus.session.liveliness().get(self.key("alive/*"), timeout=timeout):
-            if rep.ok is not None:
-                names.add(str(rep.ok.key_expr).rsplit("/", 1)[-1])
-        return names
+        """The services whose liveliness token is present now."""
+        return {key.rsplit("/", 1)[-1] for key in self.bus.tokens(self.key("alive/*"), timeout)}
 
     def wait_alive(self, services: Iterable[str], timeout: float = 30.0) -> set[str]:
         """Block until every named service has its token; TimeoutError names the missing."""
