@@ -433,7 +433,7 @@ class ZenohBus:
         # echo): that part comes from what this bus holds
         ke = zenoh.KeyExpr(key)
         found = {str(r.ok.key_expr) for r in self.session.liveliness().get(key, timeout=timeout) if r.ok is not None}
-        found.update(k for k in self._own if ke.intersects(zenoh.KeyExpr(k)))
+        found.update(k for k in list(self._own) if ke.intersects(zenoh.KeyExpr(k)))  # a copy: tokens come and go meanwhile
         return sorted(found)
 
     def get(self, selector: str, payload: bytes | None = None, timeout: float = 5.0, urgent: bool = False) -> list[tuple[bool, bytes]]:
