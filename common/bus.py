@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import os
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import Any, Protocol, cast
 
 import zenoh
@@ -48,6 +48,12 @@ QueryCallback = Callable[[Query], None]
 
 class Handle(Protocol):
     def undeclare(self) -> None: ...
+
+
+def _matching(key: str, held: Iterable[str]) -> set[str]:
+    """The keys among `held` that the key expression `key` matches."""
+    ke = zenoh.KeyExpr(key)
+    return {k for k in held if ke.intersects(zenoh.KeyExpr(k))}
 
 
 def undeclare_all(handles: list[Handle]) -> None:
@@ -196,8 +202,7 @@ class MemoryBus:
         return [k for (k,) in self._tokens]
 
     def tokens(self, key: str, timeout: float = 2.0) -> list[str]:
-        ke = zenoh.KeyExpr(key)
-        return sorted({k for (k,) in self._tokens if ke.intersects(zenoh.KeyExpr(k))})
+        return sorted(_matching(key, (k for (k,) in self._tokens)))
 
     def watch_tokens(self, key: str, callback: TokenCallback) -> Handle:
         entry = (zenoh.KeyExpr(key), callback)
@@ -281,19 +286,20 @@ _MSGPACK = zenoh.Encoding(MSGPACK)
 
 
 class _ZToken:
-    """A liveliness token, its key in its bus's list of its own while it is declared."""
+    """A liveliness token and its key, which its bus lists among its own while it is declared."""
 
-    def __init__(self, token: zenoh.LivelinessToken, key: str, own: list[str]) -> None:
+    def __init__(self, token: zenoh.LivelinessToken, key: str) -> None:
         self._token: zenoh.LivelinessToken | None = token
-        self._key, self._own = key, own
-        own.append(key)
+        self.key = key
+
+    @property
+    def declared(self) -> bool:
+        return self._token is not None
 
     def undeclare(self) -> None:
-        if self._token is None:
-            return
         token, self._token = self._token, None
-        self._own.remove(self._key)
-        token.undeclare()
+        if token is not None:
+            token.undeclare()
 
 
 class _ZQuery:
@@ -351,7 +357,6 @@ class ZenohBus:
         self._pubs: dict[str, zenoh.Publisher] = {}
         self._lock = threading.Lock()
         self._handles: list = []
-        self._own: list[str] = []  # keys of the tokens this bus holds (a key twice if declared twice)
 
     @classmethod
     def open(
@@ -416,7 +421,7 @@ class ZenohBus:
         return h
 
     def token(self, key: str) -> Handle:
-        h = _ZToken(self.session.liveliness().declare_token(key), key, self._own)
+        h = _ZToken(self.session.liveliness().declare_token(key), key)
         self._handles.append(h)
         return h
 
@@ -431,10 +436,9 @@ class ZenohBus:
     def tokens(self, key: str, timeout: float = 2.0) -> list[str]:
         # Zenoh answers a session's query for its own token zero to two times (its own reply, the router's
         # echo): that part comes from what this bus holds
-        ke = zenoh.KeyExpr(key)
         found = {str(r.ok.key_expr) for r in self.session.liveliness().get(key, timeout=timeout) if r.ok is not None}
-        found.update(k for k in list(self._own) if ke.intersects(zenoh.KeyExpr(k)))  # a copy: tokens come and go meanwhile
-        return sorted(found)
+        held = [h.key for h in list(self._handles) if isinstance(h, _ZToken) and h.declared]  # a copy: handles come meanwhile
+        return sorted(found | _matching(key, held))
 
     def get(self, selector: str, payload: bytes | None = None, timeout: float = 5.0, urgent: bool = False) -> list[tuple[bool, bytes]]:
         """Query and collect the replies as (ok, payload) pairs.
