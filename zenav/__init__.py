@@ -1,9 +1,5 @@
 """zenav: localization and navigation for differential-drive robots, over Eclipse Zenoh.
 
-The repository keeps its folders at the top level (common/, services/, cli/, ...);
-this package links them under one `zenav` name, so that an installed zenav and the
-type and import checkers see the same modules.
-
 `from zenav import Robot` is the robot library (`zenav.robot`; `zenav.aio` for asyncio),
 imported on first use so that `import zenav` alone loads no Zenoh.
 """

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import asyncio
 import functools
-from collections.abc import AsyncIterator, Callable, Generator, Iterable, Sequence
+from collections.abc import AsyncIterator, Awaitable, Callable, Generator, Iterable, Sequence
 from typing import Any
 
 from zenav.common import messages as m
@@ -32,6 +32,15 @@ from zenav.robot import Goal as SyncGoal
 from zenav.robot import Robot as SyncRobot
 
 __all__ = ["Goal", "Robot"]
+
+
+async def _within(aw: Awaitable[object], timeout: float | None) -> bool:
+    """Await `aw`; False (and `aw` cancelled) if it did not finish in `timeout` seconds (None: no limit)."""
+    try:
+        await asyncio.wait_for(aw, timeout)
+    except asyncio.TimeoutError:  # Python 3.10's is not the built-in TimeoutError
+        return False
+    return True
 
 
 class Goal:
@@ -67,11 +76,12 @@ class Goal:
     async def wait_until(self, distance: float, timeout: float | None = None) -> bool:
         """True once the robot has travelled `distance` [m] (a turn: turned [rad]) in this goal; False if the goal
         ended short of it; TimeoutError if neither happened in `timeout` seconds."""
-        try:
-            async with asyncio.timeout(timeout):
-                with self._goal._marked(distance):
-                    await self._robot._until(functools.partial(self._goal._reached, distance))
-        except TimeoutError:
+
+        async def reached() -> None:
+            with self._goal._marked(distance):
+                await self._robot._until(functools.partial(self._goal._reached, distance))
+
+        if not await _within(reached(), timeout):
             try:
                 return await asyncio.to_thread(self._goal.wait_until, distance, 0.0)  # asks nav/status whether it ended unseen
             except TimeoutError:
@@ -84,10 +94,7 @@ class Goal:
 
     async def wait(self, timeout: float | None = None) -> Result:
         """The goal's Result once it ends; TimeoutError if it did not end in `timeout` seconds."""
-        try:
-            async with asyncio.timeout(timeout):
-                await self._robot._until(self._goal.done)
-        except TimeoutError:
+        if not await _within(self._robot._until(self._goal.done), timeout):
             try:
                 return await asyncio.to_thread(self._goal.wait, 0.0)  # asks nav/status whether it ended unseen
             except TimeoutError:
@@ -97,13 +104,12 @@ class Goal:
     async def updates(self, timeout: float | None = None) -> AsyncIterator[m.NavState]:
         """Each new nav/state of this goal (the newest, if several came since the last), until it ends."""
         last: m.NavState | None = None
-        deadline = None if timeout is None else asyncio.get_running_loop().time() + timeout
+        loop = asyncio.get_running_loop()
+        deadline = None if timeout is None else loop.time() + timeout
         while True:
-            try:
-                async with asyncio.timeout_at(deadline):  # around the wait only: never across a yield
-                    await self._robot._until(functools.partial(self._news, last))
-            except TimeoutError:
-                raise TimeoutError(f"goal {self.id} did not end in {timeout} s") from None
+            left = None if deadline is None else max(0.0, deadline - loop.time())
+            if not await _within(self._robot._until(functools.partial(self._news, last)), left):  # never across a yield
+                raise TimeoutError(f"goal {self.id} did not end in {timeout} s")
             st, ended = self._goal.feedback(), self._goal.done()
             if st is not None and st is not last:
                 last = st

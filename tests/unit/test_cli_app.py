@@ -3,10 +3,15 @@
 import argparse
 import logging
 import re
-import tomllib
+import sys
 from pathlib import Path
 
 import pytest
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10
+    import tomli as tomllib
 
 from zenav import services
 from zenav.cli.main import build_parser, main
@@ -14,7 +19,7 @@ from zenav.common import app
 from zenav.common.config import OWN_SECTIONS, ConfigError, Settings, known_sections
 from zenav.services.navigator.params import Params
 
-DEFAULT_TOML = Path(__file__).resolve().parents[2] / "config" / "default.toml"
+DEFAULT_TOML = Path(__file__).resolve().parents[2] / "zenav" / "data" / "default.toml"
 
 
 def options(add) -> set[str]:

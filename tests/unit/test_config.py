@@ -1,4 +1,4 @@
-"""Configuration: defaults in code, documented in config/default.toml, bad values fail fast."""
+"""Configuration: defaults in code, documented in zenav/data/default.toml, bad values fail fast."""
 
 import re
 from importlib.resources import files
@@ -13,7 +13,7 @@ from zenav.common.config import Camera, ConfigError, Deployment, Robot, Settings
 from zenav.common.keys import SERVICES
 from zenav.common.scenarios import PRESETS, Scenario
 
-DEFAULT_TOML = Path(__file__).resolve().parents[2] / "config" / "default.toml"
+DEFAULT_TOML = Path(__file__).resolve().parents[2] / "zenav" / "data" / "default.toml"
 SECTION_TYPES = {"deployment": Deployment, "robot": Robot, "camera": Camera, **{n: services.load(n).config_type for n in SERVICES}}
 
 
@@ -118,12 +118,9 @@ def test_scenario_is_typed():
         msgspec.convert({"ticks_per_rev": 0}, Scenario)
 
 
-@pytest.mark.parametrize(
-    "name, source", [("default.toml", DEFAULT_TOML), ("foxglove-layout.json", DEFAULT_TOML.parents[1] / "docs" / "foxglove-layout.json")]
-)
-def test_the_package_ships_the_documented_files(name, source):
-    shipped = files("zenav") / "data" / name
-    assert shipped.read_text() == source.read_text()
+@pytest.mark.parametrize("name", ["default.toml", "foxglove-layout.json"])
+def test_the_package_ships_its_data_files(name):
+    assert (files("zenav") / "data" / name).read_text().strip()
 
 
 @pytest.mark.parametrize(

@@ -1,4 +1,4 @@
-"""docs/foxglove-layout.json names only topics and fields that `zenav view` and `zenav record` provide."""
+"""zenav/data/foxglove-layout.json names only topics and fields that `zenav view` and `zenav record` provide."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 from zenav.common import keys
 from zenav.tools.view import VIZ_CHANNELS
 
-LAYOUT = Path(__file__).resolve().parents[2] / "docs" / "foxglove-layout.json"
+LAYOUT = Path(__file__).resolve().parents[2] / "zenav" / "data" / "foxglove-layout.json"
 
 
 def strings(node):

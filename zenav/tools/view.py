@@ -3,7 +3,7 @@
 Two kinds of channels:
 - every contract topic, mirrored as it is on the wire: JSON with the recording's JSON
   Schema, on the recording's topic names (`/zenav/r1/odom`), so that one layout
-  (docs/foxglove-layout.json) plots the same fields live and from an MCAP file;
+  (zenav/data/foxglove-layout.json) plots the same fields live and from an MCAP file;
 - what a 3D panel draws (tools/scene.py), in Foxglove's own schemas under
   `/zenav/<robot>/viz/`: `truth`, `odom`, `pose` (PoseInFrame), `tf` (map ->
   base_link), `scene` (SceneUpdate: trails, covariance ellipse, VPS fixes, goal and

@@ -1,4 +1,4 @@
-"""The navigator's tunables: the `[navigator]` config section (documented in config/default.toml)."""
+"""The navigator's tunables: the `[navigator]` config section (documented in zenav/data/default.toml)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """Configuration: one TOML file per deployment, a section per service.
 
 Every key has a typed default in code (the service's Config struct); the file
-overrides what it names, and `config/default.toml` documents every key (a test
+overrides what it names, and `zenav/data/default.toml` documents every key (a test
 keeps the two equal). A bad or unknown key fails fast, naming the key and the
 accepted range: `config: [motor] watchdog: Expected `float` > 0.0`.
 """
@@ -12,11 +12,15 @@ import dataclasses
 import difflib
 import functools
 import re
-import tomllib
+import sys
 from dataclasses import dataclass
 from importlib import resources
 from typing import Annotated, Any, Literal, TypeVar
 
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10
+    import tomli as tomllib
 import msgspec
 from msgspec import Meta, Struct
 

@@ -9,11 +9,14 @@ import signal
 import sys
 import threading
 import time
-import tomllib
 from collections.abc import Callable, Sequence
 
 import zenoh
 
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10
+    import tomli as tomllib
 from zenav.common.bus import ZenohBus
 from zenav.common.config import ConfigError, Deployment, Settings
 from zenav.common.runtime import Duplicate, Service

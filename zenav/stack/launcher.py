@@ -167,9 +167,9 @@ class Launcher:
         """Spawn one child in its own process group, its output piped to its log."""
         c = self.children[name]
         env = {**os.environ, "PYTHONUNBUFFERED": "1", "ZENAV_PARENT_PID": str(os.getpid())}
-        # Own process group: a terminal's Ctrl-C reaches only the launcher, which
+        # Own session and process group: a terminal's Ctrl-C reaches only the launcher, which
         # then stops the children in a safe order.
-        c.proc = subprocess.Popen(c.argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, process_group=0)
+        c.proc = subprocess.Popen(c.argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, start_new_session=True)
         assert c.proc.stdout is not None
         c.pump = start_pump(c.proc.stdout, c.log, name)
         c.started, c.restart_at, c.kill_at, c.hung = self.now(), None, None, ""
