@@ -43,10 +43,10 @@ from zenav.common.client import Client, Internal, InvalidArgument, Latest, Query
 from zenav.common.geometry import wrap_angle
 from zenav.common.keys import DEFAULT_CONNECT
 from zenav.common.navgoals import STOPPED, TURNING_TO_HEADING, GoalEnd, GoalTracker
+from zenav.common.roles import DRIVE_SERVICES
 
 __all__ = ["Goal", "Internal", "InvalidArgument", "Result", "Robot", "Unavailable", "ZenavError"]
 
-DRIVE_SERVICES = ("navigator", "localizer", "odometry", "motor")  # what a goal needs alive
 CONNECT_TIMEOUT = 5.0  # [s] how long to look for the router
 QUERY_TIMEOUT = 5.0  # [s] for a reply to a query (a goal is answered when it starts)
 POSE_TIMEOUT = 5.0  # [s] pose() waits this long for a first pose

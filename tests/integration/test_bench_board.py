@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from zenav.bench import board
 from zenav.common import messages as m
-from zenav.stack.composed import ROBOT_SERVICES
+from zenav.common.roles import ROBOT_SERVICES
 
 
 def test_the_robot_profile_drives_the_emulated_board_and_each_process_is_measured(tmp_path):

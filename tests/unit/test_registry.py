@@ -63,3 +63,14 @@ def test_tools_judge_the_running_profile_by_the_services_alive():
     assert services.running({"sim", "motor", "navigator"}) == services.NAMES
     assert services.running({"driver", "motor", "odometry"}) == services.PROFILES["robot"].services
     assert services.running({"driver", "motor", "odometry", "vps", "localizer", "navigator"}) == services.PROFILES["robot"].services
+
+
+def test_every_list_of_services_comes_from_the_one_table():
+    from zenav.common import keys, roles
+
+    assert keys.SERVICES == services.ALL == roles.ALL == tuple(r.name for r in roles.TABLE)
+    assert {p for r in roles.TABLE for p in r.profiles} == set(services.PROFILES)
+    assert roles.ROBOT_SERVICES == ("odometry", "localizer", "navigator", "motor")  # the chain's order
+    assert set(roles.DRIVE_SERVICES) == set(roles.ROBOT_SERVICES)
+    assert roles.CONTROL_LOOP == ("driver", "motor", "odometry", "localizer", "navigator")
+    assert roles.ESSENTIAL == ("driver", "motor", "navigator")

@@ -30,8 +30,8 @@ from zenav.bench import trials
 from zenav.bench.latency import Stats
 from zenav.common import messages as m
 from zenav.common.client import ZenavError
+from zenav.common.roles import ROBOT_SERVICES
 from zenav.robot import Robot
-from zenav.stack.composed import ROBOT_SERVICES
 from zenav.stack.launcher import ProcStack
 from zenav.tools.arduino_emulator import Emulator
 

@@ -34,9 +34,10 @@ from zenav.common import messages as m
 from zenav.common.bus import MemoryBus
 from zenav.common.clock import ManualClock
 from zenav.common.config import Settings
+from zenav.common.roles import ROBOT_SERVICES
 from zenav.common.runtime import Service
 from zenav.common.scenarios import SQUARE
-from zenav.stack.composed import ROBOT_SERVICES, LocalBus
+from zenav.stack.composed import LocalBus
 
 RATE = 100.0  # [Hz] the reference sensor rate
 ORDER = ("sim", "odometry", "localizer", "navigator", "motor", "vps")  # the chain first, then the camera

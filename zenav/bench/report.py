@@ -20,7 +20,7 @@ from zenav.bench.profile import RATE
 from zenav.bench.run import Results
 from zenav.bench.speed import highest_by_harness
 from zenav.bench.tables import TARGET_P50_RATIO, TARGET_P99_RATIO, fmt, ratios, table
-from zenav.stack.composed import ROBOT_SERVICES
+from zenav.common.roles import ROBOT_SERVICES
 
 TARGET_P50, TARGET_P99 = 3.0, 8.0  # [ms] end to end at 100 Hz
 TARGET_CPU = 0.35  # [CPU s per simulated s] the whole stack at 100 Hz

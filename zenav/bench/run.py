@@ -32,6 +32,7 @@ from zenav.bench.plan import Plan
 from zenav.bench.profile import Cost, Hot
 from zenav.bench.speed import Row
 from zenav.bench.studies import navigator as nav_eval
+from zenav.common.roles import ROBOT_SERVICES
 from zenav.common.scenarios import PRESETS
 from zenav.services.localizer.base import MODES
 from zenav.services.navigator.params import Params
@@ -136,7 +137,7 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
     if "profile" in plan.sections:
         res.costs, res.costs_paced, res.relays = profile.measure_both(plan.profile_seconds)
         res.hot = profile.profile(min(plan.profile_seconds, 5.0))
-        robot = sum(res.costs[n].cores(profile.RATE) for n in profile.ROBOT_SERVICES)
+        robot = sum(res.costs[n].cores(profile.RATE) for n in ROBOT_SERVICES)
         note(f"profile: the robot's services take {robot:.3f} of a core at {profile.RATE:g} Hz")
         res.spied = spy.refused() or spy.deployed(plan.spy_seconds, logs)
         note(f"profile as deployed: {res.spied if isinstance(res.spied, str) else 'sampled'}")

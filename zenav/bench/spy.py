@@ -34,7 +34,7 @@ from pathlib import Path
 
 from zenav.bench import live
 from zenav.bench.profile import RATE
-from zenav.stack.composed import ROBOT_SERVICES
+from zenav.common.roles import ROBOT_SERVICES
 
 SAMPLE_RATE = 500  # [Hz] py-spy's samples of each process
 ATTACH = 30.0  # [s] allowed beyond the window for py-spy to attach and write its samples

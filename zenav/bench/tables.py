@@ -20,10 +20,10 @@ from zenav.bench.scoring import summary
 from zenav.bench.speed import METRICS, highest_by_harness
 from zenav.bench.spy import Deployed
 from zenav.common.config import Camera
+from zenav.common.roles import ROBOT_SERVICES
 from zenav.common.scenarios import HEADINGS, PATH
 from zenav.services.driver.protocol import BAUD
 from zenav.services.driver.service import DriverConfig
-from zenav.stack.composed import ROBOT_SERVICES
 
 if TYPE_CHECKING:
     from zenav.bench.run import Results

@@ -21,6 +21,7 @@ from zenav.common.bus import ZenohBus, zenoh_config
 from zenav.common.client import Client, Latest, ZenavError
 from zenav.common.config import ConfigError, Settings
 from zenav.common.navgoals import STOPPED
+from zenav.common.roles import ESSENTIAL
 from zenav.common.scenarios import SQUARE
 from zenav.robot import Goal, Result, Robot
 from zenav.services.sim.service import SimConfig
@@ -32,7 +33,6 @@ READY_STEP = 2.0  # [s] the demo asks whether the navigator is ready, saying why
 FIELD_LISTEN = 1.0  # [s] `zenav up --connect` listens this long for camera frames from another robot's sim
 DEMO_QUIET = 5.0  # [s] wall after someone else's goal ended before the demo drives again
 HANG_AFTER = 3.0  # [s] wall without a service's diag (at rtf >= 1) before it is restarted as hung
-ESSENTIAL = ("driver", "motor", "navigator")  # if one cannot run, the robot stops: zero command, whole stack stopped
 GAVE_UP_ESSENTIAL = 3  # exit status of `zenav up` that stopped because an essential service could not run
 
 

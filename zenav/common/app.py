@@ -19,13 +19,13 @@ else:  # Python 3.10
     import tomli as tomllib
 from zenav.common.bus import ZenohBus
 from zenav.common.config import ConfigError, Deployment, Settings
+from zenav.common.roles import CONTROL_LOOP
 from zenav.common.runtime import Duplicate, Service
 
 PEER_LISTEN = "tcp/127.0.0.1:0"  # a peer service's own endpoint: loopback, any free port
 LOG_LEVELS = ("DEBUG", "INFO", "WARNING", "ERROR")  # what ZENAV_LOG takes
 CONNECT_STEP = 2.0  # [s] a service waiting for its router says so this often
 LOG_HELP = "env ZENAV_LOG: log level of the service processes (DEBUG, INFO, WARNING, ERROR; default INFO)"
-CONTROL_LOOP = ("driver", "odometry", "localizer", "navigator", "motor")  # what `[deployment] realtime` raises
 
 
 def realtime(priority: int, who: str) -> str | None:

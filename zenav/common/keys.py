@@ -5,8 +5,8 @@ from __future__ import annotations
 import re
 
 from zenav.common import messages as m
+from zenav.common.roles import ALL as SERVICES
 
-SERVICES = ("sim", "odometry", "vps", "localizer", "navigator", "motor", "driver")
 DEFAULT_CONNECT = "tcp/127.0.0.1:7447"  # the router the stack and its tools meet at (Zenoh's standard port)
 _ROBOT_ID = re.compile(m.ROBOT_ID_PATTERN)
 

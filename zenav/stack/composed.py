@@ -26,7 +26,6 @@ import zenoh
 
 from zenav import services as registry
 from zenav.common.app import (
-    CONTROL_LOOP,
     LOG_HELP,
     PEER_LISTEN,
     deployment_args,
@@ -38,9 +37,9 @@ from zenav.common.app import (
 )
 from zenav.common.bus import MSGPACK, Handle, MemoryBus, QueryCallback, SampleCallback, TokenCallback, ZenohBus
 from zenav.common.config import ConfigError, Settings
+from zenav.common.roles import CONTROL_LOOP
 from zenav.common.runtime import Duplicate, Executor, Service
 
-ROBOT_SERVICES = ("odometry", "localizer", "navigator", "motor")  # what runs on the robot's own computer
 JOIN_TIMEOUT = 5.0  # [s] the worker thread gets this long to end after stop
 _MSGPACK = zenoh.Encoding(MSGPACK)
 
