@@ -18,13 +18,14 @@ from zenav.stack.inprocess import free_port
 DEFAULT_LISTEN = DEFAULT_CONNECT  # where the stack and its tools meet
 
 
-def open_router(listen: str, config_file: str | None = None, priority: int = 0) -> zenoh.Session:
+def open_router(listen: str, config_file: str | None = None, priority: int = 0, connect: str | None = None) -> zenoh.Session:
     """Open a router session; SystemExit with a clear message if the port is taken. `priority` (`[deployment]
     realtime`; 0: none): the SCHED_FIFO priority of the threads Zenoh starts meanwhile, which are all of them when
-    it is the process's first session (the calling thread keeps its own)."""
+    it is the process's first session (the calling thread keeps its own). `connect`: the endpoints (comma-separated)
+    of other hosts' routers to link to, tried again every half second while one is not there (it opens at once)."""
     raised = priority > 0 and realtime(priority, "router") is None
     try:
-        return zenoh.open(zenoh_config("router", listen=listen, config_file=config_file))
+        return zenoh.open(zenoh_config("router", connect=connect, listen=listen, config_file=config_file))
     except zenoh.ZError as e:
         raise SystemExit(f"zenav: cannot listen on {listen} ({e}); is another router running there?") from None
     finally:
@@ -32,10 +33,10 @@ def open_router(listen: str, config_file: str | None = None, priority: int = 0) 
             normal_priority()
 
 
-def serve(listen: str, config_file: str | None = None, ready=lambda: None, priority: int = 0) -> None:
-    """Run a router until SIGINT or SIGTERM; `ready` is called once it listens."""
+def serve(listen: str, config_file: str | None = None, ready=lambda: None, priority: int = 0, connect: str | None = None) -> None:
+    """Run a router until SIGINT or SIGTERM (linked to the routers at `connect`); `ready` is called once it listens."""
     done = stop_on_signals()  # before the router listens: a launcher may stop it as soon as it does
-    session = open_router(listen, config_file, priority)
+    session = open_router(listen, config_file, priority, connect)
     ready()
     done.wait()
     session.close()
