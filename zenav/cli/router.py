@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import ipaddress
 import os
 import sys
 
-from zenav.stack.router import DEFAULT_LISTEN, serve
+from zenav.stack.router import DEFAULT_LISTEN, exposed, serve
 
 
 def add_arguments(sub: argparse._SubParsersAction) -> None:
@@ -27,22 +26,6 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
         help="run its Zenoh threads at SCHED_FIFO PRIORITY, 1 to 99 (default 0: normal)",
     )
     p.set_defaults(func=run)
-
-
-def exposed(listen: str) -> list[str]:
-    """The endpoints of `listen` that other hosts can reach (not loopback, not a unix socket)."""
-    out = []
-    for ep in (e.strip() for e in listen.split(",") if e.strip()):
-        if ep.startswith("unixsock"):
-            continue
-        host = ep.split("/", 1)[-1].rsplit(":", 1)[0].strip("[]")
-        try:
-            loopback = ipaddress.ip_address(host).is_loopback
-        except ValueError:
-            loopback = host == "localhost"
-        if not loopback:
-            out.append(ep)
-    return out
 
 
 def warn_if_open(prog: str, listen: str, config_file: str | None = None) -> None:
