@@ -245,7 +245,7 @@ def test_three_hosts_drive_and_losing_the_camera_host_or_the_laptop_leaves_the_r
 
 
 CAMERA_LOGIN = """grep '^vps:' users.txt > camera-users.txt
-sed "s|usrpwd: {|usrpwd: { dictionary_file: \\"$PWD/camera-users.txt\\",|" vps.json5 > camera-router.json5
+sed "s|usrpwd: {|usrpwd: { dictionary_file: \\"/etc/zenav/camera-users.txt\\",|" vps.json5 > camera-router.json5
 """  # the camera host's files, as docs/running.md makes them
 
 
@@ -281,7 +281,7 @@ def test_the_camera_host_s_router_logs_in_to_the_robot_s_and_a_wrong_password_is
     secrets = scratch / "secrets"
     make = [str(REPO / "docker" / "make-secrets.sh"), "-d", str(secrets), "-n", HOSTS["robot"]]
     subprocess.run(["sh", *make], check=True, capture_output=True, timeout=30)
-    subprocess.run(["sh", "-c", CAMERA_LOGIN], cwd=secrets, check=True, timeout=30)
+    subprocess.run(["sh", "-c", CAMERA_LOGIN.replace("/etc/zenav", str(secrets))], cwd=secrets, check=True, timeout=30)
     # An intruder's router on the laptop: the vps's name, a wrong password (its own vps logs in to it, locally).
     (secrets / "intruder-users.txt").write_text("vps:wrong\n")
     intruder = (secrets / "camera-router.json5").read_text().replace(str(secrets / "camera-users.txt"), str(secrets / "intruder-users.txt"))
