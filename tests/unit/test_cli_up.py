@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import argparse
+
 from zenav import services
 from zenav.cli import up
 from zenav.cli.main import main
@@ -136,3 +138,22 @@ def test_the_demo_pauses_while_an_operator_drives_and_resumes_after_the_quiet(mo
 def test_an_unknown_service_is_refused_naming_the_services(capsys):
     assert main(["up", "--services", "odometry,localizr"]) == 2
     assert capsys.readouterr().err == f"zenav up: unknown service(s): localizr (the services: {', '.join(services.ALL)})\n"
+
+
+def test_router_connect_with_connect_is_refused_saying_why(capsys):
+    assert main(["up", "--connect", "tcp/127.0.0.1:7447", "--router-connect", "tcp/10.0.0.1:7447"]) == 2
+    assert "--router-connect links the router zenav up embeds; with --connect it embeds none" in capsys.readouterr().err
+
+
+def test_the_services_are_peers_on_one_host_and_clients_of_their_router_across_hosts():
+    def mode(*argv: str) -> str:
+        parser = argparse.ArgumentParser()
+        up.add_arguments(parser.add_subparsers())
+        child = up.child_args(parser.parse_args(["up", *argv]), "tcp/127.0.0.1:7447")
+        return child[child.index("--zenoh-mode") + 1]
+
+    assert mode() == "peer"
+    assert mode("--listen", "tcp/10.77.0.1:7447") == "client"  # other hosts' routers link to this one
+    assert mode("--router-connect", "tcp/10.77.0.1:7447") == "client"  # this one links to another host's
+    assert mode("--connect", "tcp/127.0.0.1:7447") == "client"
+    assert mode("--listen", "tcp/10.77.0.1:7447", "--zenoh-mode", "peer") == "peer"

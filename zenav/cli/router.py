@@ -3,16 +3,20 @@
 from __future__ import annotations
 
 import argparse
-import ipaddress
 import os
 import sys
 
-from zenav.stack.router import DEFAULT_LISTEN, serve
+from zenav.stack.router import DEFAULT_LISTEN, exposed, serve
 
 
 def add_arguments(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("router", help="run a Zenoh router until Ctrl-C")
     p.add_argument("--listen", default=DEFAULT_LISTEN, help=f"endpoint(s), comma-separated (default {DEFAULT_LISTEN})")
+    p.add_argument(
+        "--connect",
+        metavar="ENDPOINTS",
+        help="link to the routers at these endpoints, comma-separated (another host's: tcp/10.0.0.1:7447); retried while one is away",
+    )
     p.add_argument("--zenoh-config", help="a Zenoh JSON5 config to start from (auth, access control)")
     p.add_argument(
         "--realtime",
@@ -24,34 +28,26 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def exposed(listen: str) -> list[str]:
-    """The endpoints of `listen` that other hosts can reach (not loopback)."""
-    out = []
-    for ep in (e.strip() for e in listen.split(",") if e.strip()):
-        host = ep.split("/", 1)[-1].rsplit(":", 1)[0].strip("[]")
-        try:
-            loopback = ipaddress.ip_address(host).is_loopback
-        except ValueError:
-            loopback = host == "localhost"
-        if not loopback:
-            out.append(ep)
-    return out
-
-
-def run(args: argparse.Namespace) -> int:
-    open_to = exposed(args.listen)
-    if open_to and not (args.zenoh_config or os.environ.get("ZENOH_CONFIG")):
+def warn_if_open(prog: str, listen: str, config_file: str | None = None) -> None:
+    """Warn on stderr when `listen` reaches other hosts and no Zenoh config (logins, access control) is given."""
+    open_to = exposed(listen)
+    if open_to and not (config_file or os.environ.get("ZENOH_CONFIG")):
         print(
-            f"zenav router: warning: {', '.join(open_to)} is open to other hosts with no login or access control "
+            f"{prog}: warning: {', '.join(open_to)} is open to other hosts with no login or access control "
             "(anyone there can drive the robot); see docs/running.md for the secure deployment",
             file=sys.stderr,
         )
+
+
+def run(args: argparse.Namespace) -> int:
+    warn_if_open("zenav router", args.listen, args.zenoh_config)
     if not 0 <= args.realtime <= 99:
         print(f"zenav router: --realtime {args.realtime}: a priority from 1 to 99, or 0", file=sys.stderr)
         return 2
 
     def ready() -> None:
-        print(f"zenav router listening on {args.listen}", file=sys.stderr, flush=True)
+        linked = f", linking to {args.connect}" if args.connect else ""
+        print(f"zenav router listening on {args.listen}{linked}", file=sys.stderr, flush=True)
 
-    serve(args.listen, args.zenoh_config, ready=ready, priority=args.realtime)
+    serve(args.listen, args.zenoh_config, ready=ready, priority=args.realtime, connect=args.connect)
     return 0

@@ -13,6 +13,7 @@ from pathlib import Path
 import zenoh
 
 from zenav import services
+from zenav.cli.router import exposed, warn_if_open
 from zenav.cli.screen import render
 from zenav.common import keys
 from zenav.common import messages as m
@@ -40,6 +41,11 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("up", help="start a router and every service, show live status; Ctrl-C stops all")
     deployment_args(p)
     p.add_argument("--listen", default=DEFAULT_LISTEN, help=f"endpoint of the embedded router (default {DEFAULT_LISTEN})")
+    p.add_argument(
+        "--router-connect",
+        metavar="ENDPOINTS",
+        help="link the embedded router to another host's router (tcp/10.0.0.1:7447; comma-separated), retried while it is away",
+    )
     p.add_argument(
         "--profile",
         choices=sorted(services.PROFILES),
@@ -92,11 +98,14 @@ def default_log_dir() -> Path:
 def child_args(args: argparse.Namespace, endpoint: str) -> list[str]:
     """What every service process is started with.
 
-    With the embedded router everything runs on this host, so the services are Zenoh
+    With the embedded router alone everything runs on this host, so the services are Zenoh
     peers (they also link directly: lower latency and router CPU, see docs/running.md) unless
-    --zenoh-mode says otherwise; with --connect they stay clients of that router.
+    --zenoh-mode says otherwise; with --connect they stay clients of that router, and so they do
+    when the stack spans hosts (the router listens where other hosts reach it, or links to
+    another's): a host's only link to the others is then its router's.
     """
-    mode = args.zenoh_mode or ("client" if args.connect else "peer")
+    one_host = not (args.connect or args.router_connect or exposed(args.listen))
+    mode = args.zenoh_mode or ("peer" if one_host else "client")
     out = ["--connect", endpoint, "--zenoh-mode", mode]
     for flag in ("robot", "config", "scenario", "seed"):  # --connect is the endpoint above
         value = getattr(args, flag)
@@ -256,13 +265,18 @@ def run(args: argparse.Namespace) -> int:
     if not_run:  # a config's compose applies to whichever of its services run; the flag names this run's
         print(f"zenav up: --compose {', '.join(not_run)}: not started by this run (it starts {', '.join(names)})", file=sys.stderr)
         return 2
+    if args.connect and args.router_connect:
+        print("zenav up: --router-connect links the router zenav up embeds; with --connect it embeds none", file=sys.stderr)
+        return 2
     robot = settings.robot_id
-    # --connect: join a router that runs elsewhere; otherwise embed one.
+    # --connect: join a router that runs elsewhere; otherwise embed one (linked to --router-connect's).
     endpoint = args.connect or args.listen
+    if not args.connect:
+        warn_if_open("zenav up", args.listen)
     session = (
         zenoh.open(zenoh_config("client", connect=args.connect))
         if args.connect
-        else open_router(args.listen, priority=settings.deployment.realtime)
+        else open_router(args.listen, priority=settings.deployment.realtime, connect=args.router_connect)
     )
     if args.connect and "sim" in names and settings.section("sim", SimConfig).camera and frames_elsewhere(session, robot):
         session.close()
@@ -308,7 +322,8 @@ def run(args: argparse.Namespace) -> int:
         client.subscribe(f"diag/{name}", _beater(sup, child_of[name]))
     done = stop_on_signals()
     together = f"; {', '.join(composed)} in one process" if composed else ""
-    say(f"{'router at' if args.connect else 'router on'} {endpoint}; starting {', '.join(names)}{together} (logs in {log_dir})")
+    linked = f", linked to {args.router_connect}" if args.router_connect else ""
+    say(f"{'router at' if args.connect else 'router on'} {endpoint}{linked}; starting {', '.join(names)}{together} (logs in {log_dir})")
     t0 = time.monotonic()
     sup.start_all()
     status = 0

@@ -7,6 +7,8 @@
 from __future__ import annotations
 
 import argparse
+import ipaddress
+import json
 
 import zenoh
 
@@ -16,15 +18,40 @@ from zenav.common.keys import DEFAULT_CONNECT
 from zenav.stack.inprocess import free_port
 
 DEFAULT_LISTEN = DEFAULT_CONNECT  # where the stack and its tools meet
+# [s] how long a router that spans hosts waits to queue a message for a link before it closes the link (Zenoh's
+# default: 5 s). A host whose cable is out, or whose Wi-Fi went, closes no socket: the router's queue for it fills
+# (the sim's camera frames fill it within a second) and would hold up every message, the robot's loop's too, until
+# then. The host's router links again when it is back.
+BLOCKED_LINK = 0.25
 
 
-def open_router(listen: str, config_file: str | None = None, priority: int = 0) -> zenoh.Session:
+def exposed(listen: str) -> list[str]:
+    """The endpoints of `listen` that other hosts can reach (not loopback, not a unix socket)."""
+    out = []
+    for ep in (e.strip() for e in listen.split(",") if e.strip()):
+        if ep.startswith("unixsock"):
+            continue
+        host = ep.split("/", 1)[-1].rsplit(":", 1)[0].strip("[]")
+        try:
+            loopback = ipaddress.ip_address(host).is_loopback
+        except ValueError:
+            loopback = host == "localhost"
+        if not loopback:
+            out.append(ep)
+    return out
+
+
+def open_router(listen: str, config_file: str | None = None, priority: int = 0, connect: str | None = None) -> zenoh.Session:
     """Open a router session; SystemExit with a clear message if the port is taken. `priority` (`[deployment]
     realtime`; 0: none): the SCHED_FIFO priority of the threads Zenoh starts meanwhile, which are all of them when
-    it is the process's first session (the calling thread keeps its own)."""
+    it is the process's first session (the calling thread keeps its own). `connect`: the endpoints (comma-separated)
+    of other hosts' routers to link to, tried again every half second while one is not there (it opens at once)."""
     raised = priority > 0 and realtime(priority, "router") is None
+    conf = zenoh_config("router", connect=connect, listen=listen, config_file=config_file)
+    if connect or exposed(listen):  # other hosts' routers link to it, or it to theirs
+        conf.insert_json5("transport/link/tx/queue/congestion_control/block/wait_before_close", json.dumps(round(BLOCKED_LINK * 1e6)))
     try:
-        return zenoh.open(zenoh_config("router", listen=listen, config_file=config_file))
+        return zenoh.open(conf)
     except zenoh.ZError as e:
         raise SystemExit(f"zenav: cannot listen on {listen} ({e}); is another router running there?") from None
     finally:
@@ -32,10 +59,10 @@ def open_router(listen: str, config_file: str | None = None, priority: int = 0) 
             normal_priority()
 
 
-def serve(listen: str, config_file: str | None = None, ready=lambda: None, priority: int = 0) -> None:
-    """Run a router until SIGINT or SIGTERM; `ready` is called once it listens."""
+def serve(listen: str, config_file: str | None = None, ready=lambda: None, priority: int = 0, connect: str | None = None) -> None:
+    """Run a router until SIGINT or SIGTERM (linked to the routers at `connect`); `ready` is called once it listens."""
     done = stop_on_signals()  # before the router listens: a launcher may stop it as soon as it does
-    session = open_router(listen, config_file, priority)
+    session = open_router(listen, config_file, priority, connect)
     ready()
     done.wait()
     session.close()
