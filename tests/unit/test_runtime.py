@@ -755,3 +755,16 @@ def test_a_clock_restart_forgets_the_calls_asked_for():
         s.drain()
     assert calls == [] and s.counters.values["clock_resets"] == 1 and clock.now() > 5.1  # a time of the sim's previous run
     s.close()
+
+
+def test_a_status_is_logged_when_it_changes_not_when_its_figures_do(svc, caplog):
+    s, _, _ = svc
+    with caplog.at_level("INFO", logger=s.log.name):
+        s.set_status("degraded", "no VPS fix accepted for 1.5 s")
+        s.set_status("degraded", "no VPS fix accepted for 2.0 s")
+        s.set_status("degraded", "no VPS fix accepted for 12.5 s")
+        s.set_status("degraded", "no gyro sample for 0.6 s")
+        s.set_status("ok")
+    logged = [r.getMessage() for r in caplog.records if "status" in r.getMessage()]
+    assert logged == ["status degraded: no VPS fix accepted for 1.5 s", "status degraded: no gyro sample for 0.6 s", "status ok"]
+    assert s.status_message == ""

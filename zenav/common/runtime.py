@@ -81,6 +81,7 @@ import itertools
 import logging
 import math
 import os
+import re
 import socket
 import threading
 import time
@@ -107,6 +108,7 @@ HOLD_ITEMS = 64  # inputs held at once at most (more are served at once)
 GAP_GAIN = 0.2  # weight of each new gap in a topic's period (smoothed: one late sample does not move it far)
 FORMAT_PARAM = "_format"  # selector parameter choosing the reply format: msgpack (default) or json
 FORMATS = {"msgpack": MSGPACK, "json": JSON}
+_FIGURES = re.compile(r"\d+(\.\d+)?")  # the figures of a status reason
 BACKGROUND_NICE = 10  # added to the niceness of a thread doing background work (as `nice` adds by default)
 
 
@@ -349,8 +351,9 @@ class Service:
         self.counters.inc(name, n)
 
     def set_status(self, status: str, message: str = "") -> None:
-        """Set the diag status (ok, degraded, error) and its reason; logs changes."""
-        if (status, message) != (self.status, self.status_message):
+        """Set the diag status (ok, degraded, error) and its reason; logs changes (not a reason's figures changing:
+        "no fix for 1.5 s", then "for 2.0 s" is one line)."""
+        if (status, _shape(message)) != (self.status, _shape(self.status_message)):
             level = logging.INFO if status == "ok" else logging.WARNING
             self.log.log(level, "status %s%s", status, clip(f": {message}") if message else "")
         self.status, self.status_message = status, message
@@ -928,3 +931,8 @@ def _instance_id() -> str:
     """host-pid-random: names one service object (several may share a process in tests)."""
     host = "".join(c if c.isalnum() or c in "-_." else "_" for c in socket.gethostname())[:40] or "host"
     return f"{host}-{os.getpid()}-{os.urandom(3).hex()}"
+
+
+def _shape(text: str) -> str:
+    """A status reason with its figures blanked: what it says, not how much."""
+    return _FIGURES.sub("#", text)
