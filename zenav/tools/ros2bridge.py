@@ -27,7 +27,7 @@ from typing import Any
 
 from zenav.common import messages as m
 from zenav.common.bus import ZenohBus
-from zenav.common.client import Client, ZenavError
+from zenav.common.client import Client, Latest, ZenavError
 from zenav.common.navgoals import STOPPED
 from zenav.tools import ros2_msgs as rm
 from zenav.tools import ros2_out as ro
@@ -61,7 +61,7 @@ class Bridge:
         self.node: Node | None = None
         self.action: NavigateToPose | None = None
         self._pubs: dict[str, Any] = {}
-        self._nav: m.NavState | None = None  # the newest nav/state
+        self._nav: Latest | None = None  # the newest nav/state, as it arrives (not behind the worker's queue)
         self._stopped_goal = 0  # the goal id a cmd_vel stopped last
         self._inbox: queue.Queue[Any] = queue.Queue(INBOX)
         self._jobs: queue.Queue[Callable[[], None]] = queue.Queue(JOBS)
@@ -82,6 +82,7 @@ class Bridge:
             for ros_type in ros_types:
                 node.subscription(name, ros_type, functools.partial(self._on_sample, handlers[name], ros_type))
         self.action = NavigateToPose(node, self.client, self.submit, self.counts)
+        self._nav = self.client.latest("nav/state")
         for suffix in ("clock", "odom", "pose", "nav/state"):
             self.client.subscribe(suffix, self._enqueue)
         for target in (self._work, self._run_jobs):
@@ -132,8 +133,6 @@ class Bridge:
                 log.exception("could not bridge %s", type(msg).__name__)
 
     def _handle(self, msg: Any) -> None:
-        if isinstance(msg, m.NavState):
-            self._nav = msg
         if self.action is not None:
             if isinstance(msg, m.Pose):
                 self.action.on_pose(msg)
@@ -188,7 +187,7 @@ class Bridge:
         cmd = self._decode(data, ros_type, rm.velocity)
         if cmd is None:
             return
-        nav = self._nav
+        nav = None if self._nav is None else self._nav.msg
         if cmd != (0.0, 0.0) and nav is not None and nav.state != STOPPED and nav.goal_id != self._stopped_goal:
             self._stopped_goal = nav.goal_id
             try:
