@@ -1,18 +1,23 @@
 """The ROS 2 bridge against the in-process stack through a real router, seen by a plain zenoh session
-speaking rmw_zenoh's layout as a ROS 2 node (rviz2, ros2 topic echo) would."""
+speaking rmw_zenoh's layout as a ROS 2 node (rviz2, ros2 topic echo, teleop, an action client) would."""
 
 from __future__ import annotations
 
 import math
 import queue
+import threading
 import time
+import uuid
 
+import numpy as np
 import pytest
 import zenoh
 
 from tests.support.rawclient import RawClient
+from zenav.common import messages as m
 from zenav.common.bus import ZenohBus, zenoh_config
 from zenav.tools import ros2_msgs as rm
+from zenav.tools import ros2_types as rt
 from zenav.tools import ros2bridge as rb
 from zenav.tools.rmw_zenoh import Wire, attachment, parse_attachment
 
@@ -31,6 +36,7 @@ def rig(make_stack, router):
     wire = Wire(domain=3, namespace="/r1")
     bus = ZenohBus(zenoh.open(zenoh_config("client", router)))
     bridge = rb.Bridge(bus, "r1", wire).start()
+    rt.register(wire)  # the test's own types, as a ROS node has them
     ros = zenoh.open(zenoh_config("client", router))
     yield raw, wire, bridge, ros
     ros.close()
@@ -83,8 +89,26 @@ def test_graph_tokens_for_ros_tools(rig):
     tokens = {str(r.ok.key_expr) for r in ros.liveliness().get("@ros2_lv/3/**", timeout=5.0) if r.ok is not None}
     zid = str(bridge.bus.session.zid())
     assert f"@ros2_lv/3/{zid}/0/0/NN/%/%r1/zenav_bridge" in tokens
-    kinds = {(t.split("/")[5], t.split("/")[9]) for t in tokens if t != f"@ros2_lv/3/{zid}/0/0/NN/%/%r1/zenav_bridge"}
-    assert kinds == {("MP", "%r1%pose"), ("MP", "%r1%odometry"), ("MP", "%tf"), ("MS", "%r1%goal_pose")}
+    kinds = {(t.split("/")[5], t.split("/")[9], t.split("/")[10]) for t in tokens if t != f"@ros2_lv/3/{zid}/0/0/NN/%/%r1/zenav_bridge"}
+    action = "%r1%navigate_to_pose%_action%"
+    assert kinds == {
+        ("MP", "%r1%pose", "geometry_msgs::msg::dds_::PoseWithCovarianceStamped_"),
+        ("MP", "%r1%odometry", "nav_msgs::msg::dds_::Odometry_"),
+        ("MP", "%r1%odom", "nav_msgs::msg::dds_::Odometry_"),
+        ("MP", "%tf", "tf2_msgs::msg::dds_::TFMessage_"),
+        ("MP", "%r1%nav%state", "std_msgs::msg::dds_::String_"),
+        ("MS", "%r1%goal_pose", "geometry_msgs::msg::dds_::PoseStamped_"),
+        ("MS", "%r1%cmd_vel", "geometry_msgs::msg::dds_::Twist_"),
+        ("MS", "%r1%cmd_vel", "geometry_msgs::msg::dds_::TwistStamped_"),
+        ("MS", "%r1%initialpose", "geometry_msgs::msg::dds_::PoseWithCovarianceStamped_"),
+        ("SS", action + "send_goal", "nav2_msgs::action::dds_::NavigateToPose_SendGoal_"),
+        ("SS", action + "cancel_goal", "action_msgs::srv::dds_::CancelGoal_"),
+        ("SS", action + "get_result", "nav2_msgs::action::dds_::NavigateToPose_GetResult_"),
+        ("MP", action + "feedback", "nav2_msgs::action::dds_::NavigateToPose_FeedbackMessage_"),
+        ("MP", action + "status", "action_msgs::msg::dds_::GoalStatusArray_"),
+    }
+    status = next(t for t in tokens if "%status/" in t)
+    assert status.endswith("/:1:,1:,:,:,,")  # transient local, depth 1, as rcl's action status QoS
 
 
 def test_goal_pose_drives_the_robot(rig):
@@ -100,7 +124,180 @@ def test_goal_pose_drives_the_robot(rig):
     state = raw.wait(lambda latest: latest.get("nav/state", {}).get("state") not in (None, "STOPPED"), 15)["nav/state"]
     assert state["state"] == "MOVING_TO_POSE", state
     assert (state["goal"]["x"], state["goal"]["y"], state["goal"]["theta"]) == pytest.approx((0.6, 0.3, 0.5))
-    deadline = time.monotonic() + 5.0  # the bridge counts the goal when the navigator's reply reaches it
-    while bridge.counts["goals"] + bridge.counts["goals_refused"] == 0 and time.monotonic() < deadline:
+    wait_count(bridge, "goals", 1)  # the bridge counts the goal when the navigator's reply reaches it
+    assert bridge.counts["goals"] == 1 and bridge.counts["refused"] == 0
+
+
+def key_of(wire: Wire, name: str, ros_type: str) -> str:
+    """The key a ROS node on the test's wire uses for `name` (relative to /r1) and `ros_type`."""
+    return wire.key(wire.endpoint("MP", name, ros_type))
+
+
+def wait_count(bridge: rb.Bridge, name: str, n: int, timeout: float = 10.0) -> None:
+    """Until the bridge has counted `name` n times (it counts on its own thread, after the sample arrived)."""
+    deadline = time.monotonic() + timeout
+    while bridge.counts[name] < n and time.monotonic() < deadline:
         time.sleep(0.01)
-    assert bridge.counts["goals"] == 1 and bridge.counts["goals_refused"] == 0
+    assert bridge.counts[name] >= n, bridge.counts
+
+
+def twist(wire: Wire, v: float, omega: float, stamped: bool = False) -> tuple[str, bytes]:
+    types = wire.types()
+    tw = rm.twist_msg(types, v, omega)
+    if stamped:
+        ros_type, msg = (
+            "geometry_msgs/msg/TwistStamped",
+            types["geometry_msgs/msg/TwistStamped"](header=rm.header(types, time.time(), "base_link"), twist=tw),
+        )
+    else:
+        ros_type, msg = "geometry_msgs/msg/Twist", tw
+    return key_of(wire, "cmd_vel", ros_type), wire.serialize(msg, ros_type)
+
+
+@pytest.mark.parametrize("stamped", [False, True])
+def test_cmd_vel_drives_the_robot(rig, stamped):
+    raw, wire, bridge, ros = rig
+    start = raw.wait(lambda latest: "pose" in latest, 10)["pose"]
+    key, data = twist(wire, 0.2, 0.0, stamped)
+    moved = None
+    for seq in range(1, 101):  # 20 Hz as a teleop node sends, 5 s at most
+        # with rmw_zenoh's attachment, and (TwistStamped) without: both are taken
+        ros.put(key, data, attachment=None if stamped else attachment(seq, time.time_ns(), bytes(16)))
+        pose = raw.latest["pose"]
+        if math.hypot(pose["x"] - start["x"], pose["y"] - start["y"]) > 0.05:
+            moved = pose
+            break
+        time.sleep(0.05)  # the sender's pace, not a synchronisation
+    assert moved is not None, "the robot did not move"
+    ros.put(key, twist(wire, 0.0, 0.0, stamped)[1])
+    assert bridge.counts["cmd_vel"] >= 2 and bridge.counts["bad_input"] == 0
+
+
+def test_cmd_vel_takes_over_from_a_goal(rig):
+    raw, wire, bridge, ros = rig
+    raw.query("nav/move_to_point", {"x": 0.8, "y": 0.0})
+    raw.wait(lambda latest: latest.get("nav/state", {}).get("state") == "MOVING_TO_POINT", 10)
+    key, data = twist(wire, 0.0, 0.5)
+    ros.put(key, data)
+    state = raw.wait(lambda latest: latest.get("nav/state", {}).get("result") is not None, 10)["nav/state"]
+    assert state["result"] == "cancelled"
+    wait_count(bridge, "goals_stopped", 1)
+
+
+def test_initialpose_resets_the_localizer(rig):
+    raw, wire, bridge, ros = rig
+    types = wire.types()
+    ros_type = "geometry_msgs/msg/PoseWithCovarianceStamped"
+    msg = rm.pose_with_covariance(types, m.Pose(t=0.0, x=0.7, y=-0.4, theta=1.2, v=0.0, omega=0.0), time.time())
+    ros.put(key_of(wire, "initialpose", ros_type), wire.serialize(msg, ros_type), attachment=attachment(1, time.time_ns(), bytes(16)))
+    pose = raw.wait(lambda latest: abs(latest["pose"]["x"] - 0.7) < 0.02 and abs(latest["pose"]["y"] + 0.4) < 0.02, 10)["pose"]
+    assert pose["theta"] == pytest.approx(1.2, abs=0.02)
+    wait_count(bridge, "initial_poses", 1)
+
+
+def test_bad_input_dropped_and_counted(rig):
+    raw, wire, bridge, ros = rig
+    key, data = twist(wire, 0.1, 0.0)
+    ros.put(key, b"\x00\x01\x00\x00\x01")  # CDR that ends inside the first double
+    ros.put(key.rsplit("/", 1)[0] + "/RIHS01_" + "0" * 64, b"not cdr")  # another definition's hash: taken, and bad
+    nan = wire.serialize(rm.twist_msg(wire.types(), float("nan"), 0.0), "geometry_msgs/msg/Twist")
+    ros.put(key, nan)
+    wait_count(bridge, "bad_input", 3)
+    ros.put(
+        key_of(wire, "goal_pose", "geometry_msgs/msg/PoseStamped"),
+        wire.serialize(goal_msg(wire, 0.3, 0.3, frame="odom"), "geometry_msgs/msg/PoseStamped"),
+    )
+    wait_count(bridge, "refused", 1)
+    assert bridge.counts["cmd_vel"] == 0 and bridge.counts["goals"] == 0
+
+
+def goal_msg(wire: Wire, x: float, y: float, theta: float = 0.0, frame: str = "map"):
+    types = wire.types()
+    return (
+        rm.pose_stamped(types, time.time(), (x, y, theta))
+        if frame == "map"
+        else types["geometry_msgs/msg/PoseStamped"](
+            header=rm.header(types, time.time(), frame), pose=rm.pose_stamped(types, 0.0, (x, y, theta)).pose
+        )
+    )
+
+
+class ActionClient:
+    """navigate_to_pose as rclpy's ActionClient uses it on rmw_zenoh: gets on the services, a subscription on feedback."""
+
+    def __init__(self, ros: zenoh.Session, wire: Wire) -> None:
+        self.ros, self.wire, self.seq = ros, wire, 0
+        self.base = "navigate_to_pose/_action/"
+        self.feedback: queue.Queue = queue.Queue()
+        fb = wire.endpoint("MS", self.base + "feedback", f"{rt.NAVIGATE}_FeedbackMessage")
+        self.sub = ros.declare_subscriber(wire.key(fb), lambda s: self.feedback.put(wire.deserialize(s.payload.to_bytes(), fb.ros_type)))
+
+    def call(self, service: str, srv_type: str, request, timeout: float = 10.0):
+        self.seq += 1
+        seq = self.seq  # its own: calls run on several threads
+        key = self.wire.key(self.wire.endpoint("SC", self.base + service, srv_type))
+        types = self.wire.types()
+        data = self.wire.serialize(types[f"{srv_type}_Request"](**request), f"{srv_type}_Request")
+        replies = list(self.ros.get(key, payload=data, attachment=attachment(seq, time.time_ns(), b"c" * 16), timeout=timeout))
+        assert len(replies) == 1 and replies[0].ok is not None, replies
+        reply = replies[0].ok
+        assert parse_attachment(reply.attachment.to_bytes())[0::2] == (seq, b"c" * 16)  # the request's number and GID back
+        return self.wire.deserialize(reply.payload.to_bytes(), f"{srv_type}_Response")
+
+    def uuid(self):
+        return self.wire.types()["unique_identifier_msgs/msg/UUID"](uuid=np.frombuffer(uuid.uuid4().bytes, dtype="uint8").copy())
+
+
+def test_navigate_to_pose_action_succeeds_with_feedback(rig):
+    raw, wire, bridge, ros = rig
+    client = ActionClient(ros, wire)
+    goal_id = client.uuid()
+    goal = wire.types()[f"{rt.NAVIGATE}_Goal"](pose=goal_msg(wire, 0.5, 0.2, 0.6), behavior_tree="")
+    reply = client.call("send_goal", f"{rt.NAVIGATE}_SendGoal", {"goal_id": goal_id, "goal": goal})
+    assert reply.accepted and abs(reply.stamp.sec - time.time()) < 10
+    result = client.call("get_result", f"{rt.NAVIGATE}_GetResult", {"goal_id": goal_id}, timeout=60.0)  # answered when it ends
+    assert result.status == 4, result  # SUCCEEDED
+    assert (result.result.error_code, result.result.error_msg) == (0, "")
+    pose = raw.latest["pose"]
+    assert math.hypot(pose["x"] - 0.5, pose["y"] - 0.2) < 0.05
+    feedback = []
+    while not client.feedback.empty():  # every feedback came before the result: the queue holds them all
+        feedback.append(client.feedback.get_nowait())
+    assert len(feedback) >= 3 and all(bytes(f.goal_id.uuid) == bytes(goal_id.uuid) for f in feedback)
+    first, last = feedback[0].feedback, feedback[-1].feedback
+    assert first.distance_remaining > 0.4 and 0.0 <= last.distance_remaining < first.distance_remaining - 0.3
+    assert last.navigation_time.sec + last.navigation_time.nanosec * 1e-9 > first.navigation_time.sec + first.navigation_time.nanosec * 1e-9
+    assert feedback[0].feedback.current_pose.header.frame_id == "map"
+    client.sub.undeclare()
+
+
+def test_navigate_to_pose_outside_the_field_aborts_saying_why(rig):
+    raw, wire, bridge, ros = rig
+    client = ActionClient(ros, wire)
+    goal_id = client.uuid()
+    goal = wire.types()[f"{rt.NAVIGATE}_Goal"](pose=goal_msg(wire, 50.0, 0.0), behavior_tree="")
+    assert client.call("send_goal", f"{rt.NAVIGATE}_SendGoal", {"goal_id": goal_id, "goal": goal}).accepted
+    result = client.call("get_result", f"{rt.NAVIGATE}_GetResult", {"goal_id": goal_id})
+    assert result.status == 6 and result.result.error_code == rt.UNKNOWN, result  # ABORTED
+    assert "outside the field ([field] x_max" in result.result.error_msg
+    assert bridge.counts["action_refused"] == 1
+    client.sub.undeclare()
+
+
+def test_navigate_to_pose_cancelled(rig):
+    raw, wire, bridge, ros = rig
+    client = ActionClient(ros, wire)
+    goal_id = client.uuid()
+    goal = wire.types()[f"{rt.NAVIGATE}_Goal"](pose=goal_msg(wire, 0.8, -0.5), behavior_tree="")
+    assert client.call("send_goal", f"{rt.NAVIGATE}_SendGoal", {"goal_id": goal_id, "goal": goal}).accepted
+    results: queue.Queue = queue.Queue()
+    waiter = threading.Thread(target=lambda: results.put(client.call("get_result", f"{rt.NAVIGATE}_GetResult", {"goal_id": goal_id}, 30.0)))
+    waiter.start()
+    raw.wait(lambda latest: latest.get("nav/state", {}).get("state") == "MOVING_TO_POSE", 10)
+    types = wire.types()
+    info = types["action_msgs/msg/GoalInfo"](goal_id=goal_id, stamp=rm.stamp(types, 0.0))
+    cancel = client.call("cancel_goal", rt.CANCEL, {"goal_info": info})
+    assert cancel.return_code == 0 and [bytes(g.goal_id.uuid) for g in cancel.goals_canceling] == [bytes(goal_id.uuid)]
+    waiter.join(30.0)
+    assert results.get(timeout=1.0).status == 5  # CANCELED
+    client.sub.undeclare()

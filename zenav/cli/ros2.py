@@ -1,9 +1,9 @@
 """`zenav ros2`: a ROS 2 node on rmw_zenoh for one robot, until Ctrl-C.
 
-Publishes the fused pose (Odometry, PoseWithCovarianceStamped) and the map -> odom ->
-base_link transforms, and takes goals on goal_pose, through the router the stack and
-the ROS 2 nodes (RMW_IMPLEMENTATION=rmw_zenoh_cpp) both reach. Needs the `ros2` extra.
-Exit codes: 0 stopped, 2 bad arguments or the extra missing, 3 no router.
+Publishes odometry, the fused pose, the map -> odom -> base_link transforms and the
+navigator's state; takes cmd_vel, initialpose, goal_pose and NavigateToPose goals; through
+the router the stack and the ROS 2 nodes (RMW_IMPLEMENTATION=rmw_zenoh_cpp) both reach.
+Needs the `ros2` extra. Exit codes: 0 stopped, 2 bad arguments or the extra missing, 3 no router.
 """
 
 from __future__ import annotations
@@ -18,17 +18,22 @@ from zenav.cli.main import EXIT_OK, EXIT_USAGE
 from zenav.cli.session import open_bus, robot_id
 from zenav.common.app import connection_args, stop_on_signals
 
+DISTROS = ("humble", "jazzy", "kilted")  # as tools/rmw_zenoh.py STORES (not imported here: it needs the extra)
 ROS_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")  # a ROS node name
 NAMESPACE = re.compile(r"^/?([A-Za-z][A-Za-z0-9_]*/?)*$")  # a ROS namespace
 
 
 def add_arguments(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("ros2", help="a ROS 2 node on rmw_zenoh: pose, odometry and /tf out, goal_pose in")
+    p = sub.add_parser("ros2", help="a ROS 2 node on rmw_zenoh: odom, pose, /tf, nav state out; cmd_vel, initialpose, goals in")
     connection_args(p)
     p.add_argument(
         "--domain", type=int, default=os.environ.get("ROS_DOMAIN_ID") or "0", help="ROS domain id (env ROS_DOMAIN_ID; default 0)"
     )
-    p.add_argument("--distro", choices=("jazzy", "humble"), default="jazzy", help="ROS 2 distro of the other nodes (default jazzy)")
+    p.add_argument(
+        "--distro",
+        default=os.environ.get("ROS_DISTRO") or DISTROS[1],
+        help=f"ROS 2 distro of the other nodes: {', '.join(DISTROS)} (env ROS_DISTRO; default {DISTROS[1]})",
+    )
     p.add_argument("--node", default="zenav_bridge", help="ROS node name (default zenav_bridge)")
     p.add_argument("--namespace", default="", help="ROS namespace of the node and its topics, e.g. /r1 (default none)")
     p.set_defaults(func=run)
@@ -49,6 +54,8 @@ def run(args: argparse.Namespace) -> int:
             raise Failed(EXIT_USAGE, f"--namespace {args.namespace!r} is not a ROS namespace (names of letters, digits, _ joined by /)")
         if not 0 <= args.domain <= 232:
             raise Failed(EXIT_USAGE, f"--domain {args.domain} must be 0..232")
+        if args.distro.lower() not in DISTROS:
+            raise Failed(EXIT_USAGE, f"--distro (or ROS_DISTRO) {args.distro!r}: expected one of {', '.join(DISTROS)}")
         wire = Wire(args.domain, args.distro, args.node, args.namespace)
         bus = open_bus(args)
     except Failed as e:
@@ -56,9 +63,13 @@ def run(args: argparse.Namespace) -> int:
     done = stop_on_signals()
     bridge = Bridge(bus, robot, wire).start()
     try:
-        for topic, key in bridge.keys().items():
-            print(f"{topic:<24} {key}", file=sys.stderr)
-        print(f"ROS 2 node {wire.name(args.node)} on domain {args.domain} for robot {robot}; Ctrl-C to stop", file=sys.stderr, flush=True)
+        for endpoint, key in bridge.keys().items():
+            print(f"{endpoint:<44} {key}", file=sys.stderr)
+        print(
+            f"ROS 2 node {wire.name(args.node)} ({wire.distro}) on domain {args.domain} for robot {robot}; Ctrl-C to stop",
+            file=sys.stderr,
+            flush=True,
+        )
         done.wait()
     finally:
         bridge.stop()

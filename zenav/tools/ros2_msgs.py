@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import msgspec
 import numpy as np
 
 from zenav.common import messages as m
@@ -60,12 +61,17 @@ def pose_with_covariance(types: Any, pose: m.Pose, t: float) -> Any:
     return types["geometry_msgs/msg/PoseWithCovarianceStamped"](header=header(types, t, MAP), pose=pwc)
 
 
-def odometry(types: Any, pose: m.Pose, t: float) -> Any:
-    """nav_msgs/Odometry of the fused pose (map frame), twist in base_link, stamped `t` [s]."""
+def twist_msg(types: Any, v: float, omega: float) -> Any:
+    """geometry_msgs/Twist of a forward speed [m/s] and a yaw rate [rad/s]."""
     vec = types["geometry_msgs/msg/Vector3"]
-    twist = types["geometry_msgs/msg/Twist"](linear=vec(x=pose.v, y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=pose.omega))
+    return types["geometry_msgs/msg/Twist"](linear=vec(x=v, y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=omega))
+
+
+def odometry(types: Any, pose: m.Pose | m.Odom, t: float, frame: str = MAP) -> Any:
+    """nav_msgs/Odometry of a pose in `frame` (the fused pose: map; odometry: odom), twist in base_link, stamped `t` [s]."""
+    twist = twist_msg(types, pose.v, pose.omega)
     return types["nav_msgs/msg/Odometry"](
-        header=header(types, t, MAP),
+        header=header(types, t, frame),
         child_frame_id=BASE,
         pose=types["geometry_msgs/msg/PoseWithCovariance"](pose=_pose(types, pose.x, pose.y, pose.theta), covariance=covariance6(pose.cov)),
         twist=types["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=np.zeros(36)),
@@ -94,7 +100,44 @@ def tf_message(types: Any, transforms: list[Any]) -> Any:
     return types["tf2_msgs/msg/TFMessage"](transforms=transforms)
 
 
+def pose_stamped(types: Any, t: float, xyt: Pose2) -> Any:
+    """geometry_msgs/PoseStamped in map, stamped `t` [s]."""
+    return types["geometry_msgs/msg/PoseStamped"](header=header(types, t, MAP), pose=_pose(types, *xyt))
+
+
+def duration(types: Any, seconds: float) -> Any:
+    """builtin_interfaces/Duration of `seconds` (>= 0)."""
+    ns = max(round(seconds * 1e9), 0)
+    return types["builtin_interfaces/msg/Duration"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+
+
+def nav_state(types: Any, state: m.NavState) -> Any:
+    """std_msgs/String holding the navigator's state as zenav's JSON (the NavState fields)."""
+    return types["std_msgs/msg/String"](data=msgspec.json.encode(state).decode())
+
+
+def _finite(*values: float) -> tuple[float, ...]:
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f"values not finite: {values}")
+    return values
+
+
 def goal(msg: Any) -> tuple[str, float, float, float]:
-    """(frame, x [m], y [m], heading [rad]) of a geometry_msgs/PoseStamped goal."""
-    p = msg.pose
-    return msg.header.frame_id, float(p.position.x), float(p.position.y), yaw(p.orientation)
+    """(frame, x [m], y [m], heading [rad]) of a geometry_msgs/PoseStamped (a goal) or of the pose of a
+    PoseWithCovarianceStamped (an initial pose); ValueError if not finite."""
+    p = msg.pose.pose if hasattr(msg.pose, "covariance") else msg.pose
+    x, y, heading = _finite(float(p.position.x), float(p.position.y), yaw(p.orientation))
+    return msg.header.frame_id, x, y, heading
+
+
+def velocity(msg: Any) -> tuple[float, float]:
+    """(forward speed [m/s], yaw rate [rad/s]) of a geometry_msgs/Twist or TwistStamped; ValueError if not finite.
+    The other axes (sideways, up, roll, pitch) a differential drive cannot follow are ignored."""
+    tw = msg.twist if hasattr(msg, "twist") else msg
+    v, omega = _finite(float(tw.linear.x), float(tw.angular.z))
+    return v, omega
+
+
+def in_map(frame: str) -> bool:
+    """Whether a message's frame is the map (or left empty)."""
+    return frame.strip("/") in ("", MAP)

@@ -1,19 +1,19 @@
 """A bridge between one robot's zenav topics and ROS 2 nodes on rmw_zenoh, through the same Zenoh router.
 
-To ROS it is a node (default `zenav_bridge`) that publishes, with the types and key
-layout of rmw_zenoh (tools/rmw_zenoh.py):
+To ROS it is a node (default `zenav_bridge`) with, by relative name (under its namespace):
 
-- `pose` (geometry_msgs/msg/PoseWithCovarianceStamped) and `odometry` (nav_msgs/msg/Odometry):
-  the fused pose, in `map`, for every zenav `pose`;
-- `/tf` (tf2_msgs/msg/TFMessage): `odom -> base_link` for every zenav `odom`, and
-  `map -> odom` for every `pose` whose odom sample (same t) it has seen;
+- out: `odom`, `odometry`, `pose`, `/tf`, `nav/state` (tools/ros2_out.py);
+- in: `cmd_vel` (geometry_msgs/Twist or TwistStamped) -> zenav's `cmd_vel` (t = 0, "now"; the
+  motor applies its limits and watchdog), stopping a running goal first (`nav/stop`, once per
+  goal, as `zenav teleop` does: the hand has the robot, not the goal); `initialpose`
+  (geometry_msgs/PoseWithCovarianceStamped, frame `map`) -> `localizer/set_pose`;
+  `goal_pose` (geometry_msgs/PoseStamped, frame `map`, rviz2's "2D Goal Pose") -> `nav/move_to_pose`;
+- the action `navigate_to_pose` (nav2_msgs/action/NavigateToPose; tools/ros2_action.py).
 
-and takes goals on `goal_pose` (geometry_msgs/msg/PoseStamped, frame `map`, rviz2's
-"2D Goal Pose" tool) as `nav/move_to_pose` with the goal's heading. Relative names go under the node's namespace.
-
-Stamps are wall time: a wall-clock stack's t is wall time already; a sim clock's t (under
-WALL_SINCE) gets the offset its `clock` topic gives (wall - t), and samples wait for it.
-Zenoh callbacks only enqueue; one thread converts and publishes, another sends goals.
+Bad input (CDR that does not decode, non-finite values) is dropped, counted (`bad_input`)
+and logged; a message in another frame than `map`, or one the stack refuses, is counted
+`refused` and logged with the reason. Zenoh callbacks only enqueue: one worker converts
+and publishes zenav's topics, one command thread handles what ROS sends (in arrival order).
 """
 
 from __future__ import annotations
@@ -22,85 +22,70 @@ import functools
 import logging
 import queue
 import threading
-import time
-from collections import OrderedDict
+from collections.abc import Callable
 from typing import Any
 
-import zenoh
-
 from zenav.common import messages as m
-from zenav.common.bus import ZenohBus, undeclare_all
-from zenav.common.client import Client, ZenavError
+from zenav.common.bus import ZenohBus
+from zenav.common.client import Client, Latest, ZenavError
+from zenav.common.navgoals import STOPPED
 from zenav.tools import ros2_msgs as rm
-from zenav.tools.rmw_zenoh import Endpoint, Wire, attachment, gid
+from zenav.tools import ros2_out as ro
+from zenav.tools.rmw_zenoh import Wire
+from zenav.tools.ros2_action import NavigateToPose
+from zenav.tools.ros2_node import Node
 
 log = logging.getLogger("zenav.ros2")
 
-POSE, ODOMETRY, TF, GOAL = "pose", "odometry", "/tf", "goal_pose"
-PUBLISHED = {
-    POSE: ("geometry_msgs/msg/PoseWithCovarianceStamped", 10),
-    ODOMETRY: ("nav_msgs/msg/Odometry", 10),
-    TF: ("tf2_msgs/msg/TFMessage", 100),  # tf2's broadcaster depth
+GOAL_POSE, CMD_VEL, INITIAL_POSE = "goal_pose", "cmd_vel", "initialpose"
+SUBSCRIBED = {  # ROS topic -> the types taken on it
+    GOAL_POSE: ("geometry_msgs/msg/PoseStamped",),
+    CMD_VEL: ("geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped"),
+    INITIAL_POSE: ("geometry_msgs/msg/PoseWithCovarianceStamped",),
 }
-GOAL_TYPE = "geometry_msgs/msg/PoseStamped"
-MOVE_TO_POSE = "nav/move_to_pose"
-ODOM_KEEP = 500  # odom samples kept to find the one a pose is for (5 s at 100 Hz)
+MOVE_TO_POSE, SET_POSE, STOP = "nav/move_to_pose", "localizer/set_pose", "nav/stop"
+STOP_TIMEOUT = 1.0  # [s] for the navigator to answer the nav/stop of a cmd_vel that takes over from a goal
 INBOX = 1000  # zenav messages waiting for the worker; more are dropped (counted)
-WALL_SINCE = 1e9  # [s] a stack time after this (2001) is wall time; before, a sim clock's
-
-
-class _Publisher:
-    """One ROS publisher: its rmw_zenoh key, liveliness token, GID and sequence numbers."""
-
-    def __init__(self, session: zenoh.Session, wire: Wire, ep: Endpoint, token: str) -> None:
-        self.ros_type, self.key, self.gid, self.seq = ep.ros_type, wire.key(ep), gid(token), 0
-        self._pub = session.declare_publisher(self.key, encoding=zenoh.Encoding.APPLICATION_CDR)
-        self._token = session.liveliness().declare_token(token)
-
-    def put(self, payload: bytes) -> None:
-        self.seq += 1
-        self._pub.put(payload, attachment=attachment(self.seq, time.time_ns(), self.gid))
-
-    def undeclare(self) -> None:
-        self._token.undeclare()
-        self._pub.undeclare()
+JOBS = 100  # ROS requests waiting for the command thread; more are dropped (counted)
+COUNTERS = ("goals", "cmd_vel", "initial_poses", "goals_stopped", "bad_input", "refused", "dropped", "unstamped")
 
 
 class Bridge:
-    """Publishes one robot's pose and transforms to ROS 2 and forwards its goals; start() then stop()."""
+    """Publishes one robot's state to ROS 2 and takes its commands; start() then stop()."""
 
     def __init__(self, bus: ZenohBus, robot: str, wire: Wire) -> None:
         self.bus, self.robot, self.wire = bus, robot, wire
         self.client = Client(robot, bus=bus)
-        self.counts: dict[str, int] = dict.fromkeys((*PUBLISHED, "goals", "goals_refused", "dropped", "unstamped"), 0)
-        self.offset: float | None = None  # [s] wall time minus stack time, from the clock topic
-        self._odom: OrderedDict[float, rm.Pose2] = OrderedDict()
-        self._inbox: queue.Queue[tuple[str, Any]] = queue.Queue(INBOX)
-        self._goals: queue.Queue[bytes] = queue.Queue(1)
+        self.counts: dict[str, int] = dict.fromkeys((*ro.BRIDGED, *COUNTERS), 0)
+        self.converter = ro.Converter(wire.types())
+        self.node: Node | None = None
+        self.action: NavigateToPose | None = None
+        self._pubs: dict[str, Any] = {}
+        self._nav: Latest | None = None  # the newest nav/state, as it arrives (not behind the worker's queue)
+        self._stopped_goal = 0  # the goal id a cmd_vel stopped last
+        self._inbox: queue.Queue[Any] = queue.Queue(INBOX)
+        self._jobs: queue.Queue[Callable[[], None]] = queue.Queue(JOBS)
         self._stop = threading.Event()
-        self._pubs: dict[str, _Publisher] = {}
-        self._handles: list[Any] = []
         self._threads: list[threading.Thread] = []
 
     def keys(self) -> dict[str, str]:
-        """ROS topic -> the Zenoh key it travels on."""
-        out = {self.wire.name(name): pub.key for name, pub in self._pubs.items()}
-        out[self.wire.name(GOAL)] = self.wire.key(self.wire.endpoint("MS", GOAL, GOAL_TYPE))
-        return out
+        """`kind ROS name` -> the Zenoh key it travels on, for every endpoint of the node."""
+        eps = self.node.endpoints if self.node is not None else []
+        return {f"{ep.kind} {ep.topic}": self.wire.key(ep) for ep in eps}
 
     def start(self) -> Bridge:
         """Declare the ROS node, its endpoints and the zenav subscriptions; start the threads."""
-        session, zid = self.bus.session, str(self.bus.session.zid())
-        self._handles.append(session.liveliness().declare_token(self.wire.node_token(zid)))
-        for entity, (name, (ros_type, depth)) in enumerate(PUBLISHED.items(), start=1):
-            ep = self.wire.endpoint("MP", name, ros_type, depth)
-            self._pubs[name] = _Publisher(session, self.wire, ep, self.wire.token(zid, ep, entity))
-        goal = self.wire.endpoint("MS", GOAL, GOAL_TYPE)
-        self._handles.append(session.declare_subscriber(self.wire.key(goal), self._on_goal_sample))
-        self._handles.append(session.liveliness().declare_token(self.wire.token(zid, goal, len(PUBLISHED) + 1)))
-        for suffix in ("clock", "odom", "pose"):
-            self.client.subscribe(suffix, functools.partial(self._enqueue, suffix))
-        for target in (self._work, self._send_goals):
+        node = self.node = Node(self.bus.session, self.wire)
+        self._pubs = {name: node.publisher(name, *ro.TYPES[name]) for name in ro.BRIDGED}
+        handlers = {GOAL_POSE: self._goal, CMD_VEL: self._cmd_vel, INITIAL_POSE: self._initial_pose}
+        for name, ros_types in SUBSCRIBED.items():
+            for ros_type in ros_types:
+                node.subscription(name, ros_type, functools.partial(self._on_sample, handlers[name], ros_type))
+        self.action = NavigateToPose(node, self.client, self.submit, self.counts)
+        self._nav = self.client.latest("nav/state")
+        for suffix in ("clock", "odom", "pose", "nav/state"):
+            self.client.subscribe(suffix, self._enqueue)
+        for target in (self._work, self._run_jobs):
             thread = threading.Thread(target=target, name=f"ros2-{target.__name__.strip('_')}", daemon=True)
             thread.start()
             self._threads.append(thread)
@@ -112,101 +97,120 @@ class Bridge:
         for thread in self._threads:
             thread.join(timeout=5.0)
         self.client.close()
-        undeclare_all([*self._pubs.values(), *self._handles])
-        self._pubs.clear()
-        self._handles.clear()
+        if self.action is not None:
+            self.action.close()
+        if self.node is not None:
+            self.node.close()
+        self.counts["unstamped"] = self.converter.unstamped
 
     # ------------------------------------------------------------ zenoh threads: enqueue only
-    def _enqueue(self, suffix: str, msg: Any) -> None:
+    def _enqueue(self, msg: Any) -> None:
         try:
-            self._inbox.put_nowait((suffix, msg))
+            self._inbox.put_nowait(msg)
         except queue.Full:
             self.counts["dropped"] += 1
 
-    def _on_goal_sample(self, sample: zenoh.Sample) -> None:
-        data = sample.payload.to_bytes()
-        try:  # the newest goal wins
-            self._goals.get_nowait()
-        except queue.Empty:
-            pass
+    def _on_sample(self, handler: Callable[[bytes, str], None], ros_type: str, data: bytes) -> None:
+        self.submit(functools.partial(handler, data, ros_type))
+
+    def submit(self, job: Callable[[], None]) -> None:
+        """Run `job` on the command thread, after those before it (dropped and counted if too many wait)."""
         try:
-            self._goals.put_nowait(data)
-        except queue.Full:  # another goal came in between: it wins
+            self._jobs.put_nowait(job)
+        except queue.Full:
             self.counts["dropped"] += 1
 
-    # ------------------------------------------------------------ worker: convert and publish
+    # ------------------------------------------------------------ worker: zenav -> ROS
     def _work(self) -> None:
         while not self._stop.is_set():
             try:
-                suffix, msg = self._inbox.get(timeout=0.1)
+                msg = self._inbox.get(timeout=0.1)
             except queue.Empty:
                 continue
             try:
-                self._handle(suffix, msg)
+                self._handle(msg)
             except Exception:
-                log.exception("could not bridge %s", suffix)
+                log.exception("could not bridge %s", type(msg).__name__)
 
-    def _handle(self, suffix: str, msg: Any) -> None:
-        if isinstance(msg, m.Clock):
-            if msg.wall > 0.0:
-                self.offset = msg.wall - msg.t
-            return
-        t = self.wall_time(msg.t)
-        if t is None:
-            self.counts["unstamped"] += 1
-        elif isinstance(msg, m.Odom):
-            self._odom[msg.t] = (msg.x, msg.y, msg.theta)
-            while len(self._odom) > ODOM_KEEP:
-                self._odom.popitem(last=False)
-            types = self.wire.types()
-            self._publish(TF, rm.tf_message(types, [rm.transform(types, t, rm.ODOM, rm.BASE, self._odom[msg.t])]))
-        elif isinstance(msg, m.Pose):
-            self._on_pose(msg, t)
+    def _handle(self, msg: Any) -> None:
+        if self.action is not None:
+            if isinstance(msg, m.Pose):
+                self.action.on_pose(msg)
+            elif isinstance(msg, m.NavState):
+                self.action.on_state(msg)
+        for name, ros in self.converter.feed(msg):
+            self._pubs[name].put(ros)
+            self.counts[name] += 1
 
-    def wall_time(self, t: float) -> float | None:
-        """The wall time [s] of stack time `t`; None while a sim clock's offset is unknown."""
-        if t > WALL_SINCE:
-            return t
-        return None if self.offset is None else t + self.offset
-
-    def _on_pose(self, pose: m.Pose, t: float) -> None:
-        types = self.wire.types()
-        self._publish(POSE, rm.pose_with_covariance(types, pose, t))
-        self._publish(ODOMETRY, rm.odometry(types, pose, t))
-        odom = self._odom.get(pose.t)
-        if odom is not None:
-            correction = rm.map_to_odom((pose.x, pose.y, pose.theta), odom)
-            self._publish(TF, rm.tf_message(types, [rm.transform(types, t, rm.MAP, rm.ODOM, correction)]))
-
-    def _publish(self, name: str, msg: Any) -> None:
-        pub = self._pubs[name]
-        pub.put(self.wire.serialize(msg, pub.ros_type))
-        self.counts[name] += 1
-
-    # ------------------------------------------------------------ goals
-    def _send_goals(self) -> None:
+    # ------------------------------------------------------------ command thread: ROS -> zenav
+    def _run_jobs(self) -> None:
         while not self._stop.is_set():
             try:
-                data = self._goals.get(timeout=0.1)
+                job = self._jobs.get(timeout=0.1)
             except queue.Empty:
                 continue
             try:
-                self._goal(data)
+                job()
             except Exception:
-                log.exception("could not forward a goal")
+                log.exception("could not handle a ROS request")
 
-    def _goal(self, data: bytes) -> None:
-        frame, x, y, heading = rm.goal(self.wire.deserialize(data, GOAL_TYPE))
-        if frame.strip("/") not in ("", rm.MAP):
-            self.counts["goals_refused"] += 1
-            log.warning("goal in frame %r refused: goals are in %r", frame, rm.MAP)
-            return
-        request = {"x": x, "y": y, "theta": heading}
+    def _decode(self, data: bytes, ros_type: str, read: Callable[[Any], Any]) -> Any:
+        """read(message) of a sample, or None: bad input, dropped, counted, logged."""
         try:
-            reply = self.client.query(MOVE_TO_POSE, request)
+            return read(self.wire.deserialize(data, ros_type))
+        except Exception as e:  # rosbags raises several kinds on bad CDR; read() ValueError on non-finite values
+            self.counts["bad_input"] += 1
+            log.warning("%s: %d bytes dropped, not a valid message: %s", ros_type, len(data), e)
+            return None
+
+    def _refused(self, what: str, why: str) -> None:
+        self.counts["refused"] += 1
+        log.warning("%s refused: %s", what, why)
+
+    def _goal(self, data: bytes, ros_type: str) -> None:
+        goal = self._decode(data, ros_type, rm.goal)
+        if goal is None:
+            return
+        frame, x, y, heading = goal
+        if not rm.in_map(frame):
+            self._refused(GOAL_POSE, f"frame {frame!r}: goals are in {rm.MAP!r}")
+            return
+        try:
+            reply = self.client.query(MOVE_TO_POSE, {"x": x, "y": y, "theta": heading})
         except ZenavError as e:
-            self.counts["goals_refused"] += 1
-            log.warning("%s %s refused: %s", MOVE_TO_POSE, request, e)
+            self._refused(GOAL_POSE, str(e))
             return
         self.counts["goals"] += 1
-        log.info("%s %s: goal %s %s", MOVE_TO_POSE, request, reply.goal_id, reply.state)
+        log.info("%s (%.3f, %.3f, %.3f): goal %s %s", GOAL_POSE, x, y, heading, reply.goal_id, reply.state)
+
+    def _cmd_vel(self, data: bytes, ros_type: str) -> None:
+        cmd = self._decode(data, ros_type, rm.velocity)
+        if cmd is None:
+            return
+        nav = None if self._nav is None else self._nav.msg
+        if cmd != (0.0, 0.0) and nav is not None and nav.state != STOPPED and nav.goal_id != self._stopped_goal:
+            self._stopped_goal = nav.goal_id
+            try:
+                self.client.query(STOP, timeout=STOP_TIMEOUT)
+                self.counts["goals_stopped"] += 1
+                log.info("%s: stopped goal %d to drive by cmd_vel", CMD_VEL, nav.goal_id)
+            except ZenavError as e:
+                log.warning("%s: %s failed: %s", CMD_VEL, STOP, e)
+        self.client.publish("cmd_vel", m.CmdVel(t=0.0, v=cmd[0], omega=cmd[1]))
+        self.counts["cmd_vel"] += 1
+
+    def _initial_pose(self, data: bytes, ros_type: str) -> None:
+        pose = self._decode(data, ros_type, rm.goal)
+        if pose is None:
+            return
+        frame, x, y, theta = pose
+        if not rm.in_map(frame):
+            self._refused(INITIAL_POSE, f"frame {frame!r}: poses are in {rm.MAP!r}")
+            return
+        try:
+            self.client.query(SET_POSE, {"x": x, "y": y, "theta": theta})
+        except ZenavError as e:
+            self._refused(INITIAL_POSE, str(e))
+            return
+        self.counts["initial_poses"] += 1
+        log.info("%s: pose set to (%.3f, %.3f, %.3f)", INITIAL_POSE, x, y, theta)
