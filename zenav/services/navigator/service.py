@@ -8,7 +8,10 @@ is seen alive (the request is answered `unavailable` if it is not seen within
 robot library's LEASE_TIMEOUT). A goal without a lease runs until it ends or is stopped.
 nav/stop goes ahead of every other queued input, and commands zero the moment it
 arrives (`on_priority`, on the bus's thread): until the worker has handled it, the
-worker sends no cmd_vel, so nothing computed before the stop follows its zero.
+worker sends no cmd_vel, so nothing computed before the stop follows its zero. A stop
+voids every goal that reached the navigator before it (by the runtime's arrival
+numbers): one running is cancelled, and one still queued, or in hand when the stop came,
+is answered `unavailable` and never starts; only goals that arrive after the stop drive.
 Targets outside the [field] are refused. Diag status is `error` while the motor is
 gone, or while a goal is wanted and no usable pose comes.
 """
@@ -58,6 +61,7 @@ class Navigator(Service):
         self._pose_wanted = False  # a goal was refused or aborted for want of a usable pose
         self._cmd_lock = threading.Lock()  # cmd_vel from the worker vs the zero of an arriving stop
         self._stops = 0  # nav/stop queries arrived (queued) but not yet handled: no cmd_vel from the worker
+        self._stopped_at = 0  # arrival number (Service.query_arrival) of the newest nav/stop: goals that came before are void
         self._holding: Request | None = None  # a chained goal's request, its lease watched while its last command is held
 
     # ------------------------------------------------------------ inputs
@@ -197,11 +201,13 @@ class Navigator(Service):
             exit=self.machine.exit,
         )
 
-    def on_priority(self, suffix: str, queued: bool) -> None:
-        """nav/stop arrived (bus thread): zero now; the worker sends no cmd_vel until it has handled the stop."""
+    def on_priority(self, suffix: str, queued: bool, arrival: int) -> None:
+        """nav/stop arrived (bus thread): zero now; the worker sends no cmd_vel until it has handled the stop, and starts
+        no goal that arrived before it."""
         with self._cmd_lock:
             self._zero()
             self._stops += queued
+            self._stopped_at = max(self._stopped_at, arrival)
 
     def on_clock_reset(self) -> None:
         """The sim restarted: poses start again from t = 0, and the goal is void."""
@@ -250,6 +256,9 @@ class Navigator(Service):
         out = goals.outside(goal, pose, self.area)
         if out is not None:
             raise QueryError("invalid_argument", out)
+        if self.query_arrival() < self._stopped_at:  # a stop came after it, however late (one held for its lease: stop_query)
+            self.count("goals_voided")
+            raise QueryError("unavailable", "cancelled by nav/stop: the stop reached the navigator after this goal")
         request = Request(goal, info, req.wait, q)
         if req.lease is None:
             self._drop_pending("superseded by a newer goal before its lease was seen")
