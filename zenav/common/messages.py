@@ -266,9 +266,16 @@ class FollowPath(GoalOptions, frozen=True, kw_only=True):
 
 
 class SetPose(Request, frozen=True, kw_only=True):
+    """Any subset of x, y, theta but none (SET_POSE_EMPTY): the one left out keeps its value (setPosition, setHeading)."""
+
     x: Coord | None = None
     y: Coord | None = None
     theta: Angle | None = None
+
+
+# The invalid_argument of a set_pose without x, y or theta (the localizer's, and the library's before sending):
+# it would set nothing, and only reset the estimate's history.
+SET_POSE_EMPTY = "x, y, theta: none given; set_pose takes at least one (one left out keeps its value)"
 
 
 class SimReset(Request, frozen=True, kw_only=True):
