@@ -54,7 +54,7 @@ class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     progress_distance: Pos = 0.01  # [m] the least gain toward a position goal that counts as progress
     progress_angle: Pos = 0.02  # [rad] the least gain toward a heading that counts as progress
     stale_after: Pos = 0.5  # [s] a goal aborts when the newest pose is older than this
-    max_position_sigma: Limit = 0.5  # [m] a goal aborts (or is refused) while the pose's position sigma is larger
+    max_position_sigma: Limit = 0.5  # [m] a goal aborts (or is refused) while the pose's position sigma is larger (once a vps is seen)
     max_heading_sigma: Limit = 0.35  # [rad] likewise for the heading sigma (20 deg)
     lease_grace: Pos = 0.5  # [s] how long a goal's lease token may take to be seen alive
     check_period: Pos = 0.05  # [s] period of the stale pose, progress and lease checks
