@@ -636,8 +636,12 @@ class Service:
 
     def running_for(self, robot: str) -> str | None:
         """The ids of the instances of this service that run for `robot` (its tokens), comma-separated; None: none."""
-        found = self.bus.tokens(keys.key(robot, f"instance/{self.name}/*")) or self.bus.tokens(keys.alive(robot, self.name))
-        return ", ".join(sorted(k.rsplit("/", 1)[-1] for k in found)) if found else None
+        found = self.bus.tokens(keys.key(robot, f"instance/{self.name}/*"))
+        if found:
+            return ", ".join(sorted(k.rsplit("/", 1)[-1] for k in found))
+        if self.bus.tokens(keys.alive(robot, self.name)):  # one that holds no instance token
+            return f"instance unknown: alive/{self.name} is held"
+        return None
 
     def _instance_enqueuer(self, mine: str) -> Callable[[str, bool], None]:
         def enqueue(key: str, alive: bool) -> None:
