@@ -321,7 +321,7 @@ class Robot:
         return await asyncio.to_thread(self.sync.pose, timeout)
 
     async def set_pose(self, x: float | None = None, y: float | None = None, theta: float | None = None) -> m.PoseStamped:
-        """Tell the localizer where the robot is; the pose it took."""
+        """Tell the localizer where the robot is (at least one of x, y, theta: else InvalidArgument, nothing sent); the pose it took."""
         return await asyncio.to_thread(self.sync.set_pose, x, y, theta)
 
     async def status(self) -> m.StatusReply:

@@ -437,8 +437,11 @@ class Robot:
             raise Unavailable(f"no pose in {timeout} s: is the localizer running?") from None
 
     def set_pose(self, x: float | None = None, y: float | None = None, theta: float | None = None) -> m.PoseStamped:
-        """Tell the localizer where the robot is (any subset of x, y [m], theta [rad]); the pose it took."""
+        """Tell the localizer where the robot is (any subset of x, y [m], theta [rad], but at least one: else
+        InvalidArgument, nothing sent); the pose it took."""
         request = {k: v for k, v in {"x": x, "y": y, "theta": theta}.items() if v is not None}
+        if not request:
+            raise InvalidArgument(m.SET_POSE_EMPTY)
         return self.client.query("localizer/set_pose", request, timeout=self.timeout)
 
     def status(self) -> m.StatusReply:

@@ -15,6 +15,7 @@ from zenav.common.app import parse_sets
 from zenav.common.client import Client, Latest
 from zenav.common.config import Settings
 from zenav.robot import Robot
+from zenav.services.navigator.params import Params
 from zenav.stack.inprocess import InProcessStack
 from zenav.tools.arduino_emulator import Emulator
 
@@ -71,8 +72,8 @@ def emu(tmp_path):
         yield e
 
 
-@pytest.fixture
-def robot_stack(emu, router):
+def robot_settings(emu: Emulator, localizer: dict) -> Settings:
+    """The robot profile's settings for the emulated board."""
     profile = services.PROFILES["robot"]
     settings = Settings.load(
         None,
@@ -81,13 +82,38 @@ def robot_stack(emu, router):
             "robot": {"ticks_per_rev": TICKS},
             "driver": {"port": emu.link, **DRIVER},
             "odometry": {"heading_source": "encoders"},
-            "localizer": {"calib_sigma": CALIB_SIGMA},
+            "localizer": localizer,
             "navigator": NAV,
         },
     )
     assert settings.deployment.clock == "wall"
-    with InProcessStack(settings, router, profile.services) as stack:
+    return settings
+
+
+@pytest.fixture
+def robot_stack(emu, router):
+    with InProcessStack(robot_settings(emu, {"calib_sigma": CALIB_SIGMA}), router, services.PROFILES["robot"].services) as stack:
         yield stack
+
+
+def test_an_uncalibrated_robot_without_a_vps_drives_its_first_goal(emu, router):
+    """The localizer's default calibration prior (5 %) grows the heading sigma past [navigator] max_heading_sigma
+    within the first metre: with no vps, the goal drives, and nav/state says how uncertain the pose is."""
+    limit = Settings.load(None).section("navigator", Params).max_heading_sigma
+    with (
+        InProcessStack(robot_settings(emu, {}), router, services.PROFILES["robot"].services),
+        Client("r1", router) as watcher,
+        Robot("r1", router, lease=False) as bot,
+    ):
+        watcher.latest("diag/driver").wait(lambda d: d.status == "ok", timeout=WAIT)
+        state: Latest = watcher.latest("nav/state")
+        bot.set_pose(0.0, 0.0, 0.0)
+        bot.wait_ready(timeout=30)
+        end = bot.move_to_point(1.0, 0.0, speed=SPEED, tolerance=TOLERANCE).wait(timeout=GOAL_WAIT)
+        assert end.succeeded, str(end)
+        last = state.wait(lambda s: s.goal_id == end.goal_id and s.result is not None, timeout=WAIT)
+        print(f"\nheading sigma at the end {last.heading_sigma:.3f} rad (limit {limit} rad), position {last.position_sigma:.3f} m")
+        assert last.heading_sigma > limit, last
 
 
 def test_the_robot_profile_drives_the_board_and_survives_an_unplug(emu, robot_stack, router):

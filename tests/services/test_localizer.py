@@ -98,6 +98,21 @@ def test_queries_pose_and_set_pose_mid_drive(run):
     rig.close()
 
 
+def test_an_empty_set_pose_is_refused_and_keeps_the_estimate(run):
+    rig = make()
+    replay(rig, run, 3.0)
+    before = rig.reply(rig.query("localizer/pose", {}))
+    for payload, params in (({}, None), (None, None), ({"x": None, "y": None, "theta": None}, None)):
+        err = rig.reply(rig.query("localizer/set_pose", payload, params))
+        assert isinstance(err, m.ErrorReply) and err.error == "invalid_argument", err
+        assert "x, y, theta: none given" in err.message, err
+    after = rig.reply(rig.query("localizer/pose", {}))
+    assert (after.x, after.y, after.theta, after.cov) == (before.x, before.y, before.theta, before.cov)
+    replay(rig, run, 3.5, t_start=3.01)
+    assert all(r.reason != "before_set_pose" for r in rig.got("localizer/fixes"))  # the fix history was kept
+    rig.close()
+
+
 def test_diag_degraded_without_fixes_and_reports_latency(run):
     rig = make(expected_latency=0.5)
     replay(rig, run, 2.0, fixes=False)

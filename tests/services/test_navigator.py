@@ -369,8 +369,44 @@ def test_stop_is_dispatched_before_queued_long_paths(rig):
     assert rig.nav.drain(limit=1) == 1
     assert reply(stop, m.StopReply).state == "STOPPED" and not any(q.replies for q in held)
     assert rig.published("cmd_vel")[-1] == m.CmdVel(t=0.0, v=0.0, omega=0.0)
+
+
+def test_a_stop_voids_every_goal_that_reached_the_navigator_before_it(rig):
+    reply(rig.query("nav/move_straight", {"speed": 0.2}))  # accepted and driving
+    rig.step(5)
+    path = codec.encode(long_path(10_000))
+    held = [rig.bus.query("zenav/r1/nav/follow_path", path) for _ in range(15)]  # queued behind the worker
+    waiting = rig.bus.query("zenav/r1/nav/move_to_point", codec.encode({"x": 1.0, "y": 0.0, "wait": True}))
+    stop = rig.bus.query("zenav/r1/nav/stop")
+    later = rig.bus.query("zenav/r1/nav/move_to_point", codec.encode({"x": 0.5, "y": 0.5}))  # arrives after the stop
+    sent = len(rig.published("cmd_vel"))
     rig.nav.drain()
-    assert [reply(q).goal_id for q in held] == list(range(1, 16))
+    assert reply(stop, m.StopReply).state == "STOPPED"
+    for q in [*held, waiting]:
+        err = reply(q)
+        assert err.error == "unavailable" and "nav/stop" in err.message, err
+    assert reply(later).goal_id == 2  # the goal sent after the stop drives
+    assert rig.nav.counters.values["goals_voided"] == 16
+    assert {s.goal_id for s in rig.published("nav/state")} == {0, 1, 2}  # none of the voided ever ran
+    assert all(c.t == 0.0 and c.v == 0.0 for c in rig.published("cmd_vel")[sent:])  # nothing drove before the later goal's pose
+
+
+def test_a_goal_in_hand_when_a_stop_arrives_does_not_start(rig, monkeypatch):
+    from zenav.services.navigator import intake
+
+    resolve = intake.move_to_point
+    stops = []
+
+    def stop_arrives_meanwhile(req, cfg):  # the stop reaches the navigator while the worker resolves the goal
+        stops.append(rig.bus.query("zenav/r1/nav/stop"))
+        return resolve(req, cfg)
+
+    monkeypatch.setattr(intake, "move_to_point", stop_arrives_meanwhile)
+    q = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0})
+    assert reply(q).error == "unavailable" and "nav/stop" in reply(q).message
+    assert reply(stops[0], m.StopReply).state == "STOPPED" and rig.nav.machine.goal_id == 0
+    rig.step(5)
+    assert rig.cmd == (0.0, 0.0) and rig.nav.machine.goal_id == 0
 
 
 def test_stop_commands_zero_on_arrival_and_nothing_computed_before_it_follows(rig):
@@ -522,3 +558,39 @@ def test_a_stale_pose_under_a_running_goal_is_an_error_until_poses_return(rig):
     assert rig.nav.machine.result == "aborted" and rig.nav.status == "error" and "stale" in rig.nav.status_message
     rig.step()
     assert rig.nav.status == "ok"
+
+
+UNCERTAIN = (1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 0.36**2)  # heading sigma 0.36 rad: past the default 0.35
+
+
+def test_without_a_vps_an_uncertain_pose_drives_and_is_reported(rig, caplog):
+    """A robot on odometry alone (no vps, as the robot profile): its heading sigma grows with every metre; the goal
+    drives, and nav/state says how uncertain the pose is."""
+    rig.cov = UNCERTAIN
+    rig.pose()
+    rep = rig.run_until(rig.query("nav/move_to_point", {"x": 0.5, "y": 0.0, "wait": True}))
+    assert rep.result == "succeeded", rep
+    state = rig.published("nav/state")[-1]
+    assert state.heading_sigma == pytest.approx(0.36) and state.position_sigma == pytest.approx(0.01)
+    st = reply(rig.query("nav/status"), m.StatusReply)
+    assert st.not_ready == "" and st.heading_sigma == pytest.approx(0.36)
+    warned = [r.message for r in caplog.records if "uncertain" in r.message]
+    assert len(warned) == 1 and "heading sigma 0.360 rad > 0.350 rad" in warned[0], warned
+
+
+def test_with_a_vps_an_uncertain_pose_refuses_and_aborts(rig):
+    token = rig.bus.token("zenav/r1/alive/vps")  # a camera stack: the fixes keep the pose certain, and their loss shows
+    rig.cov = UNCERTAIN
+    rig.pose()
+    err = reply(rig.query("nav/move_to_point", {"x": 0.5, "y": 0.0}))
+    assert err.error == "unavailable" and "heading sigma 0.360 rad > 0.350 rad" in err.message, err
+    rig.cov = m.ZERO_COV
+    rig.pose()
+    q = rig.query("nav/move_to_point", {"x": 0.5, "y": 0.0, "wait": True})
+    rig.step(10)
+    rig.cov = UNCERTAIN
+    rep = rig.run_until(q)
+    assert rep.result == "aborted" and "pose too uncertain" in rep.message, rep
+    token.undeclare()
+    rig.step(1)
+    assert reply(rig.query("nav/move_to_point", {"x": 0.5, "y": 0.0})).error == "unavailable"  # a vps seen once: still gated

@@ -8,6 +8,7 @@ rig.run_until(q)                                # step until it has its reply (b
 rig.step(10)                                    # 10 pose periods: drive the robot, publish its pose
 rig.published("cmd_vel")                        # -> [m.CmdVel, ...] published so far
 rig.x, rig.y, rig.theta, rig.cmd, rig.moving    # the robot (settable), the last command, stuck wheels
+rig.cov                                         # the covariance its poses carry (settable)
 
 `World()` is that rig as the bus of `zenav.robot.Robot("r1", bus=world)`; `world.drive(until)` steps until `until()` holds.
 """
@@ -39,6 +40,7 @@ class Rig:
         self.bot = SimRobot(settings.robot, IDEAL, seed=1)
         self.cmd = (0.0, 0.0)  # last cmd_vel (v, omega)
         self.moving = True  # False: the wheels are stuck, the commands do nothing
+        self.cov = m.ZERO_COV  # the covariance each pose carries
         self.bus.subscribe("zenav/r1/cmd_vel", self._on_cmd)
 
     x = property(lambda self: self.bot.state.x, lambda self, v: self._shove(x=v))
@@ -55,7 +57,7 @@ class Rig:
 
     def pose(self):
         s = self.bot.state
-        msg = m.Pose(t=self.clock.now(), x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega)
+        msg = m.Pose(t=self.clock.now(), x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega, cov=self.cov)
         self.bus.publish("zenav/r1/pose", codec.encode(msg))
         self.nav.drain()
 

@@ -48,6 +48,13 @@ def test_stop_overtakes_a_flood_of_goals(rig):
     assert fl.zero <= fl.answered + 0.1, fl  # the zero goes out as the stop is handled, before its answer travels back
 
 
+def test_a_stop_voids_every_goal_that_reached_the_navigator_before_it(rig):
+    b = safety.stop_after_a_burst(rig)
+    print(f"stop answered {b.answered * 1000:.1f} ms; {b.queued}/{b.goals} goals answered after it, {b.voided} voided, {b.started} started")
+    assert b.voided >= 1, b  # goals were still waiting at the navigator when the stop came (else this shows nothing)
+    assert b.replies == b.goals and b.started == 0 and b.moving == 0, b  # each answered; none started after the stop; none drove
+
+
 def test_bad_inputs_are_refused_without_a_pose_blackout(rig):
     gaps = safety.bad_inputs(rig)
     for g in gaps:

@@ -112,6 +112,22 @@ def test_up_serves_the_contract_to_a_plain_client(up, tmp_path):
     assert not failed, f"a handler failed (its traceback is in {failed})"
 
 
+def test_a_second_instance_of_every_service_names_the_running_one(up):
+    """Each service started again beside `zenav up`, in the same Zenoh mode: exit 3, naming the running process.
+    A peer just opened links to the other peers a moment later: a lookup made before that must not miss them."""
+    proc, c, endpoint = up
+    c.follow("diag/*")
+    c.wait(lambda latest: all(f"diag/{s}" in latest for s in NAMES), timeout=90)
+    mode = "peer" if "peer" in proc.args else "client"
+    for s in NAMES:  # one after the other: each a whole process start on a small host
+        argv = [sys.executable, "-m", f"zenav.services.{s}", "--connect", endpoint, "--zenoh-mode", mode]
+        p = subprocess.run(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, timeout=60)
+        last = p.stderr.strip().splitlines()[-1]
+        print(f"{mode} {s}: exit {p.returncode}: {last}")
+        assert p.returncode == 3, p.stderr
+        assert last.startswith(f"zenav-{s}: another {s} already runs for robot r1 (") and f"-{service_pid(s, endpoint)}-" in last, last
+
+
 def test_up_composes_the_services_its_config_file_names(tmp_path):
     """[deployment] compose: the robot's four services in one process, each alive with its own diag, and a goal runs through them."""
     robot_services = ("odometry", "localizer", "navigator", "motor")

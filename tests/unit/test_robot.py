@@ -250,6 +250,12 @@ def test_invalid_arguments_name_the_field(world, bot, send, field):
     assert isinstance(e.value, ZenavError) and isinstance(e.value, ValueError)
 
 
+def test_set_pose_without_a_value_is_refused_before_sending(world, bot):
+    with pytest.raises(InvalidArgument, match="x, y, theta: none given"):
+        bot.set_pose()
+    assert not [suffix for suffix, _ in world.sent if suffix == "localizer/set_pose"]
+
+
 def test_no_pose_is_unavailable_and_not_ready():
     world = World()  # no pose published
     with Robot("r1", bus=world) as bot:

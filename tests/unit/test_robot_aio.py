@@ -115,5 +115,7 @@ def test_drive_in_asyncio_commands_zero_when_done_and_when_cancelled(world):
             assert sent()[-1] == zero and (0.0, -0.1, 0.0) in sent()[before:]
             with pytest.raises(InvalidArgument, match="seconds"):
                 await bot.drive(0.1, 0.0, seconds=-1.0)
+            with pytest.raises(InvalidArgument, match="x, y, theta: none given"):
+                await bot.set_pose()
 
     asyncio.run(main())

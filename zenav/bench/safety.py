@@ -96,11 +96,57 @@ def stop_under_flood(rig: Rig, goals: int = FLOOD_GOALS, points: int = FLOOD_POI
         rig.client.query("nav/stop", timeout=WAIT)
         answered = time.monotonic()
         zero = rig.cmd.first(lambda t, c: _zero(t, t0, c.v, c.omega))
-        times = json.loads(lines.get(timeout=60))
+        times = [t for t, _ in json.loads(lines.get(timeout=60))]
     finally:
         end_child(proc)
     rig.client.query("nav/stop", timeout=WAIT)  # the newest flood goal ran after the stop
     return Flood(answered - t0, zero - t0, goals, sum(t > answered for t in times))
+
+
+BURST_GOALS = 60  # follow_path goals of FLOOD_POINTS points in the burst a stop must void
+BURST_AFTER = 1.0  # [s] after the burst's last answer, cmd_vel is still watched (a goal started late drives then)
+
+
+@dataclass
+class Burst:
+    """nav/stop once a burst of follow_path goals from another process has reached the navigator."""
+
+    goals: int  # goals in the burst, all sent (and arrived) before the stop
+    replies: int  # goals answered (every one is: started, or voided)
+    queued: int  # of those, answered after the stop was sent (still at the navigator when it came)
+    voided: int  # answered unavailable, voided by the stop
+    started: int  # answered ok after the stop's answer: started after it
+    moving: int  # cmd_vel messages other than zero from the stop's answer to BURST_AFTER after the burst's last answer
+    answered: float  # [s] stop sent -> answered
+
+
+def stop_after_a_burst(rig: Rig, goals: int = BURST_GOALS, points: int = FLOOD_POINTS) -> Burst:
+    """A second process sends `goals` follow_path goals of `points` points at once; once they have all reached the
+    navigator (safety_rig's `burst`), nav/stop; then what started, and what was commanded, for the rest of the burst."""
+    rig.ready()
+    proc, lines = start_child("burst", rig.endpoint, str(goals), str(points))
+    try:
+        assert lines.get(timeout=60).startswith("sent")
+        assert lines.get(timeout=60).startswith("arrived")
+        t0 = time.monotonic()
+        rig.client.query("nav/stop", timeout=WAIT)
+        answered = time.monotonic()
+        replies = json.loads(lines.get(timeout=60))
+    finally:
+        end_child(proc)
+    end = max(t for t, _ in replies) + BURST_AFTER
+    rig.pose.first(lambda t, p: t > end, timeout=WAIT + BURST_AFTER)  # the stack ran on that long
+    with rig.cmd.cond:
+        moving = sum(1 for t, c in rig.cmd.items if answered < t <= end and (c.v, c.omega) != (0.0, 0.0))
+    return Burst(
+        goals,
+        replies=len(replies),
+        queued=sum(t > t0 for t, _ in replies),
+        voided=sum(not ok for _, ok in replies),
+        started=sum(ok and t > answered for t, ok in replies),
+        moving=moving,
+        answered=answered - t0,
+    )
 
 
 @dataclass
@@ -245,6 +291,12 @@ def _measure(rig: Rig, floods: int) -> int:
                 f"zero cmd_vel {_spread([r.zero for r in runs])} ms; "
                 f"under 50 ms: answered {sum(r.answered < 0.05 for r in runs)}, zero {sum(r.zero < 0.05 for r in runs)}"
             )
+        b = stop_after_a_burst(rig)
+        print(
+            f"nav/stop once {b.goals} follow_path goals of {FLOOD_POINTS} points reached the navigator: answered in "
+            f"{b.answered * 1000:.1f} ms; {b.queued} goals still there, {b.voided} voided, {b.started} started after it, "
+            f"{b.moving} moving cmd_vel after it"
+        )
         for g in bad_inputs(rig):
             print(f"largest pose gap, {g.what}: {g.gap * 1000:.0f} ms ({g.counter} = {g.count})")
         w = wildcard_get(rig)

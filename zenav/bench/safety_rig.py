@@ -1,7 +1,8 @@
 """The safety bench's rig: the stack as processes, recorders of what it publishes, and the child processes.
 
 `python -m zenav.bench.safety_rig operator ENDPOINT` holds a Robot and sends one goal (to
-be frozen); `... flood ENDPOINT GOALS POINTS` sends follow_path goals without waiting.
+be frozen); `... flood ENDPOINT GOALS POINTS` sends follow_path goals without waiting;
+`... burst ENDPOINT GOALS POINTS` too, then says when they have all reached the navigator.
 """
 
 from __future__ import annotations
@@ -28,6 +29,8 @@ from zenav.stack.launcher import ProcStack
 FIELD_X_MAX = 1.5  # [m] the bench field's edge ahead of the start pose (a straight drive leaves it soon)
 OPERATOR_GOAL = (1.2, 0.0)  # [m] where the operator sends the robot
 WAIT = 10.0  # [s] for any one thing to happen
+# [bytes] a selector parameter over [limits] max_params (64 KiB): refused on arrival, in the navigator's bus callback
+OVER_PARAMS = 70_000
 
 
 class Arrivals:
@@ -155,24 +158,32 @@ def operator(endpoint: str) -> None:
         sys.stdin.read()  # until killed
 
 
-def flood(endpoint: str, goals: int, points: int) -> None:
-    """Send `goals` follow_path goals of `points` points without waiting; print when sent, then every reply time."""
+def flood(endpoint: str, goals: int, points: int, arrived: bool = False) -> None:
+    """Send `goals` follow_path goals of `points` points without waiting; print when sent, then every reply's
+    time and whether it was ok (a goal started), as JSON.
+
+    `arrived`: after the goals, a query with a selector parameter over max_params goes on the same session: the
+    navigator refuses it in its bus callback, on arrival, and a link delivers in order, so its answer says every
+    goal has reached the navigator (queued there, or served); then print "arrived"."""
     session = zenoh.open(zenoh_config("client", endpoint))
     path = [[0.2 + 0.3 * (i % 2), 0.5 * i / points] for i in range(points)]
     payload = codec.encode({"points": path})
-    times: list[float] = []
+    replies: list[tuple[float, bool]] = []
     done = threading.Event()
 
     def on_reply(reply: zenoh.Reply) -> None:
-        times.append(time.monotonic())
-        if len(times) == goals:
+        replies.append((time.monotonic(), reply.ok is not None))
+        if len(replies) == goals:
             done.set()
 
     for _ in range(goals):
         session.get("zenav/r1/nav/follow_path", on_reply, payload=payload, timeout=30)
     print(f"sent {time.monotonic()}", flush=True)
+    if arrived:
+        list(session.get(f"zenav/r1/nav/follow_path?points={'1' * OVER_PARAMS}", timeout=30))
+        print(f"arrived {time.monotonic()}", flush=True)
     done.wait(30)
-    print(json.dumps(times), flush=True)
+    print(json.dumps(replies), flush=True)
     session.close()
 
 
@@ -181,10 +192,10 @@ def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     if args[:1] == ["operator"]:
         operator(args[1])
-    elif args[:1] == ["flood"]:
-        flood(args[1], int(args[2]), int(args[3]))
+    elif args[:1] in (["flood"], ["burst"]):
+        flood(args[1], int(args[2]), int(args[3]), arrived=args[0] == "burst")
     else:
-        print("usage: python -m zenav.bench.safety_rig operator ENDPOINT | flood ENDPOINT GOALS POINTS", file=sys.stderr)
+        print("usage: python -m zenav.bench.safety_rig operator ENDPOINT | flood|burst ENDPOINT GOALS POINTS", file=sys.stderr)
         return 2
     return 0
 

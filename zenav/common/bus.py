@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import threading
+import time
 from collections.abc import Callable, Iterable
 from typing import Any, Protocol, cast
 
@@ -21,6 +22,11 @@ KEEP_ALIVES = 3  # keep-alive messages a session with a short `lease` sends per 
 RECONNECT = {"period_init_ms": 250, "period_max_ms": 500, "period_increase_factor": 1.5}
 MSGPACK = "application/msgpack"  # the Zenoh encoding of every sample and reply (zenav's codec)
 JSON = "application/json"  # the encoding of replies to queries that ask `_format=json`
+# [s] a peer session just opened links to the other peers (learnt from the router) a moment later, and a token lookup
+# made before that misses their tokens (seen: 6 of 15 opens on a loaded 2-core host, the tokens there 15 to 32 ms
+# later): for this long after opening, a peer's lookup that finds nothing looks again every LOOKUP_GAP
+PEER_SETTLE = 0.2
+LOOKUP_GAP = 0.01  # [s]
 
 SampleCallback = Callable[[str, bytes], None]  # (key, payload)
 TokenCallback = Callable[[str, bool], None]  # (key, alive)
@@ -350,8 +356,9 @@ class ZenohBus:
     declared on a second session, opened like the first on the first such declaration: a
     link of its own to the router that nothing else fills."""
 
-    def __init__(self, session: zenoh.Session, reopen: Callable[[], zenoh.Session] | None = None) -> None:
+    def __init__(self, session: zenoh.Session, reopen: Callable[[], zenoh.Session] | None = None, settle: float = 0.0) -> None:
         self.session = session
+        self._settled = time.monotonic() + settle  # [s] monotonic: token lookups until then look again (PEER_SETTLE)
         self._reopen = reopen  # opens another session like this one (None: urgent queryables share it)
         self._urgent: zenoh.Session | None = None
         self._pubs: dict[str, zenoh.Publisher] = {}
@@ -372,7 +379,7 @@ class ZenohBus:
         def make() -> zenoh.Session:
             return zenoh.open(zenoh_config(mode, connect, listen, connect_timeout=connect_timeout, lease=lease))
 
-        return cls(make(), reopen=make)
+        return cls(make(), reopen=make, settle=PEER_SETTLE if mode == "peer" else 0.0)
 
     def publish(self, key: str, data: bytes) -> None:
         pub = self._pubs.get(key)
@@ -436,9 +443,15 @@ class ZenohBus:
     def tokens(self, key: str, timeout: float = 2.0) -> list[str]:
         # Zenoh answers a session's query for its own token zero to two times (its own reply, the router's
         # echo): that part comes from what this bus holds
-        found = {str(r.ok.key_expr) for r in self.session.liveliness().get(key, timeout=timeout) if r.ok is not None}
+        found = self._lookup(key, timeout)
+        while not found and time.monotonic() < self._settled:  # a young peer: the links to the others may still be forming
+            time.sleep(LOOKUP_GAP)
+            found = self._lookup(key, timeout)
         held = [h.key for h in list(self._handles) if isinstance(h, _ZToken) and h.declared]  # a copy: handles come meanwhile
         return sorted(found | _matching(key, held))
+
+    def _lookup(self, key: str, timeout: float) -> set[str]:
+        return {str(r.ok.key_expr) for r in self.session.liveliness().get(key, timeout=timeout) if r.ok is not None}
 
     def get(self, selector: str, payload: bytes | None = None, timeout: float = 5.0, urgent: bool = False) -> list[tuple[bool, bytes]]:
         """Query and collect the replies as (ok, payload) pairs.

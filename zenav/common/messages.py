@@ -167,6 +167,8 @@ class NavState(Topic, frozen=True, kw_only=True):
     cross_track_error: Finite | None = None  # [m]
     message: str = ""
     exit: str | None = None  # why the goal's move ended (within_tolerance, settled, timeout, ...); nil while running
+    position_sigma: Finite | None = None  # [m] 1 sigma of the newest pose's position (its worst axis); nil before the first
+    heading_sigma: Finite | None = None  # [rad] 1 sigma of its heading
 
 
 class Fix(Topic, frozen=True, kw_only=True):
@@ -266,9 +268,16 @@ class FollowPath(GoalOptions, frozen=True, kw_only=True):
 
 
 class SetPose(Request, frozen=True, kw_only=True):
+    """Any subset of x, y, theta but none (SET_POSE_EMPTY): the one left out keeps its value (setPosition, setHeading)."""
+
     x: Coord | None = None
     y: Coord | None = None
     theta: Angle | None = None
+
+
+# The invalid_argument of a set_pose without x, y or theta (the localizer's, and the library's before sending):
+# it would set nothing, and only reset the estimate's history.
+SET_POSE_EMPTY = "x, y, theta: none given; set_pose takes at least one (one left out keeps its value)"
 
 
 class SimReset(Request, frozen=True, kw_only=True):
@@ -309,6 +318,8 @@ class StatusReply(Reply, frozen=True, kw_only=True):
     pose: PoseStamped | None
     not_ready: str = ""  # why a new goal would be refused now ("": one can start)
     exit: str | None = None  # why the newest goal's move ended; nil while it runs
+    position_sigma: float | None = None  # [m] as in NavState
+    heading_sigma: float | None = None  # [rad] as in NavState
 
 
 class LocalizerPoseReply(Reply, frozen=True, kw_only=True):

@@ -38,7 +38,10 @@ else, so a stop is never queued behind other input; on Zenoh they are served on 
 session of their own (bus.ZenohBus), so a stop is not behind other input on the wire
 either. Before the worker gets to it, such a query (on its exact key) runs the
 service's `on_priority` hook at once on the bus's thread: the navigator commands zero
-there, without waiting for the input the worker has in hand. The queue is bounded in
+there, without waiting for the input the worker has in hand. Every query is numbered as it
+arrives, in the bus callback (`query_arrival`): the order in which queries reached the
+service, which a priority query's overtaking does not change (the navigator voids the goals
+that arrived before a stop). The queue is bounded in
 items and bytes ([limits]): a full one drops new input (`dropped_overflow`). An input
 declared `latest` (`@subscribe("camera/frame", latest=True)`, as ROS 2's keep-last
 depth 1) holds one place in the queue at most: a sample that comes while its topic's
@@ -316,6 +319,8 @@ class Service:
         # (sample it waits for, wall time, tick and stack time it came, item), oldest first
         self._held: list[tuple[int, float, float, float, tuple]] = []
         self._arrived: float | None = None  # stack time a held input being served arrived
+        self._arrivals = itertools.count(1)  # numbers the queries in the order they reach this service (bus callback)
+        self._query_arrival = 0  # the number of the query being served (0: none)
         self._other_clock: set[str] = set()  # suffixes stamped on another stack's clock: not held to this one's horizon
         self._serve_time: dict[str, list] = {}  # suffix -> [wall seconds serving its messages, messages] since the last diag
 
@@ -336,6 +341,11 @@ class Service:
     def arrived(self) -> float:
         """The stack time the input being served arrived: now, or when a held one came."""
         return self.clock.now() if self._arrived is None else self._arrived
+
+    def query_arrival(self) -> int:
+        """The query being served's place in the order queries reached this service: numbered on arrival, in the bus
+        callback, before any queue (a priority query overtakes queued ones, and keeps its number); 0 outside a query."""
+        return self._query_arrival
 
     def call_at(self, t: float, fn: Callable[[float], Any]) -> None:
         """Run `fn(now)` once, as a timer, when the stack clock reaches `t` (at once if it has): work
@@ -434,9 +444,9 @@ class Service:
     def on_start(self) -> None:
         """Hook: runs once before the liveliness token is declared."""
 
-    def on_priority(self, suffix: str, queued: bool) -> None:
-        """Hook: a priority query on `suffix` (its exact key) just arrived and is `queued` for the
-        worker (False: the queue refused it). Runs at once on the bus's thread, beside the
+    def on_priority(self, suffix: str, queued: bool, arrival: int) -> None:
+        """Hook: a priority query on `suffix` (its exact key) just arrived, numbered `arrival` (query_arrival), and is
+        `queued` for the worker (False: the queue refused it). Runs at once on the bus's thread, beside the
         worker: keep it short and thread-safe."""
 
     def on_clock_reset(self) -> None:
@@ -629,8 +639,12 @@ class Service:
 
     def running_for(self, robot: str) -> str | None:
         """The ids of the instances of this service that run for `robot` (its tokens), comma-separated; None: none."""
-        found = self.bus.tokens(keys.key(robot, f"instance/{self.name}/*")) or self.bus.tokens(keys.alive(robot, self.name))
-        return ", ".join(sorted(k.rsplit("/", 1)[-1] for k in found)) if found else None
+        found = self.bus.tokens(keys.key(robot, f"instance/{self.name}/*"))
+        if found:
+            return ", ".join(sorted(k.rsplit("/", 1)[-1] for k in found))
+        if self.bus.tokens(keys.alive(robot, self.name)):  # one that holds no instance token
+            return f"instance unknown: alive/{self.name} is held"
+        return None
 
     def _instance_enqueuer(self, mine: str) -> Callable[[str, bool], None]:
         def enqueue(key: str, alive: bool) -> None:
@@ -699,6 +713,7 @@ class Service:
         lim, exact = self.limits, self.key(suffix) if acts else None
 
         def enqueue(q: Query) -> None:
+            arrival = next(self._arrivals)
             size, psize = len(q.payload), q.params_size
             if size > lim.max_payload or psize > lim.max_params:
                 big = size > lim.max_payload
@@ -710,9 +725,9 @@ class Service:
                 )
                 reply_error(q, "invalid_argument", text, read_params=psize <= lim.max_params)
                 return
-            queued = self._put(("query", fn, exact, typ, q), size + psize, priority)
+            queued = self._put(("query", fn, exact, typ, (q, arrival)), size + psize, priority)
             if priority and q.key == exact:
-                self.on_priority(suffix, queued)
+                self.on_priority(suffix, queued, arrival)
             if not queued:
                 reply_error(q, "unavailable", f"{self.name} is overloaded: input queue full")
 
@@ -732,7 +747,7 @@ class Service:
     def _handle(self, item: tuple) -> None:
         kind, fn, suffix, typ, data = item
         if kind == "query":
-            self._dispatch_query(fn, suffix, typ, data)
+            self._dispatch_query(fn, suffix, typ, *data)
             return
         if kind == "live":
             try:
@@ -777,7 +792,7 @@ class Service:
         if target is not None and out is not None:
             self.publish(target, out)
 
-    def _dispatch_query(self, fn: Callable, exact: str | None, typ: type, q: Query) -> None:
+    def _dispatch_query(self, fn: Callable, exact: str | None, typ: type, q: Query, arrival: int) -> None:
         self.counters.inc("queries")
         if exact is not None and q.key != exact:
             self.counters.inc("wildcard_refused")
@@ -797,6 +812,7 @@ class Service:
             self.warn(f"badq:{fn.__name__}", f"bad query on {q.key}: {e}")
             reply_error(q, "invalid_argument", clip(str(e)))
             return
+        self._query_arrival = arrival
         try:
             rep = fn(req, q)
         except QueryError as e:
@@ -809,6 +825,8 @@ class Service:
             self.warn(f"query:{fn.__name__}", f"query {q.key} failed:\n{traceback.format_exc()}", logging.ERROR)
             reply_error(q, "internal", clip(f"{type(e).__name__}: {e}"))
             return
+        finally:
+            self._query_arrival = 0
         if rep is not None:
             reply_ok(q, rep)
 

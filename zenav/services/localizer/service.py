@@ -109,7 +109,9 @@ class Localizer(Service):
 
     @query("localizer/set_pose")
     def set_pose(self, req: m.SetPose, q) -> m.PoseStamped:
-        """setPose / setPosition / setHeading: any subset of x, y, theta, from now on."""
+        """setPose / setPosition / setHeading: any subset of x, y, theta but none, from now on."""
+        if req.x is None and req.y is None and req.theta is None:
+            raise QueryError("invalid_argument", m.SET_POSE_EMPTY)
         now = self.clock.now()
         p = self.mode.set_pose(now, req.x, req.y, req.theta)
         self.log.info("set_pose x=%s y=%s theta=%s at t=%.3f", req.x, req.y, req.theta, now)

@@ -2,7 +2,10 @@
 
 Pure: poses and the time come in as arguments. `on_pose` returns the command for
 that pose; `check` (called periodically) aborts on a stale or too uncertain pose, or no
-progress, and ends a goal whose time-out ran out. How a move ends is in exits.py: the
+progress, and ends a goal whose time-out ran out. Too uncertain (`[navigator]
+max_position_sigma`, `max_heading_sigma`) counts only while the machine is `gated`: a pose
+with an absolute reference to lose (a VPS); on odometry alone every pose grows more
+uncertain with the distance driven, and the goal drives on. How a move ends is in exits.py: the
 goal's tolerance ends it as soon as the error is within it and the robot stops within it
 (judged on the pose predicted `stop_lead` ahead); then zero is held for `rest_time` and
 the error is re-checked: `succeeded` only if still within the tolerance.
@@ -215,8 +218,9 @@ def verdict(goal: Goal, origin: PoseSample, pose: PoseSample, exit: str) -> tupl
 class GoalMachine:
     """The navigator's state: STOPPED or running one goal."""
 
-    def __init__(self, params: Params, wheels: Wheelbase, area: Field | None = None) -> None:
+    def __init__(self, params: Params, wheels: Wheelbase, area: Field | None = None, gated: bool = True) -> None:
         self.params, self.wheels = params, wheels
+        self.gated = gated  # an uncertain pose refuses and aborts goals (a VPS runs); else it is only reported
         self.area = area or Field(enabled=False)
         self.state = STOPPED
         self.goal_id = 0  # id of the newest goal
@@ -241,7 +245,7 @@ class GoalMachine:
             return "no pose yet: is the localizer running?"
         if now - self.pose.t > self.params.stale_after:
             return f"pose stale: the newest is {now - self.pose.t:.2f} s old"
-        doubt = self.uncertain()
+        doubt = self.uncertain() if self.gated else None
         if doubt is not None:
             return f"{doubt} (no VPS fix yet or for long: wait for one, or set the pose)"
         return None
@@ -354,7 +358,7 @@ class GoalMachine:
             return None
         if now - pose.t > p.stale_after:
             return self.abort(f"pose stale: none for {now - pose.t:.2f} s")
-        doubt = self.uncertain()
+        doubt = self.uncertain() if self.gated else None
         if doubt is not None:
             return self.abort(doubt)
         if run.goal.state == MOVING_STRAIGHT and run.goal.distance is None and now - run.start_t >= p.straight_max_time:

@@ -17,6 +17,9 @@ from zenav.services.navigator.goals import Goal
 from zenav.services.navigator.params import Params
 
 Resolved = tuple[Goal, dict[str, Any]]  # the goal, and its `goal` map of nav/state
+# [m/s] ([rad/s] for turns) the slowest speed a goal may ask for: 1 mm/s. Slower is no drive at all (a 1 m goal at 1e-14 m/s
+# would end after 3 million years: its eta would leave the contract's range), and is refused naming this bound.
+MIN_SPEED = 1e-3
 
 
 class Invalid(ValueError):
@@ -25,7 +28,14 @@ class Invalid(ValueError):
 
 def _speed(speed: float | None, cfg: Params) -> float:
     """The forward speed [m/s] of a goal, clamped to the limit."""
-    return min(speed or cfg.speed, cfg.max_speed)
+    return min(_slowest(speed or cfg.speed, "m/s"), cfg.max_speed)
+
+
+def _slowest(speed: float, unit: str) -> float:
+    """`speed` if it is MIN_SPEED or more (its magnitude, signed for move_straight), else Invalid naming the bound."""
+    if abs(speed) < MIN_SPEED:
+        raise Invalid(f"speed: {speed:g} {unit} is under the slowest a goal drives, {MIN_SPEED:g} {unit}")
+    return speed
 
 
 def _timeout(req: m.GoalOptions, cfg: Params) -> float:
@@ -109,7 +119,7 @@ def move_straight(req: m.MoveStraight, cfg: Params) -> Resolved:
     """Drive on the start heading; stop after `distance` if given (else after straight_max_time)."""
     if req.speed == 0.0:
         raise Invalid("speed: must not be 0 (use nav/stop to stop)")
-    speed = math.copysign(min(abs(req.speed), cfg.max_speed), req.speed)
+    speed = math.copysign(min(abs(_slowest(req.speed, "m/s")), cfg.max_speed), req.speed)
     goal = Goal(goals.MOVING_STRAIGHT, speed=speed, distance=req.distance, tolerance=cfg.tolerance)
     return goal, {"type": "move_straight", "speed": speed, "distance": req.distance}
 
@@ -154,7 +164,7 @@ def _turn(
     heading: float, req: m.TurnToHeading | m.TurnToPoint | m.SwingToHeading, cfg: Params, info: dict[str, Any], pivot: int = 0
 ) -> Resolved:
     """A turn in place (`pivot` 0), or a swing about one wheel (Goal.pivot)."""
-    speed = min(req.speed or cfg.turn_speed, cfg.max_turn_speed)
+    speed = min(_slowest(req.speed or cfg.turn_speed, "rad/s"), cfg.max_turn_speed)
     tol, chain, way = req.tolerance or cfg.heading_tolerance, _chain(req, speed), TURN_WAYS[req.direction]
     timeout = _timeout(req, cfg)
     goal = Goal(goals.TURNING_TO_HEADING, heading=heading, speed=speed, tolerance=tol, timeout=timeout, direction=way, pivot=pivot, **chain)

@@ -10,6 +10,7 @@ Pos = Annotated[float, Meta(gt=0.0, le=1e3)]
 NonNeg = Annotated[float, Meta(ge=0.0, le=1e3)]
 Gain = Annotated[float, Meta(ge=-1e3, le=1e3)]
 Limit = Annotated[float, Meta(gt=0.0)]  # inf turns the check off
+Speed = Annotated[float, Meta(ge=1e-3, le=1e3)]  # [m/s] or [rad/s] a goal's speed: at least intake.MIN_SPEED
 
 ControllerName = Literal["pid", "polar", "proportional"]
 CONTROLLERS: tuple[str, ...] = get_args(ControllerName)
@@ -23,12 +24,12 @@ class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     controller: ControllerName = "pid"  # point tracker: pid (seed 003), polar (seed 002), proportional (seed 000)
     pose_controller: PoseControllerName = "boomerang"  # move_to_pose: boomerang (LemLib carrot) or polar (seed 002)
     lead: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.6  # [-] boomerang: carrot distance behind the goal per metre to it
-    speed: Pos = 0.2  # [m/s] forward speed of a goal that names none
-    max_speed: Pos = 0.3  # [m/s] forward speed limit; faster requests are clamped
+    speed: Speed = 0.2  # [m/s] forward speed of a goal that names none
+    max_speed: Speed = 0.3  # [m/s] forward speed limit; faster requests are clamped
     min_speed: NonNeg = 0.03  # [m/s] slowest forward command while moving (above the motor deadband)
     decel: Pos = 0.5  # [m/s^2] braking into a goal point or the end of a straight
-    turn_speed: Pos = 2.0  # [rad/s] turn rate of a turn that names none
-    max_turn_speed: Pos = 3.0  # [rad/s] turn rate limit; faster requests are clamped
+    turn_speed: Speed = 2.0  # [rad/s] turn rate of a turn that names none
+    max_turn_speed: Speed = 3.0  # [rad/s] turn rate limit; faster requests are clamped
     min_turn_speed: NonNeg = 0.4  # [rad/s] slowest turn command while turning (above the motor deadband)
     turn_decel: Pos = 4.0  # [rad/s^2] braking into a target heading
     tolerance: Pos = 0.01  # [m] goal position tolerance of a goal that names none
@@ -53,7 +54,7 @@ class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     progress_distance: Pos = 0.01  # [m] the least gain toward a position goal that counts as progress
     progress_angle: Pos = 0.02  # [rad] the least gain toward a heading that counts as progress
     stale_after: Pos = 0.5  # [s] a goal aborts when the newest pose is older than this
-    max_position_sigma: Limit = 0.5  # [m] a goal aborts (or is refused) while the pose's position sigma is larger
+    max_position_sigma: Limit = 0.5  # [m] a goal aborts (or is refused) while the pose's position sigma is larger (once a vps is seen)
     max_heading_sigma: Limit = 0.35  # [rad] likewise for the heading sigma (20 deg)
     lease_grace: Pos = 0.5  # [s] how long a goal's lease token may take to be seen alive
     check_period: Pos = 0.05  # [s] period of the stale pose, progress and lease checks

@@ -8,9 +8,17 @@ is seen alive (the request is answered `unavailable` if it is not seen within
 robot library's LEASE_TIMEOUT). A goal without a lease runs until it ends or is stopped.
 nav/stop goes ahead of every other queued input, and commands zero the moment it
 arrives (`on_priority`, on the bus's thread): until the worker has handled it, the
-worker sends no cmd_vel, so nothing computed before the stop follows its zero.
+worker sends no cmd_vel, so nothing computed before the stop follows its zero. A stop
+voids every goal that reached the navigator before it (by the runtime's arrival
+numbers): one running is cancelled, and one still queued, or in hand when the stop came,
+is answered `unavailable` and never starts; only goals that arrive after the stop drive.
 Targets outside the [field] are refused. Diag status is `error` while the motor is
-gone, or while a goal is wanted and no usable pose comes.
+gone, or while a goal is wanted and no usable pose comes. A pose too uncertain
+(`max_position_sigma`, `max_heading_sigma`) refuses and aborts goals once a vps has been
+seen (its liveliness token): the fixes keep the pose certain, so an uncertain one means they
+stopped. A robot without a VPS drives on odometry alone, whose uncertainty grows with every
+metre (as LemLib's and EZ-Template's robots do all match): its goals drive, nav/state and
+nav/status report the sigmas, and the first goal that runs past a limit logs it once.
 """
 
 from __future__ import annotations
@@ -50,7 +58,8 @@ class Navigator(Service):
         self.check_period, self.state_period = cfg.check_period, cfg.state_period  # read by @timer
         r = settings.robot
         self.area = settings.field
-        self.machine = GoalMachine(cfg, Wheelbase(r.track_width, r.wheel_radius, r.max_wheel_speed), self.area)
+        self.machine = GoalMachine(cfg, Wheelbase(r.track_width, r.wheel_radius, r.max_wheel_speed), self.area, gated=False)
+        self._doubt_told = False  # the warning that a goal drives on an uncertain pose (no vps) was logged
         self.requests = Requests()
         self._info: dict[str, Any] | None = None  # the newest goal, as nav/state shows it
         self._shown: tuple | None = None  # (state, goal_id, result) last published
@@ -58,6 +67,7 @@ class Navigator(Service):
         self._pose_wanted = False  # a goal was refused or aborted for want of a usable pose
         self._cmd_lock = threading.Lock()  # cmd_vel from the worker vs the zero of an arriving stop
         self._stops = 0  # nav/stop queries arrived (queued) but not yet handled: no cmd_vel from the worker
+        self._stopped_at = 0  # arrival number (Service.query_arrival) of the newest nav/stop: goals that came before are void
         self._holding: Request | None = None  # a chained goal's request, its lease watched while its last command is held
 
     # ------------------------------------------------------------ inputs
@@ -97,6 +107,11 @@ class Navigator(Service):
             self._hold_over()
         self._show_changes()
         self._health(now)
+        if self.machine.active and not self.machine.gated and not self._doubt_told:
+            doubt = self.machine.uncertain()
+            if doubt is not None:
+                self._doubt_told = True
+                self.log.warning("driving on odometry alone: %s (no vps runs: nothing is refused for it; nav/state has the sigmas)", doubt)
 
     @on_liveliness("motor")
     def motor_presence(self, alive: bool) -> None:
@@ -109,6 +124,14 @@ class Navigator(Service):
     def localizer_presence(self, alive: bool) -> None:
         """The localizer went: abort at once rather than when its pose turns stale."""
         self._needed_gone("localizer", alive)
+
+    @on_liveliness("vps")
+    def vps_presence(self, alive: bool) -> None:
+        """A vps runs: from now on an uncertain pose means the fixes stopped, and refuses and aborts goals (a vps that goes
+        away later leaves the robot without its fixes: the check stays)."""
+        if alive and not self.machine.gated:
+            self.machine.gated = True
+            self.log.info("a vps runs: goals are refused and aborted while the pose is too uncertain")
 
     @on_liveliness("odometry")
     def odometry_presence(self, alive: bool) -> None:
@@ -195,13 +218,17 @@ class Navigator(Service):
             pose=self._stamped(),
             not_ready=self.machine.refusal(self.clock.now()) or "",
             exit=self.machine.exit,
+            position_sigma=self._sigmas()[0],
+            heading_sigma=self._sigmas()[1],
         )
 
-    def on_priority(self, suffix: str, queued: bool) -> None:
-        """nav/stop arrived (bus thread): zero now; the worker sends no cmd_vel until it has handled the stop."""
+    def on_priority(self, suffix: str, queued: bool, arrival: int) -> None:
+        """nav/stop arrived (bus thread): zero now; the worker sends no cmd_vel until it has handled the stop, and starts
+        no goal that arrived before it."""
         with self._cmd_lock:
             self._zero()
             self._stops += queued
+            self._stopped_at = max(self._stopped_at, arrival)
 
     def on_clock_reset(self) -> None:
         """The sim restarted: poses start again from t = 0, and the goal is void."""
@@ -250,6 +277,9 @@ class Navigator(Service):
         out = goals.outside(goal, pose, self.area)
         if out is not None:
             raise QueryError("invalid_argument", out)
+        if self.query_arrival() < self._stopped_at:  # a stop came after it, however late (one held for its lease: stop_query)
+            self.count("goals_voided")
+            raise QueryError("unavailable", "cancelled by nav/stop: the stop reached the navigator after this goal")
         request = Request(goal, info, req.wait, q)
         if req.lease is None:
             self._drop_pending("superseded by a newer goal before its lease was seen")
@@ -368,6 +398,11 @@ class Navigator(Service):
         """Command zero velocity now (t = 0: "now", not computed from a pose)."""
         self.publish("cmd_vel", m.CmdVel(t=0.0, v=0.0, omega=0.0))
 
+    def _sigmas(self) -> tuple[float | None, float | None]:
+        """(position [m], heading [rad]) 1 sigma of the newest pose; None before the first."""
+        p = self.machine.pose
+        return (None, None) if p is None else (p.sigma_xy, p.sigma_theta)
+
     def _stamped(self) -> m.PoseStamped | None:
         p = self.machine.pose
         return None if p is None else m.PoseStamped(t=p.t, x=p.x, y=p.y, theta=p.theta)
@@ -389,6 +424,8 @@ class Navigator(Service):
             cross_track_error=fb.cross_track_error,
             message=mc.message,
             exit=mc.exit,
+            position_sigma=self._sigmas()[0],
+            heading_sigma=self._sigmas()[1],
         )
 
     def _show_changes(self) -> None:
