@@ -5,6 +5,7 @@ import msgspec
 import numpy as np
 import pytest
 
+from tests.support.images import huge_png
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.config import Camera, ConfigError, Limits
@@ -51,21 +52,6 @@ def test_corrupt_frames_are_refused():
     lying = msgspec.structs.replace(frames.encode(image(24, 32), 0.0, 0, encoding="png"), width=64, height=48)
     with pytest.raises(FrameError, match="png header says 32x24"):
         frames.decode(lying, 64, 48)
-
-
-def huge_png(width: int, height: int) -> bytes:
-    """A valid grey PNG of zeros, width x height, built a row at a time (a 16384 x 16384 one is about 250 kB)."""
-    import struct
-    import zlib
-
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-
-    z = zlib.compressobj(9)
-    row = bytes(width + 1)  # filter byte 0, then the pixels
-    idat = b"".join(z.compress(row) for _ in range(height)) + z.flush()
-    ihdr = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
-    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", idat) + chunk(b"IEND", b"")
 
 
 @pytest.fixture(scope="module")
