@@ -7,7 +7,7 @@ import ipaddress
 import os
 import sys
 
-from zenav.stack.router import DEFAULT_LISTEN, serve
+from zenav.stack.router import DEFAULT_LISTEN, MAX_MESSAGE, serve
 
 
 def add_arguments(sub: argparse._SubParsersAction) -> None:
@@ -20,6 +20,14 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
         default=0,
         metavar="PRIORITY",
         help="run its Zenoh threads at SCHED_FIFO PRIORITY, 1 to 99 (default 0: normal)",
+    )
+    p.add_argument(
+        "--max-message",
+        type=int,
+        default=MAX_MESSAGE,
+        metavar="BYTES",
+        help=f"drop larger messages as they arrive (default {MAX_MESSAGE}: the default [limits] max_payload plus max_params plus"
+        " 64 KiB; raise it with them)",
     )
     p.set_defaults(func=run)
 
@@ -46,6 +54,9 @@ def run(args: argparse.Namespace) -> int:
             "(anyone there can drive the robot); see docs/running.md for the secure deployment",
             file=sys.stderr,
         )
+    if args.max_message < 1024:
+        print(f"zenav router: --max-message {args.max_message}: at least 1024 bytes", file=sys.stderr)
+        return 2
     if not 0 <= args.realtime <= 99:
         print(f"zenav router: --realtime {args.realtime}: a priority from 1 to 99, or 0", file=sys.stderr)
         return 2
@@ -53,5 +64,5 @@ def run(args: argparse.Namespace) -> int:
     def ready() -> None:
         print(f"zenav router listening on {args.listen}", file=sys.stderr, flush=True)
 
-    serve(args.listen, args.zenoh_config, ready=ready, priority=args.realtime)
+    serve(args.listen, args.zenoh_config, ready=ready, priority=args.realtime, max_message=args.max_message)
     return 0

@@ -262,7 +262,7 @@ def run(args: argparse.Namespace) -> int:
     session = (
         zenoh.open(zenoh_config("client", connect=args.connect))
         if args.connect
-        else open_router(args.listen, priority=settings.deployment.realtime)
+        else open_router(args.listen, priority=settings.deployment.realtime, max_message=settings.limits.max_message())
     )
     if args.connect and "sim" in names and settings.section("sim", SimConfig).camera and frames_elsewhere(session, robot):
         session.close()
