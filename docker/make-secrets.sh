@@ -5,11 +5,12 @@
 # the build context).
 #   docker/make-secrets.sh [-d DIR] [-r ROBOTS] [-n NAMES] [USER...]
 # DIR defaults to docker/secure/secrets. ROBOTS (comma-separated, default r1) are
-# the robot ids: each gets an operator, `operator-<robot>`, who may command that
-# robot and no other. NAMES (comma-separated, default localhost,127.0.0.1,router)
-# are the host names and addresses clients reach the router at; its certificate
-# names them. The users are the six services, `viewer` (may only watch), the
-# operators, and the USERs given (watch only, like viewer).
+# the robot ids: each gets its own service logins, `<service>-<robot>` (`sim-r1`,
+# `vps-r1`, ..., `driver-r1`), which may act on that robot's keys only, and an
+# operator, `operator-<robot>`, who may command that robot and no other. NAMES
+# (comma-separated, default localhost,127.0.0.1,router) are the host names and
+# addresses clients reach the router at; its certificate names them. The users are
+# those, `viewer` (may only watch), and the USERs given (watch only, like viewer).
 # Writes (every file 0600, DIR 0700):
 #   DIR/users.txt           the router's users file, one `user:password` line per user
 #   DIR/<user>.json5        that user's Zenoh client config (ZENOH_CONFIG=DIR/<user>.json5):
@@ -45,12 +46,15 @@ check() {  # check NAME WHAT: a user name or robot id is A-Z a-z 0-9 _ -
     esac
 }
 robots=$(echo "$robots" | tr ',' ' ')
-operators=""
+services="sim odometry vps localizer navigator motor driver"
+logins=""  # every robot's own logins: its services' and its operator's
 for robot in $robots; do
     check "$robot" "robot id"
-    operators="$operators operator-$robot"
+    for svc in $services operator; do
+        logins="$logins $svc-$robot"
+    done
 done
-[ -n "$operators" ] || { echo "make-secrets: no robot ids (-r r1,r2)" >&2; exit 2; }
+[ -n "$logins" ] || { echo "make-secrets: no robot ids (-r r1,r2)" >&2; exit 2; }
 command -v openssl >/dev/null || { echo "make-secrets: needs openssl (apt-get install openssl)" >&2; exit 2; }
 
 umask 077
@@ -86,7 +90,7 @@ fi
 ca=$(openssl base64 -A < "$dir/ca.pem")
 
 # ------------------------------------------------------------------ users
-for user in sim odometry vps localizer navigator motor driver viewer $operators "$@"; do
+for user in $logins viewer "$@"; do
     check "$user" "user name"
     password=$(sed -n "s/^$user://p" "$dir/users.txt")
     if [ -z "$password" ]; then
@@ -99,22 +103,16 @@ for user in sim odometry vps localizer navigator motor driver viewer $operators 
 done
 
 # ------------------------------------------------------------------ router
+# Each block between `@robot begin` and `@robot end` once per robot id, that id for @robot.
 awk -v robots="$robots" '
     BEGIN { n = split(robots, robot, " ") }
+    /^[ \t]*\/\/ @robot begin/ { inside = 1; body = ""; print; next }
+    /^[ \t]*\/\/ @robot end/ {
+        for (i = 1; i <= n; i++) { b = body; gsub(/@robot/, robot[i], b); printf "%s", b }
+        inside = 0; print; next
+    }
+    inside { body = body $0 "\n"; next }
     { print }
-    /@operators rules/ {
-        for (i = 1; i <= n; i++) {
-            r = robot[i]
-            printf "      {\n        id: \"operate_%s\",\n        permission: \"allow\",\n        flows: [\"ingress\"],\n", r
-            printf "        messages: [\"query\"],\n        key_exprs: [\"zenav/%s/nav/*\", \"zenav/%s/localizer/set_pose\", \"zenav/%s/sim/reset\"],\n      },\n", r, r, r
-            printf "      {\n        id: \"lease_%s\",\n        permission: \"allow\",\n        flows: [\"ingress\"],\n", r
-            printf "        messages: [\"liveliness_token\"],\n        key_exprs: [\"zenav/%s/lease/**\"],\n      },\n", r
-        }
-    }
-    /@operators subjects/ { for (i = 1; i <= n; i++) printf "      { id: \"operator-%s\", usernames: [\"operator-%s\"] },\n", robot[i], robot[i] }
-    /@operators policies/ {
-        for (i = 1; i <= n; i++) printf "      { id: \"operator-%s\", rules: [\"operate_%s\", \"lease_%s\"], subjects: [\"operator-%s\"] },\n", robot[i], robot[i], robot[i], robot[i]
-    }
 ' "$here/../config/secure/router.json5" > "$dir/router.docker.json5"
 sed -e "s|/run/secrets/zenoh_users|$dir/users.txt|" \
     -e "s|/run/secrets/zenoh_router_cert|$dir/router.pem|" \
@@ -122,8 +120,13 @@ sed -e "s|/run/secrets/zenoh_users|$dir/users.txt|" \
     "$dir/router.docker.json5" > "$dir/router.json5"
 
 if [ "$(id -u)" = 0 ]; then
-    for f in users.txt router.pem router.key router.docker.json5 sim.json5 odometry.json5 vps.json5 localizer.json5 navigator.json5 motor.json5 driver.json5; do
+    for robot in $robots; do
+        for svc in $services; do
+            chown 10001:10001 "$dir/$svc-$robot.json5"  # the image's user, which the compose deployment runs as
+        done
+    done
+    for f in users.txt router.pem router.key router.docker.json5; do
         chown 10001:10001 "$dir/$f"  # the image's user, which the compose deployment runs as
     done
 fi
-echo "make-secrets: secrets in $dir (robots:$(printf ' %s' $robots); operators:$operators)"
+echo "make-secrets: secrets in $dir (robots:$(printf ' %s' $robots); logins:$logins)"

@@ -169,7 +169,7 @@ def test_a_sim_restart_starts_the_estimate_again(run):
     for o in run.odom[:50]:  # odom of the old world, at t = 20 s and after
         rig.put("odom", m.Odom(t=20.0 + o.t, x=o.x, y=o.y, theta=o.theta, v=o.v, omega=o.omega))
     before = len(rig.got("pose"))
-    rig.put("clock", m.Clock(t=0.01, wall=0.0))  # the sim restarted
+    rig.put("clock", m.Clock(t=0.01, wall=0.0, instance="sim-2"))  # a new sim instance: it restarted
     rig.put("odom", m.Odom(t=0.01, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0))
     poses = rig.got("pose")
     assert len(poses) == before + 1 and poses[-1].t == 0.01

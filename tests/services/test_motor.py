@@ -133,12 +133,12 @@ def test_zero_on_close():
 def test_sim_restart_keeps_limits_and_watchdog_working(command_after_restart):
     rig = Rig(Motor, clock=SimClock(), motor={"max_wheel_accel": 40.0})
 
-    def tick(t):
-        rig.put("clock", m.Clock(t=t))
+    def tick(t, instance="sim-2"):
+        rig.put("clock", m.Clock(t=t, instance=instance))
 
-    tick(100.0)
+    tick(100.0, "sim-1")
     send(rig, 0.2, 0.0, t=100.0)
-    tick(0.5)  # the sim restarted: time starts again
+    tick(0.5)  # a new sim instance: the sim restarted, time starts again
     if command_after_restart:
         send(rig, 0.2, 0.0, t=0.5)
         first, second = rig.got("motors/wheels")

@@ -325,7 +325,7 @@ def test_sim_restart_aborts_the_goal_and_takes_the_new_poses():
     bus.publish("zenav/r1/pose", codec.encode(m.Pose(t=50.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
     q = bus.query("zenav/r1/nav/move_to_point", codec.encode({"x": 1.0, "y": 0.0, "wait": True}))
     nav.drain()
-    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=0.01)))
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=0.01, instance="sim-2")))  # a new sim instance
     bus.publish("zenav/r1/pose", codec.encode(m.Pose(t=0.01, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
     nav.drain()
     rep = reply(q)

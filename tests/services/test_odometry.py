@@ -143,7 +143,7 @@ def test_sim_restart_starts_a_new_baseline():
     rig.put("clock", m.Clock(t=50.0))
     for i in range(5):
         rig.put("sensors/encoders", m.Encoders(t=50.0 + i * DT, left=100 * i, right=100 * i))
-    rig.put("clock", m.Clock(t=0.01))  # the sim restarted: time and counters start again
+    rig.put("clock", m.Clock(t=0.01, instance="sim-2"))  # a new sim instance: it restarted: time and counters start again
     for i in range(1, 4):
         rig.put("sensors/encoders", m.Encoders(t=i * DT, left=i, right=i))
     last = rig.got("odom")[-1]

@@ -57,10 +57,22 @@ def test_covariance_is_the_noise_and_counters_show_captures():
 def test_a_restarted_sim_voids_pending_fixes():
     rig = make(CLEAN)
     drive(rig, 2.0, 2.25, x0=100.0)  # three captures pending when time restarts
+    rig.svc.on_clock_reset()  # as the runtime does when a new sim instance owns the clock
     drive(rig, 0.0, 2.5)
     out = rig.got("vps/pose")
     assert [f.t for f in out][:3] == pytest.approx([0.0, 0.1, 0.2]) and len(out) == 22
-    assert all(f.x < 50.0 for f in out) and rig.svc.counters.values["truth_restarts"] == 1
+    assert all(f.x < 50.0 for f in out) and rig.svc.counters.values["fixes_voided"] == 3
+    rig.close()
+
+
+def test_truth_stamped_far_behind_the_clock_is_dropped_not_a_restart():
+    rig = make(CLEAN)
+    drive(rig, 2.0, 2.25)  # three captures pending
+    rig.put("sim/truth", m.Truth(t=0.0, x=100.0, y=0.0, theta=0.0, v=0.0, omega=0.0))  # a stray, 2 s behind
+    drive(rig, 2.25, 2.6)
+    out = rig.got("vps/pose")
+    assert [f.t for f in out] == pytest.approx([2.0, 2.1, 2.2]) and all(f.x < 50.0 for f in out)
+    assert rig.svc.counters.values["dropped_stale"] == 1
     rig.close()
 
 

@@ -1,10 +1,12 @@
 """The vps service reading the field camera's frames (vps.source = "camera"), and the sim rendering them."""
 
 import math
+import resource
 import threading
 
 import pytest
 
+from tests.support.images import huge_png
 from tests.support.procs import niceness
 from tests.support.rig import Rig
 from zenav.common import codec, keys
@@ -80,6 +82,36 @@ def test_bad_frames_are_refused_and_counted(renderer, cal_file):
         rig.drain()  # each read before the next comes (a newer frame supersedes a queued one)
     c = rig.svc.counters.values
     assert c["frames_refused"] == 2 and c["bad_input"] == 1 and c.get("frames", 0) == 0
+    rig.close()
+
+
+def test_a_frame_stamped_far_behind_is_refused_and_pending_fixes_stay(renderer, cal_file):
+    rig = make(cal_file)
+    rig.clock.t = 100.0
+    rig.bus.publish(FRAME, frame(renderer, 100.0, [Body(0, 0.2, 0.3, 0.5)]))
+    rig.drain()
+    rig.bus.publish(FRAME, frame(renderer, 0.0, [Body(0, 0.4, 0.3, 0.5)]))  # stamped on a video file's own timeline
+    rig.drain()
+    rig.advance(0.31)
+    [fix] = fixes(rig, "r1")  # the pending fix went out; the old frame gave none
+    assert fix.t == 100.0 and abs(fix.x - 0.2) < 0.002
+    c = rig.svc.counters.values
+    assert c["frames_refused"] == 1 and c["frames"] == 1
+    rig.close()
+
+
+def test_a_small_png_of_huge_pixels_is_refused_before_it_is_decoded(cal_file, caplog):
+    rig = make(cal_file)
+    data = huge_png(16384, 16384)  # 16384 x 16384 grey: 256 MiB decoded
+    assert len(data) < 300_000
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # [KiB] the process's peak so far
+    rig.bus.publish(FRAME, codec.encode(m.CameraFrame(t=0.0, width=640, height=480, encoding="png", data=data)))
+    rig.drain()
+    grown = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before
+    assert grown < 100 * 1024, f"peak memory grew {grown / 1024:.0f} MiB"
+    c = rig.svc.counters.values
+    assert c["frames_refused"] == 1 and c.get("frames", 0) == 0
+    assert "png header says 16384x16384, the camera is configured 640x480" in caplog.text
     rig.close()
 
 

@@ -14,6 +14,7 @@ import pytest
 
 from tests.support import goals
 from tests.support.procs import Stack, service_pid
+from zenav.common import messages as m
 from zenav.common.client import Client, ZenavError
 from zenav.services import NAMES
 from zenav.stack.inprocess import free_port
@@ -104,6 +105,45 @@ def test_kill_9_mid_goal(stack, name):
         stack.client.query("nav/stop", timeout=5)
     except ZenavError:
         pass
+
+
+CLOCK_FOLLOWERS = ("odometry", "vps", "localizer", "navigator", "motor")  # every service on the sim's clock
+
+
+def clock_counts(stack: Stack, name: str) -> tuple[int, int]:
+    """(clock_resets, clock_foreign) of a service, from a diag newer than now."""
+    t = stack.truth.wait(timeout=10).t
+    d = stack.diag(name).wait(lambda d: d.t > t, timeout=10)
+    return d.counters.get("clock_resets", 0), d.counters.get("clock_foreign", 0)
+
+
+def test_a_stray_clock_tick_changes_nothing_and_a_sim_restart_is_followed(stack):
+    """A clock tick 5 s behind from another session (a replay, a second sim, any client) is no restart;
+    the sim killed and restarted (a new instance) is."""
+    stack.client.wait_alive(NAMES, timeout=30)
+    goals.wait_ready(stack.client, timeout=30)
+    before = {name: clock_counts(stack, name) for name in CLOCK_FOLLOWERS}
+    now = stack.truth.wait(timeout=10).t
+    with Client("r1", stack.endpoint) as stray:
+        stray.publish("clock", m.Clock(t=max(now - 5.0, 0.0), wall=time.time(), instance="replayed-sim"))
+        stray.publish("clock", m.Clock(t=max(now - 5.0, 0.0), wall=time.time()))
+    stack.diag("navigator").wait(
+        lambda d: d.counters.get("clock_foreign", 0) > before["navigator"][1] or d.counters.get("clock_resets", 0) > before["navigator"][0],
+        timeout=10,
+    )
+    rep = stack.client.query("nav/move_to_point", {"x": stack.truth.msg.x + 0.2, "y": stack.truth.msg.y}, timeout=10)  # at once
+    after = {name: clock_counts(stack, name) for name in CLOCK_FOLLOWERS}
+    print(f"clock (resets, foreign) before {before}, after {after}")
+    for name in CLOCK_FOLLOWERS:
+        assert after[name] == (before[name][0], before[name][1] + 2), (name, before[name], after[name])
+    st = stack.nav.wait(lambda s: s.goal_id == rep.goal_id and s.result is not None, timeout=60)
+    assert st.result == "succeeded", st
+    old_pid = service_pid("sim", stack.endpoint)
+    os.kill(old_pid, signal.SIGKILL)  # a real restart: a new sim instance owns the clock
+    stack.diag("navigator").wait(lambda d: d.counters.get("clock_resets", 0) > before["navigator"][0], timeout=30)
+    assert service_pid("sim", stack.endpoint) != old_pid
+    rep = goals.move_to_point(stack.client, 0.3, 0.0, timeout=60)
+    assert rep.result == "succeeded", rep
 
 
 def stopped_by_sim(diag) -> int:

@@ -64,6 +64,14 @@ def test_bad_inputs_are_refused_without_a_pose_blackout(rig):
         assert g.gap < GAP_LIMIT, g
 
 
+@pytest.mark.parametrize("query", [False, True], ids=["put", "query"])
+def test_a_payload_over_the_routers_limit_never_reaches_the_service(rig, query):
+    e = safety.oversize_at_the_edge(rig, query=query)
+    print(f"{e.size} bytes ({'query' if query else 'put'}): oversize +{e.oversize}, pose gap {e.gap * 1000:.0f} ms")
+    assert e.bad_input == 1 and e.oversize == 0, e  # the sample after it came; it did not
+    assert e.gap < GAP_LIMIT, e
+
+
 def test_no_log_line_carries_a_whole_payload(rig):
     reply = safety.echoed_field(rig)
     longest = max(len(line) for line in (rig.stack.log_dir / "r1-navigator.log").read_text().splitlines())

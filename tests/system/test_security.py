@@ -34,7 +34,15 @@ from zenav.stack.inprocess import free_port
 pytestmark = pytest.mark.system
 
 REPO = Path(__file__).resolve().parents[2]
-USERS = (*NAMES, "operator-r1", "viewer")
+ROBOTS = ("r1", "r2")  # the robots the deployment's logins are made for
+
+
+def login(service: str, robot: str = "r1") -> str:
+    """The login of one robot's service (`vps-r1`)."""
+    return f"{service}-{robot}"
+
+
+USERS = (*(login(s) for s in NAMES), "operator-r1", "viewer")
 ROBOT = "zenav/r1"
 ROUTER_UP = 30.0  # [s] for the router process to accept a login
 REFUSED_WITHIN = 5.0  # [s] a refused login must fail by then
@@ -44,21 +52,21 @@ GOAL_TOLERANCE = 0.15  # [m] the navigator's tolerance plus localization error
 
 # Who may publish each topic and serve each query (the contract's tables).
 PUBLISHER = {
-    "clock": "sim",
-    "sim/truth": "sim",
-    "sensors/encoders": "sim",
-    "sensors/imu": "sim",
-    "sensors/compass": "sim",
-    "vps/pose": "vps",
-    "odom": "odometry",
-    "pose": "localizer",
-    "localizer/fixes": "localizer",
-    "cmd_vel": "navigator",
-    "nav/state": "navigator",
-    "motors/wheels": "motor",
-    **{f"diag/{s}": s for s in NAMES},
+    "clock": "sim-r1",
+    "sim/truth": "sim-r1",
+    "sensors/encoders": "sim-r1",
+    "sensors/imu": "sim-r1",
+    "sensors/compass": "sim-r1",
+    "vps/pose": "vps-r1",
+    "odom": "odometry-r1",
+    "pose": "localizer-r1",
+    "localizer/fixes": "localizer-r1",
+    "cmd_vel": "navigator-r1",
+    "nav/state": "navigator-r1",
+    "motors/wheels": "motor-r1",
+    **{f"diag/{s}": login(s) for s in NAMES},
 }
-SERVER = {q: "localizer" if q.startswith("localizer/") else "sim" if q == "sim/reset" else "navigator" for q in QUERIES}
+SERVER = {q: login("localizer" if q.startswith("localizer/") else "sim" if q == "sim/reset" else "navigator") for q in QUERIES}
 
 
 def client_config(endpoint: str, config_file: str | None, timeout: float) -> zenoh.Config:
@@ -99,7 +107,8 @@ def stop(proc: subprocess.Popen) -> str:
 def secure_router(tmp_path_factory):
     """The router process on a free port; yields (endpoint, secrets directory)."""
     secrets = tmp_path_factory.mktemp("secrets")
-    subprocess.run(["sh", str(REPO / "docker" / "make-secrets.sh"), "-d", str(secrets)], check=True, capture_output=True, timeout=30)
+    make = ["sh", str(REPO / "docker" / "make-secrets.sh"), "-d", str(secrets), "-r", ",".join(ROBOTS)]
+    subprocess.run(make, check=True, capture_output=True, timeout=30)
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     env = {k: v for k, v in os.environ.items() if k != "ZENOH_CONFIG"}
     proc = subprocess.Popen(
@@ -133,7 +142,7 @@ def services(secure_router):
     procs = {
         name: subprocess.Popen(
             [sys.executable, "-m", f"zenav.services.{name}", "--connect", endpoint, *sets[name]],
-            env={**os.environ, "ZENOH_CONFIG": str(secrets / f"{name}.json5")},
+            env={**os.environ, "ZENOH_CONFIG": str(secrets / f"{login(name)}.json5")},
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,
             text=True,
@@ -173,8 +182,8 @@ def test_a_wrong_password_or_an_unknown_user_is_refused(deployment, tmp_path, us
 
 
 def test_a_non_operator_can_watch_but_cannot_move_the_robot(deployment):
-    motor, viewer, navigator = deployment.login("motor"), deployment.login("viewer"), deployment.login("navigator")
-    localizer, operator = deployment.login("localizer"), deployment.login("operator-r1")
+    motor, viewer, navigator = deployment.login("motor-r1"), deployment.login("viewer"), deployment.login("navigator-r1")
+    localizer, operator = deployment.login("localizer-r1"), deployment.login("operator-r1")
     commands, poses = Inbox(), Inbox()
     motor.declare_subscriber(f"{ROBOT}/cmd_vel", commands.on_sample)
     viewer.declare_subscriber(f"{ROBOT}/pose", poses.on_sample)
@@ -186,12 +195,12 @@ def test_a_non_operator_can_watch_but_cannot_move_the_robot(deployment):
 
     navigator.declare_queryable(f"{ROBOT}/nav/move_to_point", serve)
 
-    publish(localizer, f"{ROBOT}/pose", "localizer")
-    assert poses.settle({(f"{ROBOT}/pose", "localizer")}) == {(f"{ROBOT}/pose", "localizer")}
+    publish(localizer, f"{ROBOT}/pose", "localizer-r1")
+    assert poses.settle({(f"{ROBOT}/pose", "localizer-r1")}) == {(f"{ROBOT}/pose", "localizer-r1")}
 
-    for user, sender in (("viewer", viewer), ("operator-r1", operator), ("navigator", navigator)):
+    for user, sender in (("viewer", viewer), ("operator-r1", operator), ("navigator-r1", navigator)):
         publish(sender, f"{ROBOT}/cmd_vel", user)
-    assert commands.settle({(f"{ROBOT}/cmd_vel", "navigator")}) == {(f"{ROBOT}/cmd_vel", "navigator")}
+    assert commands.settle({(f"{ROBOT}/cmd_vel", "navigator-r1")}) == {(f"{ROBOT}/cmd_vel", "navigator-r1")}
 
     assert replied(operator, "nav/move_to_point")
     assert not replied(viewer, "nav/move_to_point")
@@ -229,19 +238,33 @@ def test_only_the_navigator_serves_nav_queries(deployment):
     )
     wait_matching(querier)
     answers = [r.ok.payload.to_bytes().decode() for r in querier.get() if r.ok]
-    assert answers == ["navigator"]
+    assert answers == ["navigator-r1"]
 
 
 def test_only_a_service_declares_its_liveliness_and_only_operators_hold_leases(deployment):
-    # Each user declares every service's token under a robot id of its own name, and a lease on r1.
+    # Each user declares every service's instance token of each robot, named by the user, and a lease on r1.
     tokens = []  # a token lives as long as its handle
-    for user in USERS:
+    for user in (*USERS, "vps-r2"):
         session = deployment.login(user)
-        for key in (*(f"zenav/{user}/alive/{svc}" for svc in NAMES), f"zenav/r1/lease/{user}"):
+        instances = (f"zenav/{robot}/instance/{svc}/{user}" for svc in NAMES for robot in ROBOTS)
+        for key in (*instances, f"zenav/r1/lease/{user}"):
             tokens.append(session.liveliness().declare_token(key))
     inbox = Inbox()
     deployment.login("viewer").liveliness().declare_subscriber("zenav/**", inbox.on_sample, history=True)
-    expected = {*((f"zenav/{s}/alive/{s}", "") for s in NAMES), ("zenav/r1/lease/operator-r1", "")}
+    own = {(f"zenav/r1/instance/{s}/{login(s)}", "") for s in NAMES}
+    expected = {*own, ("zenav/r2/instance/vps/vps-r2", ""), ("zenav/r1/lease/operator-r1", "")}
+    assert inbox.settle(expected) == expected
+
+
+def test_a_service_login_of_one_robot_acts_on_that_robot_only(deployment):
+    """A leaked vps password publishes fixes for its own robot, not for the rest of the fleet."""
+    inbox = Inbox()
+    deployment.login("viewer").declare_subscriber("zenav/*/vps/pose", inbox.on_sample)
+    for user in ("vps-r1", "vps-r2"):
+        sender = deployment.login(user)
+        for robot in ROBOTS:
+            publish(sender, f"zenav/{robot}/vps/pose", user)
+    expected = {("zenav/r1/vps/pose", "vps-r1"), ("zenav/r2/vps/pose", "vps-r2")}
     assert inbox.settle(expected) == expected
 
 

@@ -5,6 +5,7 @@ import msgspec
 import numpy as np
 import pytest
 
+from tests.support.images import huge_png
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.config import Camera, ConfigError, Limits
@@ -49,8 +50,38 @@ def test_corrupt_frames_are_refused():
     with pytest.raises(FrameError, match="does not decode"):
         frames.decode(msgspec.structs.replace(png, data=png.data[:40]), 64, 48)
     lying = msgspec.structs.replace(frames.encode(image(24, 32), 0.0, 0, encoding="png"), width=64, height=48)
-    with pytest.raises(FrameError, match="decodes to 32x24"):
+    with pytest.raises(FrameError, match="png header says 32x24"):
         frames.decode(lying, 64, 48)
+
+
+@pytest.fixture(scope="module")
+def bomb() -> bytes:
+    return huge_png(16384, 16384)
+
+
+@pytest.mark.parametrize("encoding", ["png", "jpeg"])
+def test_the_header_size_is_checked_before_decoding(monkeypatch, bomb, encoding):
+    if encoding == "png":
+        data = bomb
+    else:
+        data = frames.encode(np.zeros((96, 128), np.uint8), 0.0, 0, encoding="jpeg").data
+    lying = m.CameraFrame(t=0.0, width=64, height=48, encoding=encoding, data=data)  # the message claims the configured size
+
+    def never(*args):
+        raise AssertionError("decoded before its size was checked")
+
+    monkeypatch.setattr(cv2, "imdecode", never)
+    size = "16384x16384" if encoding == "png" else "128x96"
+    with pytest.raises(FrameError, match=f"{encoding} header says {size}, the camera is configured 64x48"):
+        frames.decode(lying, 64, 48)
+
+
+@pytest.mark.parametrize("data", [b"", b"\x89PNG\r\n\x1a\n", b"\xff\xd8\xff\xd9", b"not an image at all"])
+def test_a_frame_without_a_readable_header_is_refused_undecoded(monkeypatch, data):
+    monkeypatch.setattr(cv2, "imdecode", lambda *a: pytest.fail("decoded"))
+    for encoding in ("png", "jpeg"):
+        with pytest.raises(FrameError, match="header"):
+            frames.decode(m.CameraFrame(t=0.0, width=64, height=48, encoding=encoding, data=data), 64, 48)
 
 
 def test_bad_frame_messages_fail_decoding():

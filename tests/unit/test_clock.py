@@ -33,9 +33,41 @@ def test_a_jump_ahead_faster_than_the_rtf_allows_is_refused():
     assert c.update(Clock(t=5.5)) == ck.ACCEPTED  # within the jump
 
 
-def test_a_jump_back_is_a_restart():
+def test_a_jump_back_from_the_same_owner_is_refused():
     c = ticked(50.0, 50.01)
-    assert c.update(Clock(t=0.01)) == ck.RESTARTED and c.now() < 0.07
+    assert c.update(Clock(t=45.0)) == ck.REFUSED and "back" in c.refusal and c.now() >= 50.01
+
+
+def test_a_new_owner_is_a_restart():
+    c = SimClock()
+    c.sim_token("sim-a", True)
+    assert c.update(Clock(t=50.0, instance="sim-a")) == ck.ACCEPTED
+    c.sim_token("sim-a", False)  # the sim died; a new one came
+    c.sim_token("sim-b", True)
+    assert c.update(Clock(t=0.01, instance="sim-b")) == ck.RESTARTED and c.now() < 0.07 and c.owner == "sim-b"
+
+
+def test_a_tick_from_another_instance_while_the_owner_lives_is_foreign():
+    c = SimClock()
+    c.sim_token("sim-a", True)
+    assert c.update(Clock(t=50.0, instance="sim-a")) == ck.ACCEPTED
+    for stray in ("", "sim-old", "sim-b"):  # a replay, a client, a second sim that slipped in
+        c.sim_token("sim-b", stray == "sim-b")
+        assert c.update(Clock(t=45.0, instance=stray)) == ck.FOREIGN and c.owner == "sim-a" and c.now() >= 50.0
+    assert c.foreign == 3 and "sim-a" in c.refusal
+    assert c.update(Clock(t=50.01, instance="sim-a")) == ck.ACCEPTED
+
+
+def test_a_stray_before_the_first_tick_is_foreign_while_a_sim_lives():
+    c = SimClock()
+    c.sim_token("sim-a", True)
+    assert c.update(Clock(t=45.0, instance="replayed")) == ck.FOREIGN and not c.ready
+    assert c.update(Clock(t=50.0, instance="sim-a")) == ck.ACCEPTED and c.owner == "sim-a"
+
+
+def test_without_any_sim_token_the_first_sender_owns_the_clock():
+    c = ticked(5.0, 5.01)  # a replay into a stack without a sim: no token
+    assert c.owner == "" and c.update(Clock(t=5.02)) == ck.ACCEPTED
 
 
 def test_agreeing_refused_ticks_become_the_new_timeline():

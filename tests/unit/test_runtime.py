@@ -255,7 +255,7 @@ def test_clock_restart_reschedules_timers_and_calls_the_hook():
     bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=500.0, wall=0.0)))
     s.drain()
     diags = len(published(bus, "diag/motor"))
-    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=0.01, wall=0.0)))
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=0.01, wall=0.0, instance="sim-2")))  # a new sim instance
     s.drain()
     assert len(resets) == 1 and resets[0] < 1.0
     assert s.counters.values["clock_resets"] == 1
@@ -480,8 +480,8 @@ def test_a_watch_runs_its_handler_in_the_worker(svc):
     assert seen == [True, False]
 
 
-def tick(bus, s, t, rtf=1.0):
-    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=t, rtf=rtf)))
+def tick(bus, s, t, rtf=1.0, instance=""):
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=t, rtf=rtf, instance=instance)))
     s.drain()
 
 
@@ -496,7 +496,9 @@ def test_implausible_clock_ticks_are_refused_and_counted(sim_svc):
     assert s.counters.values["clock_ticks"] == 4 and s.counters.values["msgs_in"] == 0
     tick(bus, s, 10.03)
     assert 10.03 <= clock.now() < 10.1
-    tick(bus, s, 2.0)  # far back: the sim restarted
+    tick(bus, s, 2.0)  # far back, from the same sim: refused
+    assert s.counters.values["clock_refused"] == 3 and clock.now() >= 10.03
+    tick(bus, s, 2.0, instance="sim-2")  # a new sim: it restarted
     assert s.counters.values["clock_resets"] == 1 and clock.now() < 2.1
 
 
@@ -748,10 +750,10 @@ def test_a_clock_restart_forgets_the_calls_asked_for():
     s.drain()
     calls = []
     s.call_at(5.1, calls.append)
-    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=0.01, wall=0.0)))
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=0.01, wall=0.0, instance="sim-2")))
     s.drain()
     for k in range(1, 12):  # the sim's new run, to past both
-        bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=0.5 * k, wall=0.0)))
+        bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=0.5 * k, wall=0.0, instance="sim-2")))
         s.drain()
     assert calls == [] and s.counters.values["clock_resets"] == 1 and clock.now() > 5.1  # a time of the sim's previous run
     s.close()
@@ -768,3 +770,24 @@ def test_a_status_is_logged_when_it_changes_not_when_its_figures_do(svc, caplog)
     logged = [r.getMessage() for r in caplog.records if "status" in r.getMessage()]
     assert logged == ["status degraded: no VPS fix accepted for 1.5 s", "status degraded: no gyro sample for 0.6 s", "status ok"]
     assert s.status_message == ""
+
+
+def test_a_stray_clock_tick_from_another_sender_changes_nothing():
+    bus, clock = MemoryBus(), SimClock()
+    s = Echo(Settings.load(None), bus, clock)
+    resets = []
+    s.on_clock_reset = lambda: resets.append(clock.now())
+    s.start()
+    sim = bus.token("zenav/r1/instance/sim/sim-a")
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=50.0, wall=0.0, instance="sim-a")))
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=45.0, wall=0.0, instance="replayed-sim")))  # 5 s behind
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=45.0, wall=0.0)))  # a client's, unnamed
+    s.drain()
+    assert resets == [] and s.counters.values.get("clock_resets", 0) == 0 and clock.now() >= 50.0
+    assert s.counters.values["clock_foreign"] == 2 and s.counters.values["clock_refused"] == 0
+    sim.undeclare()  # the sim restarted: a new instance owns the clock
+    bus.token("zenav/r1/instance/sim/sim-b")
+    bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=0.01, wall=0.0, instance="sim-b")))
+    s.drain()
+    assert len(resets) == 1 and s.counters.values["clock_resets"] == 1 and clock.now() < 1.0
+    s.close()

@@ -33,8 +33,9 @@ from zenav.common import codec
 from zenav.common import messages as m
 
 FLOOD_GOALS, FLOOD_POINTS = 30, 10_000  # follow_path goals the flood sends at once, points in each
-BIG_PARAMS = 12_000_000  # [bytes] selector parameter
-BIG_PAYLOAD = 100 * 2**20  # [bytes]
+BIG_PARAMS = 200_000  # [bytes] selector parameter: over [limits] max_params, under the router's largest message
+OVER_PAYLOAD = 2**20 + 1  # [bytes] one over [limits] max_payload, under the router's largest message
+BIG_PAYLOAD = 100 * 2**20  # [bytes] over the router's largest message: dropped there
 GAP_BEFORE, GAP_AFTER = 0.5, 3.0  # [s] window of pose arrivals around a bad input
 
 
@@ -170,7 +171,8 @@ def pose_gap(rig: Rig, what: str, service: str, counter: str, send: Callable[[],
 
 
 def bad_inputs(rig: Rig) -> list[Gap]:
-    """Each bad input once: a 12 MB selector parameter, a 100 MiB payload, a clock at rtf 200, an encoder 0.9 s ahead."""
+    """Each bad input once: a 200 kB selector parameter, a payload over max_payload, a clock at rtf 200 (as if from the
+    clock's owner), a clock 5 s behind from another sender, an encoder 0.9 s ahead."""
     s = rig.session
     rig.pose.first(lambda t, p: True)
     t0 = time.monotonic()
@@ -180,21 +182,32 @@ def bad_inputs(rig: Rig) -> list[Gap]:
     return [
         quiet,
         pose_gap(
-            rig, "12 MB selector parameter", "navigator", "oversize", lambda: _get(s, f"{key('nav/follow_path')}?points={'1' * BIG_PARAMS}")
+            rig,
+            "200 kB selector parameter",
+            "navigator",
+            "oversize",
+            lambda: _get(s, f"{key('nav/follow_path')}?points={'1' * BIG_PARAMS}"),
         ),
         pose_gap(
             rig,
-            "100 MiB payload on sensors/encoders",
+            "1 MiB + 1 byte payload on sensors/encoders",
             "odometry",
             "oversize",
-            lambda: s.put(key("sensors/encoders"), bytes(BIG_PAYLOAD), congestion_control=zenoh.CongestionControl.BLOCK),
+            lambda: s.put(key("sensors/encoders"), bytes(OVER_PAYLOAD), congestion_control=zenoh.CongestionControl.BLOCK),
         ),
         pose_gap(
             rig,
             "clock sample at rtf 200",
             "localizer",
             "clock_refused",
-            lambda: rig.client.publish("clock", m.Clock(t=rig.clock.msg.t + 0.01, rtf=200.0)),
+            lambda: rig.client.publish("clock", m.Clock(t=rig.clock.msg.t + 0.01, rtf=200.0, instance=rig.clock.msg.instance)),
+        ),
+        pose_gap(
+            rig,
+            "clock sample 5 s behind from another sender",
+            "localizer",
+            "clock_foreign",
+            lambda: rig.client.publish("clock", m.Clock(t=max(rig.clock.msg.t - 5.0, 0.0), wall=time.time(), instance="stray")),
         ),
         pose_gap(
             rig,
@@ -204,6 +217,35 @@ def bad_inputs(rig: Rig) -> list[Gap]:
             lambda: rig.client.publish("sensors/encoders", _ahead(rig.one("sensors/encoders"), rig.clock.msg.t + 0.9)),
         ),
     ]
+
+
+@dataclass
+class Edge:
+    """A payload over the router's largest message ([limits] max_payload plus max_params plus headroom), sent
+    through the router: Zenoh drops it there, so the service never copies it."""
+
+    size: int  # [bytes] sent
+    oversize: int  # the service's `oversize` counter: grown by how much (0: it never saw the payload)
+    bad_input: int  # ... and its `bad_input`: the malformed sample sent after it on the same link, which it did see
+    gap: float  # [s] the longest pose gap around it
+
+
+def oversize_at_the_edge(rig: Rig, size: int = BIG_PAYLOAD, query: bool = False) -> Edge:
+    """A child process puts `size` bytes on sensors/encoders (`query`: asks localizer/pose with them), then a
+    malformed sample (query) on the same session: a link delivers in order, so once the service counts the
+    malformed one, the big one would have come before it. (From a process of its own: sent on the session that
+    records the poses, its sending would delay their arrival here, whatever the stack does.)"""
+    service, suffix = ("localizer", "localizer/pose") if query else ("odometry", "sensors/encoders")
+    oversize, bad = rig.counter(service, "oversize"), rig.counter(service, "bad_input")
+    proc, lines = start_child("big", rig.endpoint, rig.client.key(suffix), str(size), "query" if query else "put")
+    try:
+        t0 = float(lines.get(timeout=60).split()[1])  # the child's session is open: it sends now
+        after_bad = rig.wait_counter(service, "bad_input", bad)
+        grown = rig.counter(service, "oversize") - oversize
+        rig.pose.first(lambda t, p: t > t0 + GAP_AFTER, timeout=WAIT + GAP_AFTER)
+    finally:
+        end_child(proc)
+    return Edge(size, grown, after_bad - bad, rig.pose.max_gap(t0 - GAP_BEFORE, t0 + GAP_AFTER))
 
 
 @dataclass
@@ -299,6 +341,10 @@ def _measure(rig: Rig, floods: int) -> int:
         )
         for g in bad_inputs(rig):
             print(f"largest pose gap, {g.what}: {g.gap * 1000:.0f} ms ({g.counter} = {g.count})")
+        for query, what in ((False, "on sensors/encoders (odometry)"), (True, "as a localizer/pose query (localizer)")):
+            e = oversize_at_the_edge(rig, query=query)
+            print(f"largest pose gap, {e.size} bytes {what}: {e.gap * 1000:.0f} ms; oversize +{e.oversize}, ", end="")
+            print(f"the malformed input after it: bad_input +{e.bad_input}")
         w = wildcard_get(rig)
         print(
             f"get zenav/r1/**: {w.replies} replies, wildcard_refused {w.refused}; goal {w.goal_before} -> {w.goal_after}; "

@@ -187,13 +187,29 @@ def flood(endpoint: str, goals: int, points: int, arrived: bool = False) -> None
     session.close()
 
 
+def big(endpoint: str, key: str, size: int, query: bool) -> None:
+    """Send `size` zero bytes on `key` (as a query's payload if `query`), then a malformed message the same way;
+    print when it starts and when both went out (monotonic)."""
+    session = zenoh.open(zenoh_config("client", endpoint))
+    print(f"start {time.monotonic()}", flush=True)
+    for data in (bytes(size), b"\x93 not a message"):
+        if query:
+            session.get(key, lambda reply: None, payload=data, timeout=WAIT)  # the big one gets no reply: not waited for
+        else:
+            session.put(key, data, congestion_control=zenoh.CongestionControl.BLOCK)
+    print(f"sent {time.monotonic()}", flush=True)
+    sys.stdin.read()  # until killed: the session stays open while the parent watches
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run one child process: `operator ENDPOINT` or `flood ENDPOINT GOALS POINTS`."""
+    """Run one child process: `operator ENDPOINT`, `flood ENDPOINT GOALS POINTS` or `big ENDPOINT KEY SIZE put|query`."""
     args = sys.argv[1:] if argv is None else argv
     if args[:1] == ["operator"]:
         operator(args[1])
     elif args[:1] in (["flood"], ["burst"]):
         flood(args[1], int(args[2]), int(args[3]), arrived=args[0] == "burst")
+    elif args[:1] == ["big"]:
+        big(args[1], args[2], int(args[3]), args[4] == "query")
     else:
         print("usage: python -m zenav.bench.safety_rig operator ENDPOINT | flood|burst ENDPOINT GOALS POINTS", file=sys.stderr)
         return 2

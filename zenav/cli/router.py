@@ -6,7 +6,7 @@ import argparse
 import os
 import sys
 
-from zenav.stack.router import DEFAULT_LISTEN, exposed, serve
+from zenav.stack.router import DEFAULT_LISTEN, MAX_MESSAGE, exposed, serve
 
 
 def add_arguments(sub: argparse._SubParsersAction) -> None:
@@ -25,6 +25,14 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
         metavar="PRIORITY",
         help="run its Zenoh threads at SCHED_FIFO PRIORITY, 1 to 99 (default 0: normal)",
     )
+    p.add_argument(
+        "--max-message",
+        type=int,
+        default=MAX_MESSAGE,
+        metavar="BYTES",
+        help=f"drop larger messages as they arrive (default {MAX_MESSAGE}: the default [limits] max_payload plus max_params plus"
+        " 64 KiB; raise it with them)",
+    )
     p.set_defaults(func=run)
 
 
@@ -41,6 +49,9 @@ def warn_if_open(prog: str, listen: str, config_file: str | None = None) -> None
 
 def run(args: argparse.Namespace) -> int:
     warn_if_open("zenav router", args.listen, args.zenoh_config)
+    if args.max_message < 1024:
+        print(f"zenav router: --max-message {args.max_message}: at least 1024 bytes", file=sys.stderr)
+        return 2
     if not 0 <= args.realtime <= 99:
         print(f"zenav router: --realtime {args.realtime}: a priority from 1 to 99, or 0", file=sys.stderr)
         return 2
@@ -49,5 +60,5 @@ def run(args: argparse.Namespace) -> int:
         linked = f", linking to {args.connect}" if args.connect else ""
         print(f"zenav router listening on {args.listen}{linked}", file=sys.stderr, flush=True)
 
-    serve(args.listen, args.zenoh_config, ready=ready, priority=args.realtime, connect=args.connect)
+    serve(args.listen, args.zenoh_config, ready=ready, priority=args.realtime, connect=args.connect, max_message=args.max_message)
     return 0

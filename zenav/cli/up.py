@@ -276,7 +276,9 @@ def run(args: argparse.Namespace) -> int:
     session = (
         zenoh.open(zenoh_config("client", connect=args.connect))
         if args.connect
-        else open_router(args.listen, priority=settings.deployment.realtime, connect=args.router_connect)
+        else open_router(
+            args.listen, priority=settings.deployment.realtime, connect=args.router_connect, max_message=settings.limits.max_message()
+        )
     )
     if args.connect and "sim" in names and settings.section("sim", SimConfig).camera and frames_elsewhere(session, robot):
         session.close()

@@ -176,15 +176,15 @@ def watch_parent(stop: Callable[[], None]) -> None:
     threading.Thread(target=loop, name="zenav-parent-watch", daemon=True).start()
 
 
-def open_bus(dep: Deployment, done: threading.Event, step: float = CONNECT_STEP) -> ZenohBus | None:
+def open_bus(dep: Deployment, done: threading.Event, step: float = CONNECT_STEP, max_message: int | None = None) -> ZenohBus | None:
     """A session to the deployment's router, waiting for it (a log line each `step` [s]
     without one) until `done` is set (then None): a service under a supervisor may start
-    before its router, and Ctrl-C still stops it within `step`."""
+    before its router, and Ctrl-C still stops it within `step`. `max_message` [bytes]: larger messages are dropped by Zenoh."""
     listen = PEER_LISTEN if dep.zenoh_mode == "peer" else None
     tries = 0
     while not done.is_set():
         try:
-            return ZenohBus.open(dep.connect, mode=dep.zenoh_mode, listen=listen, connect_timeout=step)
+            return ZenohBus.open(dep.connect, mode=dep.zenoh_mode, listen=listen, connect_timeout=step, max_message=max_message)
         except zenoh.ZError:
             tries += 1
             logging.getLogger("zenav").warning("no router at %s after %.0f s: still trying", dep.connect, tries * step)
@@ -209,7 +209,7 @@ def main(service_cls: type[Service], argv: Sequence[str] | None = None) -> int:
     # Before Zenoh's threads start, so that they take it; a refusal shows in diag (`realtime_refused`).
     refused = realtime(settings.deployment.realtime, f"zenav-{service_cls.name}") if service_cls.name in CONTROL_LOOP else None
     done = stop_on_signals()
-    bus = open_bus(settings.deployment, done)
+    bus = open_bus(settings.deployment, done, max_message=settings.limits.max_message())
     if bus is None:
         return 0
     try:

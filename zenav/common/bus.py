@@ -237,6 +237,7 @@ def zenoh_config(
     config_file: str | None = None,
     connect_timeout: float | None = None,
     lease: float | None = None,
+    max_message: int | None = None,
 ) -> zenoh.Config:
     """A Zenoh config: client of `connect`, a router on `listen`, or a peer that
     connects to `connect`, listens on `listen` and links directly with the other peers.
@@ -252,6 +253,10 @@ def zenoh_config(
     heard nothing from it for that long: a frozen process (SIGSTOP, a hung laptop, a
     dropped Wi-Fi link) loses its tokens within `lease`, not 10 s. Keep-alives go
     out KEEP_ALIVES times per lease.
+
+    `max_message` [bytes]: the largest message taken off a link (Zenoh's
+    transport/link/rx/max_message_size, default 1 GiB); a larger one is dropped by Zenoh
+    as it arrives, before it is handed to any subscriber or queryable.
     """
     path = config_file or os.environ.get("ZENOH_CONFIG")
     conf = zenoh.Config.from_file(path) if path else zenoh.Config()
@@ -275,6 +280,8 @@ def zenoh_config(
     if lease is not None:
         conf.insert_json5("transport/link/tx/lease", json.dumps(round(lease * 1000)))
         conf.insert_json5("transport/link/tx/keep_alive", json.dumps(KEEP_ALIVES))
+    if max_message is not None:
+        conf.insert_json5("transport/link/rx/max_message_size", json.dumps(max_message))
     if listen:
         conf.insert_json5("listen", json.dumps({"endpoints": [e for e in listen.split(",") if e]}))
     return conf
@@ -373,11 +380,12 @@ class ZenohBus:
         listen: str | None = None,
         connect_timeout: float | None = None,
         lease: float | None = None,
+        max_message: int | None = None,
     ) -> ZenohBus:
-        """Open a session (zenoh.ZError if `connect_timeout` passes with no router); `lease` [s] as in zenoh_config."""
+        """Open a session (zenoh.ZError if `connect_timeout` passes with no router); `lease` and `max_message` as in zenoh_config."""
 
         def make() -> zenoh.Session:
-            return zenoh.open(zenoh_config(mode, connect, listen, connect_timeout=connect_timeout, lease=lease))
+            return zenoh.open(zenoh_config(mode, connect, listen, connect_timeout=connect_timeout, lease=lease, max_message=max_message))
 
         return cls(make(), reopen=make, settle=PEER_SETTLE if mode == "peer" else 0.0)
 

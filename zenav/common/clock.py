@@ -13,14 +13,14 @@ from typing import Protocol
 
 from zenav.common.messages import Clock as ClockMsg
 
-RESTART_JUMP = 1.0  # [s] a clock tick this far behind the last one means the sim restarted
+RESTART_JUMP = 1.0  # [s] a tick from the clock's owner this far behind the last one is refused (a replay's made ticks start again)
 FUTURE_STAMP = 0.1  # [s] default lead a message's stamp may have over the clock ([limits] future_stamp)
 CLOCK_JUMP = 1.0  # [s] default for how far a tick may run past the rtf's pace ([limits] clock_jump)
 MAX_RTF = 100.0  # [-] the highest realtime factor a sim runs at (the [sim] rtf limit)
 PACE_MARGIN = 2.0  # [-] a tick may advance this many times the rtf's pace over the wall time since the last
 REFUSED_RUN = 20  # ticks refused in a row that agree with each other are a new timeline, taken as a restart
 
-ACCEPTED, RESTARTED, REFUSED = "accepted", "restarted", "refused"
+ACCEPTED, RESTARTED, REFUSED, FOREIGN = "accepted", "restarted", "refused", "foreign"
 
 
 class Clock(Protocol):
@@ -103,10 +103,19 @@ class SimClock:
     stopped sim stops time, and at a high rtf the interpolation cannot run ahead
     of the ticks (a stamp is judged against the sim's own steps).
 
-    Time moves only by plausible ticks: a tick with an rtf above MAX_RTF or other than
-    the current one, or one further ahead than `jump` plus twice the rtf's pace over the
-    wall time since the last tick, is refused (`refused` counts them). A tick far behind
-    is a sim restart; so is a run of REFUSED_RUN refused ticks that agree with each other.
+    Only the clock's owner moves time: the sim instance whose token
+    (`zenav/<robot>/instance/sim/<id>`, told by `sim_token`) is alive, named in each tick
+    (`instance`). The first sender is the owner; another takes over only once the owner's
+    token is gone, and only if its own token is alive (or no sim's token is: a replay into a
+    stack without a sim). A new owner is a sim restart: time starts again from its tick. A
+    tick from any other sender (a replay, a client, a second sim that slipped in) is
+    FOREIGN (`foreign` counts them) and changes nothing.
+
+    Time moves only by plausible ticks of the owner: a tick with an rtf above MAX_RTF or
+    other than the current one, one further ahead than `jump` plus twice the rtf's pace
+    over the wall time since the last tick, or one more than RESTART_JUMP behind the last,
+    is refused (`refused` counts them). A run of REFUSED_RUN refused ticks of the owner that
+    agree with each other is a new timeline, taken as a restart.
     """
 
     def __init__(self, max_extrapolation: float = 0.25, future: float = FUTURE_STAMP, jump: float = CLOCK_JUMP) -> None:
@@ -120,19 +129,43 @@ class SimClock:
         self._step = jump  # [s] the latest tick interval: a sample may lead the clock by one
         self._seen = 0.0  # [s] monotonic time the last tick was taken
         self._refused_run: list[ClockMsg] = []  # the refused ticks in a row
+        self._sims: set[str] = set()  # the sim instances whose tokens are alive
+        self.owner: str | None = None  # the instance whose ticks move time (None: no tick taken yet)
         self.refused = 0  # ticks refused so far
-        self.refusal = ""  # why the last one was
+        self.foreign = 0  # ticks from another sender than the owner
+        self.refusal = ""  # why the last tick refused or foreign was
+
+    def sim_token(self, instance: str, alive: bool) -> None:
+        """A sim instance's token came (`alive`) or went."""
+        with self._lock:
+            (self._sims.add if alive else self._sims.discard)(instance)
+
+    def _takes_over(self, instance: str) -> bool | None:
+        """Whether a tick's sender is the owner (False), a new owner (True) or foreign (None)."""
+        if instance == self.owner:
+            return False
+        if self.owner is not None and self.owner in self._sims:
+            return None  # the owner lives
+        if self._sims and instance not in self._sims:
+            return None  # a sim lives, and this is not it
+        return True
 
     @property
     def ready(self) -> bool:
         return self._t is not None
 
     def update(self, msg: ClockMsg) -> str:
-        """Take a tick from the `clock` topic: ACCEPTED, RESTARTED (time jumped back) or REFUSED."""
+        """Take a tick from the `clock` topic: ACCEPTED, RESTARTED (a new owner, or a new timeline), REFUSED
+        or FOREIGN (not the owner's)."""
         with self._lock:
+            takes_over = self._takes_over(msg.instance)
+            if takes_over is None:
+                self.foreign += 1
+                self.refusal = f"sent by {msg.instance or 'a sender without an instance id'}, not by the clock's owner {self.owner}"
+                return FOREIGN
             seen = time.monotonic()
             why = self._implausible(msg, seen)
-            restarted = self._t is not None and msg.t < self._t - RESTART_JUMP and msg.rtf <= MAX_RTF
+            restarted = takes_over and self._t is not None and msg.rtf <= MAX_RTF
             if why is not None and not restarted:
                 run = self._refused_run
                 if run and self._plausible_after(run[-1], msg):
@@ -145,6 +178,7 @@ class SimClock:
                     return REFUSED
                 restarted = True  # a new timeline, not a glitch
             self._refused_run = []
+            self.owner = msg.instance
             if restarted:
                 self._last, self._step = 0.0, self._jump  # time starts again
             elif self._t is not None and msg.t > self._t:
@@ -161,6 +195,8 @@ class SimClock:
             return None
         if msg.rtf != self._rtf:
             return f"rtf changed from {self._rtf:g} to {msg.rtf:g} without a restart"
+        if msg.t < self._t - RESTART_JUMP:
+            return f"t went back {self._t - msg.t:.3f} s without a new clock owner (a sim restart is a new instance)"
         allowed = self._jump + PACE_MARGIN * self._rtf * max(seen - self._seen, 0.0)
         if msg.t - self._t > allowed:
             return f"t jumped {msg.t - self._t:.3f} s ahead (at most {allowed:.3f} s is plausible)"

@@ -74,6 +74,9 @@ class Robot(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
         return self.wheel_diameter / 2.0
 
 
+MESSAGE_HEADROOM = 64 << 10  # [bytes] a message's key, encoding and Zenoh's headers, beyond its payload and parameters
+
+
 class Limits(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """What one input may cost a service: sizes checked before decoding, the queue's bounds, time's steps."""
 
@@ -83,6 +86,11 @@ class Limits(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     queue_bytes: Annotated[int, Meta(ge=1 << 16, le=1 << 34)] = 64 << 20  # [bytes] payload bytes queued; more are dropped
     future_stamp: Annotated[float, Meta(ge=0.0, le=60.0)] = 0.1  # [s] a stamp may lead the stack clock by this (sim: plus one tick)
     clock_jump: Annotated[float, Meta(gt=0.0, le=3600.0)] = 1.0  # [s] a sim clock tick may run this far past the rtf's pace
+
+    def max_message(self) -> int:
+        """[bytes] the largest message a zenav router or service session takes off a link (Zenoh drops larger
+        ones there, before any copy reaches Python): a payload and selector parameters at their limits, plus headroom."""
+        return self.max_payload + self.max_params + MESSAGE_HEADROOM
 
 
 class Field(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):

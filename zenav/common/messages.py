@@ -49,6 +49,8 @@ class Clock(Topic, frozen=True, kw_only=True):
     t: Time  # [s] simulated time
     rtf: Annotated[float, Meta(gt=0.0, le=1e4)] = 1.0  # realtime factor the sim runs at
     wall: Annotated[float, Meta(ge=0.0, le=1e11)] = 0.0  # [s] sender's wall clock (epoch) at t
+    # the sending sim's instance id (its token zenav/<robot>/instance/sim/<id>); "": a sender without one
+    instance: Annotated[str, Meta(max_length=128)] = ""
 
 
 class Truth(Topic, frozen=True, kw_only=True):

@@ -98,7 +98,7 @@ import msgspec
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.bus import JSON, MSGPACK, Bus, Handle, Query, undeclare_all
-from zenav.common.clock import REFUSED, RESTARTED, Clock, SimClock, WallClock
+from zenav.common.clock import FOREIGN, REFUSED, RESTARTED, Clock, SimClock, WallClock
 from zenav.common.config import Settings
 from zenav.common.inbox import Inbox
 
@@ -388,8 +388,10 @@ class Service:
         mine = self.key(f"instance/{self.name}/{self.instance}")
         self._handles.append(self.bus.watch_tokens(self.key(f"instance/{self.name}/*"), self._instance_enqueuer(mine)))
         if isinstance(self.clock, SimClock):
-            self.counters.values.setdefault("clock_refused", 0)
-            self.counters.values.setdefault("clock_ticks", 0)
+            for name in ("clock_refused", "clock_foreign", "clock_ticks"):
+                self.counters.values.setdefault(name, 0)
+            sim_token = self.clock.sim_token  # the clock's owner is told by the sim instances' tokens, before any tick
+            self._handles.append(self.bus.watch_tokens(self.key("instance/sim/*"), lambda k, alive: sim_token(k.rsplit("/", 1)[-1], alive)))
             self._handles.append(self.bus.subscribe(self.key("clock"), self._enqueue_clock))
         for attr in dir(type(self)):
             fn = getattr(type(self), attr, None)
@@ -679,8 +681,11 @@ class Service:
         if outcome == REFUSED:
             self.count("clock_refused")
             self.warn("clock_refused", f"refused a clock tick t={msg.t:.3f} rtf={msg.rtf:g}: {clock.refusal}")
+        elif outcome == FOREIGN:
+            self.count("clock_foreign")
+            self.warn("clock_foreign", f"dropped a clock tick t={msg.t:.3f}: {clock.refusal}")
         elif outcome == RESTARTED:
-            self.log.warning("stack clock jumped to %.2f s (sim restarted): state reset", msg.t)
+            self.log.warning("stack clock at %.2f s from sim instance %s (sim restarted): state reset", msg.t, msg.instance or "-")
             self.count("clock_resets")
             for tm in self._timers:
                 tm.due = None

@@ -183,7 +183,8 @@ class ComposedStack:
     def start(self) -> ComposedStack:
         """Open the session, start every named service, then the workers (Duplicate: the ones started are stopped again)."""
         dep = self.settings.deployment
-        self.bus = LocalBus(ZenohBus.open(dep.connect, mode=dep.zenoh_mode, listen=PEER_LISTEN if dep.zenoh_mode == "peer" else None))
+        listen = PEER_LISTEN if dep.zenoh_mode == "peer" else None
+        self.bus = LocalBus(ZenohBus.open(dep.connect, mode=dep.zenoh_mode, listen=listen, max_message=self.settings.limits.max_message()))
         try:
             for name in self.names:
                 cls = registry.load(name)

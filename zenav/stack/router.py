@@ -14,10 +14,13 @@ import zenoh
 
 from zenav.common.app import normal_priority, realtime, stop_on_signals
 from zenav.common.bus import zenoh_config
+from zenav.common.config import Limits
 from zenav.common.keys import DEFAULT_CONNECT
 from zenav.stack.inprocess import free_port
 
 DEFAULT_LISTEN = DEFAULT_CONNECT  # where the stack and its tools meet
+MAX_MESSAGE = Limits().max_message()  # [bytes] the default [limits]' largest message: larger ones stop at the router
+
 # [s] how long a router that spans hosts waits to queue a message for a link before it closes the link (Zenoh's
 # default: 5 s). A host whose cable is out, or whose Wi-Fi went, closes no socket: the router's queue for it fills
 # (the sim's camera frames fill it within a second) and would hold up every message, the robot's loop's too, until
@@ -41,13 +44,17 @@ def exposed(listen: str) -> list[str]:
     return out
 
 
-def open_router(listen: str, config_file: str | None = None, priority: int = 0, connect: str | None = None) -> zenoh.Session:
+def open_router(
+    listen: str, config_file: str | None = None, priority: int = 0, connect: str | None = None, max_message: int = MAX_MESSAGE
+) -> zenoh.Session:
     """Open a router session; SystemExit with a clear message if the port is taken. `priority` (`[deployment]
     realtime`; 0: none): the SCHED_FIFO priority of the threads Zenoh starts meanwhile, which are all of them when
     it is the process's first session (the calling thread keeps its own). `connect`: the endpoints (comma-separated)
-    of other hosts' routers to link to, tried again every half second while one is not there (it opens at once)."""
+    of other hosts' routers to link to, tried again every half second while one is not there (it opens at once). A
+    message over `max_message` bytes is dropped as it arrives (Zenoh's transport/link/rx/max_message_size, set over any
+    `config_file`'s)."""
     raised = priority > 0 and realtime(priority, "router") is None
-    conf = zenoh_config("router", connect=connect, listen=listen, config_file=config_file)
+    conf = zenoh_config("router", connect=connect, listen=listen, config_file=config_file, max_message=max_message)
     if connect or exposed(listen):  # other hosts' routers link to it, or it to theirs
         conf.insert_json5("transport/link/tx/queue/congestion_control/block/wait_before_close", json.dumps(round(BLOCKED_LINK * 1e6)))
     try:
@@ -59,10 +66,17 @@ def open_router(listen: str, config_file: str | None = None, priority: int = 0, 
             normal_priority()
 
 
-def serve(listen: str, config_file: str | None = None, ready=lambda: None, priority: int = 0, connect: str | None = None) -> None:
+def serve(
+    listen: str,
+    config_file: str | None = None,
+    ready=lambda: None,
+    priority: int = 0,
+    connect: str | None = None,
+    max_message: int = MAX_MESSAGE,
+) -> None:
     """Run a router until SIGINT or SIGTERM (linked to the routers at `connect`); `ready` is called once it listens."""
     done = stop_on_signals()  # before the router listens: a launcher may stop it as soon as it does
-    session = open_router(listen, config_file, priority, connect)
+    session = open_router(listen, config_file, priority, connect, max_message)
     ready()
     done.wait()
     session.close()
@@ -92,8 +106,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m zenav.stack.router", description="a Zenoh router until SIGTERM")
     parser.add_argument("--listen", required=True, help="endpoint(s), comma-separated")
     parser.add_argument("--realtime", type=int, default=0, help="SCHED_FIFO priority of its Zenoh threads (0: normal)")
+    parser.add_argument("--max-message", type=int, default=MAX_MESSAGE, help="[bytes] larger messages are dropped as they arrive")
     args = parser.parse_args(argv)
-    serve(args.listen, priority=args.realtime)
+    serve(args.listen, priority=args.realtime, max_message=args.max_message)
     return 0
 
 

@@ -14,8 +14,10 @@ Across a longer gap in the stamps (the robot's recorder or odometry paused) they
 every FILL at most: a stack clock refuses a tick further ahead than a plausible step
 ([limits] clock_jump), and at rate 0 no wall time passes to make a longer one plausible.
 Where the stamps go back by more than RESTART_JUMP (the robot restarted, or its wall
-clock was set back), the made ticks start again from there, as a restarted sim's would:
-a stack clock takes such a tick as a restart. Only messages stamped when they were sent
+clock was set back), the made ticks start again from there under a new `instance`
+(`replay-<n>`), as a restarted sim's would: a stack clock takes such a tick as a restart.
+Recorded ticks keep the instance of the sim that sent them, so a recorded restart is one
+here too; a stack clock whose own sim runs takes none of them (they are not its sim's). Only messages stamped when they were sent
 make ticks: a fix is stamped at its capture (CAPTURE_STAMPED), late by design and by
 however long its camera's link took, and must not take the clock back. The ticks are the
 same at any rate, and so is the re-run. They stand for a clock that ticked every TICK: the
@@ -68,6 +70,7 @@ def replay(
     first_ns: int | None = None
     sent = 0
     ticks: dict[str, float] = {}  # robot recorded without a clock -> the last tick made for it
+    timelines: dict[str, int] = {}  # robot recorded without a clock -> its made ticks' timeline (one more at each restart)
     made_rtf = replayed_rtf(1.0, rate)  # a robot recorded without a clock ran in realtime
     if suffixes is None or "clock" in suffixes:
         ticks = {r: -math.inf for r, topics in fmt.topics(path).items() if "clock" not in topics and robot in (None, r)}
@@ -87,8 +90,11 @@ def replay(
             and rec.suffix not in CAPTURE_STAMPED
             and not ticks[rec.robot] - RESTART_JUMP <= msg.t < ticks[rec.robot] + TICK
         ):
+            if msg.t < ticks[rec.robot]:
+                timelines[rec.robot] = timelines.get(rec.robot, 0) + 1
+            instance = f"replay-{timelines.get(rec.robot, 0)}"
             for t in made_ticks(ticks[rec.robot], msg.t):
-                bus.publish(keys.key(on, "clock"), codec.encode(m.Clock(t=t, rtf=made_rtf, wall=time.time())))
+                bus.publish(keys.key(on, "clock"), codec.encode(m.Clock(t=t, rtf=made_rtf, wall=time.time(), instance=instance)))
             ticks[rec.robot] = msg.t
         bus.publish(keys.key(on, rec.suffix), codec.encode(msg))
         sent += 1

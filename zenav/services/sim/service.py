@@ -222,7 +222,7 @@ class Sim(Service):
         # lateness changes no reading of them. The clock ticks at clock_rate_hz (services
         # extrapolate between ticks), from the first step on.
         if sensors.due(self.steps - 1, self.cfg.clock_rate_hz, self.rate):
-            self._after.append(("clock", m.Clock(t=t, rtf=self.cfg.rtf, wall=wall)))
+            self._after.append(("clock", m.Clock(t=t, rtf=self.cfg.rtf, wall=wall, instance=self.instance)))
         truth = m.Truth(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega, wall=wall)
         self._after.append(("sim/truth", truth))
         if self.cfg.body_radius > 0.0 and sensors.due(self.steps - 1, BODY_RATE_HZ, self.rate):

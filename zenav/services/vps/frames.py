@@ -45,19 +45,68 @@ def encode(img: np.ndarray, t: float, seq: int, exposure: float = 0.0, encoding:
 
 
 def decode(frame: m.CameraFrame, width: int, height: int) -> np.ndarray:
-    """The grey image of a frame (H x W uint8); FrameError when it is corrupt or not width x height [px]."""
+    """The grey image of a frame (H x W uint8); FrameError when it is corrupt or not width x height [px].
+
+    A png or jpeg frame's size is read from its own header before anything is decoded: a
+    small file may decode to gigabytes of pixels, so one that is not the camera's size is refused unread."""
     if (frame.width, frame.height) != (width, height):
         raise FrameError(f"frame is {frame.width}x{frame.height}, the camera is configured {width}x{height} ([camera] width, height)")
     if frame.encoding == "mono8":
         if len(frame.data) != width * height:
             raise FrameError(f"mono8 frame carries {len(frame.data)} bytes, {width}x{height} needs {width * height}")
         return np.frombuffer(frame.data, dtype=np.uint8).reshape(height, width)
+    size = png_size(frame.data) if frame.encoding == "png" else jpeg_size(frame.data)
+    if size is None:
+        raise FrameError(f"{frame.encoding} frame has no readable {frame.encoding} header")
+    if size != (width, height):
+        raise FrameError(f"{frame.encoding} header says {size[0]}x{size[1]}, the camera is configured {width}x{height}: not decoded")
     img = cv2.imdecode(np.frombuffer(frame.data, dtype=np.uint8), cv2.IMREAD_GRAYSCALE)
     if img is None:
         raise FrameError(f"{frame.encoding} frame does not decode")
     if img.shape != (height, width):
-        raise FrameError(f"{frame.encoding} frame decodes to {img.shape[1]}x{img.shape[0]}, header says {width}x{height}")
+        raise FrameError(f"{frame.encoding} frame decodes to {img.shape[1]}x{img.shape[0]}, its header says {width}x{height}")
     return img
+
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+# JPEG start-of-frame markers (baseline, progressive, lossless, arithmetic...): their segment holds the size
+JPEG_SOF = frozenset({0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF})
+JPEG_STANDALONE = frozenset({0x01, *range(0xD0, 0xD8)})  # markers without a length: TEM, RSTn
+
+
+def png_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) [px] from a PNG's IHDR chunk, which must come first; None: no PNG header."""
+    if len(data) < 24 or data[:8] != PNG_SIGNATURE or data[12:16] != b"IHDR":
+        return None
+    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+
+
+def jpeg_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) [px] from a JPEG's start-of-frame segment, walking the segments before it; None: none found."""
+    if data[:2] != b"\xff\xd8":
+        return None
+    i = 2
+    while i + 4 <= len(data):  # each step moves past one marker and its segment: bounded by the length
+        if data[i] != 0xFF:
+            return None
+        marker = data[i + 1]
+        if marker == 0xFF:  # fill byte
+            i += 1
+            continue
+        if marker in JPEG_STANDALONE:
+            i += 2
+            continue
+        if marker in (0xD9, 0xDA):  # end of image, or the scan began, before any frame header
+            return None
+        length = int.from_bytes(data[i + 2 : i + 4], "big")
+        if length < 2:
+            return None
+        if marker in JPEG_SOF:
+            if i + 9 > len(data) or length < 7:
+                return None
+            return int.from_bytes(data[i + 7 : i + 9], "big"), int.from_bytes(data[i + 5 : i + 7], "big")
+        i += 2 + length
+    return None
 
 
 @dataclass(frozen=True)

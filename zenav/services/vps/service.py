@@ -23,6 +23,7 @@ from zenav.world.vps import Camera, Delivery, DeliveryQueue, make_rng
 TIMING_WINDOW = 50  # frames whose median pipeline and detection times diag reports
 INPUT_SILENT = 1.0  # [s] truth or frames heard before and silent this long: status error (no fixes)
 TAG_UNSEEN = 1.0  # [s] frames coming but this robot's tag not located this long: status degraded
+STALE = 1.0  # [s] a frame or truth sample stamped further behind the stack clock is refused (its fix would come too late)
 
 
 class VpsConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
@@ -44,7 +45,6 @@ class Vps(Service):
         super().__init__(*args)
         self.camera = Camera(self.settings.scenario, make_rng(self.settings.deployment.seed))
         self.queues: dict[str, DeliveryQueue] = {self.robot: DeliveryQueue()}
-        self._last_t = -1.0  # [s] newest truth sample or frame
         self._heard: float | None = None  # [s] clock time the newest truth sample or frame came
         self._seen = 0.0  # [s] clock time this robot's tag was last located (camera)
         self.reader: Reader | None = None
@@ -82,16 +82,24 @@ class Vps(Service):
         for robot in others:
             self._handles.append(self.bus.token(keys.key(robot, f"instance/vps/{self.instance}")))
 
-    def _restarted(self, t: float) -> None:
-        if t < self._last_t:
-            self.count("truth_restarts")  # the sim started again: its pending fixes are void
-            for q in self.queues.values():
-                q.clear()
-        self._last_t = t
+    def on_clock_reset(self) -> None:
+        """The sim restarted (a new instance owns the clock): the fixes still pending are of its previous run."""
+        for q in self.queues.values():
+            self.count("fixes_voided", len(q))
+            q.clear()
+
+    def _behind(self, t: float) -> float | None:
+        """[s] how far a stamp is behind the stack clock, when that is more than STALE (else None)."""
+        behind = self.clock.now() - t
+        return behind if self.clock.ready and behind > STALE else None
 
     def on_truth(self, msg: m.Truth) -> None:
         """One truth sample: a capture when one is due."""
-        self._restarted(msg.t)
+        behind = self._behind(msg.t)
+        if behind is not None:
+            self.count("dropped_stale")
+            self.warn("stale", f"dropped sim/truth stamped t={msg.t:.3f}, {behind:.3f} s behind the stack clock")
+            return
         self._heard = self.clock.now()
         d = self.camera.capture(msg)
         if d is not None:
@@ -100,8 +108,10 @@ class Vps(Service):
     def on_frame(self, msg: m.CameraFrame) -> None:
         """One camera frame: each robot tag in it becomes a fix, sent after the link delay."""
         assert self.reader is not None
-        self._restarted(msg.t)
+        behind = self._behind(msg.t)
         try:
+            if behind is not None:
+                raise FrameError(f"stamped t={msg.t:.3f}, {behind:.3f} s behind the stack clock (more than {STALE:g} s)")
             got = self.reader.read(msg)
         except FrameError as e:
             self.count("frames_refused")
