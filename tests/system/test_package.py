@@ -2,7 +2,8 @@
 accepts, from the checkout and from what the docker build context carries (a copy made with .dockerignore's
 patterns); the wheel, built from the sdist, carries every file of the package, the data files among them.
 Installed (not editable) with its base dependencies only into a fresh Python 3.10 venv, `python -m zenav
---version` prints the version and the robot library imports."""
+--version` prints the version, the robot library imports, and the systemd unit is where docs/real-robot.md
+copies it from."""
 
 from __future__ import annotations
 
@@ -117,10 +118,14 @@ def test_the_wheel_alone_on_python_3_10_runs_the_command_and_the_library(dists, 
     pip = [python, "-m", "pip", "install", "--quiet", "--disable-pip-version-check", str(wheel)]  # base dependencies only
     done = subprocess.run(pip, capture_output=True, text=True, timeout=INSTALL)
     assert done.returncode == 0, done.stdout + done.stderr
-    for cmd in ([python, "-m", "zenav", "--version"], [str(venv / "bin" / "zenav"), "--version"]):
-        done = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=60)  # cwd: not the checkout's zenav
-        assert (done.returncode, done.stdout) == (0, f"zenav {__version__}\n"), done.stderr[-3000:]
     code = "import zenav; from zenav import Robot; print(zenav.__file__, Robot.__name__)"
     done = subprocess.run([python, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr[-3000:]
     assert done.stdout.startswith(str(venv)) and done.stdout.split()[-1] == "Robot"  # the installed package, not the checkout's
+    # docs/real-robot.md's path to the systemd unit in a venv (its /opt/zenav: this one)
+    cp = re.search(r"^sudo cp /opt/zenav/(\S+) /etc/systemd/system/$", (REPO / "docs" / "real-robot.md").read_text(), re.MULTILINE)
+    assert cp, "docs/real-robot.md no longer copies the unit from the venv"
+    assert [p.name for p in venv.glob(cp[1])] == ["zenav.service"]
+    for cmd in ([python, "-m", "zenav", "--version"], [str(venv / "bin" / "zenav"), "--version"]):
+        done = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=60)  # cwd: not the checkout's zenav
+        assert (done.returncode, done.stdout) == (0, f"zenav {__version__}\n"), done.stderr[-3000:]
