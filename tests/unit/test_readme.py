@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 import re
 import shlex
+import sys
 from pathlib import Path
 
 import pytest
@@ -13,6 +14,11 @@ import pytest
 from zenav import __version__
 from zenav.cli.main import build_parser, main
 from zenav.common.keys import SERVICES
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:
+    import tomli as tomllib
 
 REPO = Path(__file__).resolve().parents[2]
 PAGES = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
@@ -95,6 +101,14 @@ def test_every_module_run_with_python_m_exists():
     assert len(modules) >= 3
     missing = sorted(mod for mod in modules if importlib.util.find_spec(mod) is None)
     assert not missing, f"README.md or docs/ run modules that do not exist: {missing}"
+
+
+def test_readme_names_every_extra_of_the_package():
+    readme = (REPO / "README.md").read_text()
+    install = readme[readme.index("## Install") : readme.index("## Services")]
+    listed = set(re.findall(r"^\| `([\w-]+)` \|", install, re.MULTILINE))
+    extras = set(tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["optional-dependencies"])
+    assert extras <= listed, f"README's Install lacks the extras {sorted(extras - listed)}"
 
 
 def test_version(capsys):
