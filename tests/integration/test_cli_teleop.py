@@ -39,7 +39,7 @@ def test_teleop_drives_stops_on_the_deadman_and_quits(router, client, tmp_path):
     client.subscribe("cmd_vel", on_cmd)
     tmux = ["tmux", "-L", f"zenav-test-{os.getpid()}"]
     done = tmp_path / "exit-code"
-    shell = f"{sys.executable} -m zenav.cli teleop --connect {router} --deadman 300 --speed 0.25; echo $? > {done}"
+    shell = f"{sys.executable} -m zenav teleop --connect {router} --deadman 300 --speed 0.25; echo $? > {done}"
     subprocess.run([*tmux, "new-session", "-d", "-s", "t", "-x", "100", "-y", "10", shell], check=True, timeout=30)
     try:
 

@@ -69,7 +69,7 @@ def test_lease_lost_stops_the_robot(raw):
 
 def test_cli_goto_wait_and_exit_codes(raw, router):
     def zenav(*args):
-        cmd = [sys.executable, "-m", "zenav.cli", *args, "--connect", router]
+        cmd = [sys.executable, "-m", "zenav", *args, "--connect", router]
         return subprocess.run(cmd, capture_output=True, text=True, timeout=120)
 
     done = zenav("goto", "0.3", "0", "--wait")

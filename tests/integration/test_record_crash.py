@@ -26,7 +26,7 @@ SLACK = 1.0  # [s] scheduling on a loaded machine, on top of FLUSH_PERIOD
 
 
 def start_recorder(router: str, out: Path) -> tuple[subprocess.Popen, object]:
-    proc = subprocess.Popen([sys.executable, "-m", "zenav.cli", "record", str(out), "--connect", router], stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen([sys.executable, "-m", "zenav", "record", str(out), "--connect", router], stderr=subprocess.PIPE, text=True)
     lines = stderr_lines(proc)
     assert f"to {out}.part" in lines.get(timeout=30)
     return proc, lines
@@ -47,7 +47,7 @@ def send_run(bus: ZenohBus, seconds: float) -> list[float]:
 
 
 def run_cli(*argv: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "zenav.cli", *argv], capture_output=True, text=True, timeout=60)
+    return subprocess.run([sys.executable, "-m", "zenav", *argv], capture_output=True, text=True, timeout=60)
 
 
 def test_a_killed_recorder_leaves_a_part_file_readable_up_to_a_second_before(router, publisher, tmp_path):

@@ -119,7 +119,7 @@ def test_every_topic_and_field_is_recorded_with_a_schema(router, publisher, tmp_
 def test_ctrl_c_finishes_the_file_with_the_last_messages(router, publisher, tmp_path):
     path = tmp_path / "sigint.mcap"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "zenav.cli", "record", str(path), "--connect", router],
+        [sys.executable, "-m", "zenav", "record", str(path), "--connect", router],
         stderr=subprocess.PIPE,
         text=True,
     )

@@ -36,7 +36,7 @@ def test_a_driven_goal_recorded_as_a_ros2_bag(make_stack, router, tmp_path):
     raw.wait_nav_ready()
     bag = tmp_path / "run"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "zenav.cli", "record", str(bag), "--ros2", "--distro", "jazzy", "--connect", router],
+        [sys.executable, "-m", "zenav", "record", str(bag), "--ros2", "--distro", "jazzy", "--connect", router],
         stderr=subprocess.PIPE,
         text=True,
     )

@@ -37,7 +37,7 @@ def test_each_tool_gives_up_on_a_missing_router_with_one_line(tmp_path):
     t0 = time.monotonic()
     procs = {
         name: subprocess.Popen(
-            [sys.executable, "-m", "zenav.cli", *argv, "--connect", endpoint], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+            [sys.executable, "-m", "zenav", *argv, "--connect", endpoint], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
         )
         for name, argv in commands.items()
     }

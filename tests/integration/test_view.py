@@ -129,7 +129,7 @@ def test_a_foxglove_client_receives_the_robot_live(view, robot):
 def test_the_view_command_serves_until_ctrl_c(router, robot):
     port = free_port()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "zenav.cli", "view", "--connect", router, "--port", str(port)], stderr=subprocess.PIPE, text=True
+        [sys.executable, "-m", "zenav", "view", "--connect", router, "--port", str(port)], stderr=subprocess.PIPE, text=True
     )
     lines = stderr_lines(proc)
     with reaped(proc):

@@ -82,7 +82,7 @@ class Stack:
         where = ["--connect", self.endpoint] if connect else ["--listen", self.endpoint]
         argv = ["up", *where, "--log-dir", str(tmp), "--duration", str(duration), *SYNTHETIC_VPS, *extra]
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "zenav.cli", *argv],
+            [sys.executable, "-m", "zenav", *argv],
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,
             text=True,

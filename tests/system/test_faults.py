@@ -154,7 +154,7 @@ def stopped_by_sim(diag) -> int:
 def test_router_restart(tmp_path):
     port = free_port()
     endpoint = f"tcp/127.0.0.1:{port}"
-    router_cmd = [sys.executable, "-m", "zenav.cli", "router", "--listen", endpoint]
+    router_cmd = [sys.executable, "-m", "zenav", "router", "--listen", endpoint]
     router = subprocess.Popen(router_cmd, stderr=subprocess.PIPE, text=True)
     assert "listening" in router.stderr.readline()
     stack = Stack(tmp_path, connect=endpoint)

@@ -51,7 +51,7 @@ class Router:
         self.secrets = secrets
         self.endpoint = f"tls/127.0.0.1:{unused_port()}"
         env = {k: v for k, v in os.environ.items() if k != "ZENOH_CONFIG"}
-        cmd = [sys.executable, "-m", "zenav.cli", "router", "--listen", self.endpoint, "--zenoh-config", str(secrets / "router.json5")]
+        cmd = [sys.executable, "-m", "zenav", "router", "--listen", self.endpoint, "--zenoh-config", str(secrets / "router.json5")]
         self.proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         self._sessions: list[zenoh.Session] = []
 

@@ -112,7 +112,7 @@ def secure_router(tmp_path_factory):
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     env = {k: v for k, v in os.environ.items() if k != "ZENOH_CONFIG"}
     proc = subprocess.Popen(
-        [sys.executable, "-m", "zenav.cli", "router", "--listen", endpoint, "--zenoh-config", str(secrets / "router.json5")],
+        [sys.executable, "-m", "zenav", "router", "--listen", endpoint, "--zenoh-config", str(secrets / "router.json5")],
         env=env,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,

@@ -30,7 +30,7 @@ def up(tmp_path, request):
         [
             sys.executable,
             "-m",
-            "zenav.cli",
+            "zenav",
             "up",
             "--listen",
             endpoint,
@@ -134,7 +134,7 @@ def test_up_composes_the_services_its_config_file_names(tmp_path):
     config = tmp_path / "small-computer.toml"
     config.write_text(f"[deployment]\ncompose = {json.dumps(robot_services)}\n")  # a JSON array is a TOML array
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    argv = [sys.executable, "-m", "zenav.cli", "up", "--listen", endpoint, "--log-dir", str(tmp_path), "--config", str(config)]
+    argv = [sys.executable, "-m", "zenav", "up", "--listen", endpoint, "--log-dir", str(tmp_path), "--config", str(config)]
     argv += ["--set", "sim.rtf=2.0", "--duration", "240"]
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     c = RawClient(endpoint)
@@ -181,7 +181,7 @@ def test_up_runs_the_control_loop_and_its_router_at_the_realtime_priority_it_is_
     """[deployment] realtime: the robot's control-loop services, every Zenoh thread of them and of the embedded
     router, at SCHED_FIFO; the sim, the vps and `zenav up`'s own Python thread at the host's normal scheduling."""
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    argv = [sys.executable, "-m", "zenav.cli", "up", "--listen", endpoint, "--log-dir", str(tmp_path)]
+    argv = [sys.executable, "-m", "zenav", "up", "--listen", endpoint, "--log-dir", str(tmp_path)]
     argv += ["--set", "deployment.realtime=5", "--duration", "240"]
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     c = RawClient(endpoint)

@@ -58,7 +58,7 @@ def frozen_operator(rig: Rig, cli: bool = False) -> Freeze:
     last = rig.nav.wait(timeout=WAIT).goal_id
     x, y = OPERATOR_GOAL
     argv = (
-        ["zenav.cli", "goto", str(x), str(y), "--wait", "--connect", rig.endpoint]
+        ["zenav", "goto", str(x), str(y), "--wait", "--connect", rig.endpoint]
         if cli
         else ["zenav.bench.safety_rig", "operator", rig.endpoint]
     )

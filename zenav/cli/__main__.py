@@ -1,5 +1,0 @@
-import sys
-
-from zenav.cli.main import main
-
-sys.exit(main())
