@@ -129,3 +129,21 @@ def test_the_wheel_alone_on_python_3_10_runs_the_command_and_the_library(dists, 
     for cmd in ([python, "-m", "zenav", "--version"], [str(venv / "bin" / "zenav"), "--version"]):
         done = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=60)  # cwd: not the checkout's zenav
         assert (done.returncode, done.stdout) == (0, f"zenav {__version__}\n"), done.stderr[-3000:]
+
+
+def test_readme_s_install_lines_run_as_written(tmp_path):
+    """README's install block, line by line in a clone of this checkout (its `<your clone URL>`: the clone's)."""
+    block = re.search(r"## Install\n.*?```sh\n(.*?)```", (REPO / "README.md").read_text(), re.DOTALL)
+    assert block, "README has no install block"
+    clone = tmp_path / "zenav"
+    shutil.copytree(REPO, clone, ignore=shutil.ignore_patterns(".venv*", "__pycache__", "*.egg-info", "build", "dist", ".git"))
+    git = ["git", "-c", "user.name=zenav", "-c", "user.email=zenav@localhost", "-C", str(clone)]
+    for args in (["init", "-q"], ["add", "-A"], ["commit", "-q", "-m", "the checkout"]):
+        subprocess.run([*git, *args], check=True, capture_output=True, timeout=120)
+    lines = [line.split("  #")[0].strip() for line in block[1].splitlines() if line.strip()]
+    assert any("<your clone URL>" in line for line in lines)
+    for line in lines:
+        cmd = line.replace("<your clone URL>", f"file://{clone}")
+        done = subprocess.run(cmd, shell=True, cwd=clone, capture_output=True, text=True, timeout=INSTALL)
+        assert done.returncode == 0, f"{line}: exit {done.returncode}\n{done.stdout[-2000:]}\n{done.stderr[-2000:]}"
+    assert done.stdout == f"zenav {__version__}\n"  # the block's last line: the installed package's version
