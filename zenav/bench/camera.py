@@ -4,7 +4,7 @@
 
 `zenav bench --only camera` measures the default and the worse camera with pupil-apriltags,
 and the whole stack with the camera VPS against the synthetic one; this command adds
-OpenCV's ArUco detector for comparison.
+OpenCV's detector ([vps] detector = "opencv") for comparison.
 
 Frames are rendered by the sim's camera model from known poses; the VPS pipeline
 (detect, undistort, plane homography from a calibration fitted to the fixed tags in
@@ -196,7 +196,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     (default, cfg), (worse, worse_cfg) = CAMERAS.items()
     runs: list[tuple[str, Camera, detect.Backend]] = [(f"{default}, apriltag", cfg, "apriltag")]
     if not args.quick:
-        runs += [(f"{default}, aruco", cfg, "aruco"), (f"{worse}, apriltag", worse_cfg, "apriltag")]
+        runs += [(f"{default}, opencv", cfg, "opencv"), (f"{worse}, apriltag", worse_cfg, "apriltag")]
     print("\n".join(lines({name: measure(c, args.frames, backend) for name, c, backend in runs}, args.frames)))
     return 0
 
