@@ -68,7 +68,7 @@ class Accuracy:
 class Pipeline:
     """A renderer and the VPS's detector with a calibration from the fixed tags."""
 
-    def __init__(self, cfg: Camera, backend: detect.Backend = "apriltag", seed: int = 1) -> None:
+    def __init__(self, cfg: Camera, backend: detect.Backend = "auto", seed: int = 1) -> None:
         self.cfg, self.renderer, self.detector = cfg, Renderer(cfg, seed), detect.make(backend, tag_pixels(cfg))
         tags = self.detector.detect(self.renderer.render(0.0, []))
         self.cal = calibration.calibrate(tags, cfg)
@@ -159,7 +159,7 @@ class Measured:
     cal_rms: float  # [m]
 
 
-def measure(cfg: Camera, frames: int, backend: detect.Backend = "apriltag", pairs: int = 50) -> Measured:
+def measure(cfg: Camera, frames: int, backend: detect.Backend = "auto", pairs: int = 50) -> Measured:
     """Everything this module measures, for one camera and detector."""
     p = Pipeline(cfg, backend)
     return Measured(timing(p, frames), accuracy(p), two_robots(p, pairs), p.cal.rms)

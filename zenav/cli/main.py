@@ -79,7 +79,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"zenav {args.command}: {e}", file=sys.stderr)
         return EXIT_USAGE
     except ImportError as e:  # a module importing an optional package at its top (recording, view, plots: zenav[tools])
-        missing = extras.missing_of(e, f"zenav {args.command}")
+        missing = extras.missing_of(e, "this command")
         if missing is None:
             raise
         print(f"zenav {args.command}: {missing}", file=sys.stderr)

@@ -237,10 +237,7 @@ def run(args: argparse.Namespace) -> int:
             f"zenav up: --demo drives the sim's square; on the {args.profile} profile drive with `zenav goto` or a program", file=sys.stderr
         )
         return 2
-    camera = extras.installed("cv2")
-    if profile.camera and not camera:
-        note = f"zenav up: no OpenCV here (pip install 'zenav[camera]'): the {args.profile} profile runs the synthetic VPS, no camera"
-        print(note, file=sys.stderr)
+    camera = extras.installed("cv2")  # the base install has no OpenCV: the profile's camera settings are left out
     args.set = [*profile.sets(camera), *args.set]  # the profile's config, under the user's --set (children get both)
     flag = {} if args.compose is None else {"deployment": {"compose": [n.strip() for n in args.compose.split(",") if n.strip()]}}
     try:
@@ -253,6 +250,8 @@ def run(args: argparse.Namespace) -> int:
     except ConfigError as e:  # a feature's missing package too (extras.MissingExtra): [sim] camera, the driver...
         print(f"zenav up: {e}", file=sys.stderr)
         return 2
+    if profile.camera and not camera:
+        print("zenav up: no OpenCV here (pip install 'zenav[camera]'): the VPS is the synthetic one, no camera", file=sys.stderr)
     not_run = [n for n in settings.deployment.compose if n not in names] if args.compose is not None else []
     if not_run:  # a config's compose applies to whichever of its services run; the flag names this run's
         print(f"zenav up: --compose {', '.join(not_run)}: not started by this run (it starts {', '.join(names)})", file=sys.stderr)
