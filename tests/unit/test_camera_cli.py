@@ -132,9 +132,7 @@ def test_detect_refuses_a_file_that_is_no_picture_in_one_line(tmp_path, name, co
         path.write_bytes(content)
     got = zenav("camera", "detect", str(path))
     assert got.returncode == EXIT_USAGE and got.stdout == ""
-    assert got.stderr.strip().splitlines() == [
-        f"zenav camera detect: cannot read {path}: {why}" + ("" if "OpenCV" not in why else " (PNG, JPEG, ...)")
-    ]
+    assert got.stderr.strip().splitlines() == [f"zenav camera detect: cannot read {path}: {why}"]
 
 
 def test_detect_documents_its_exit_codes():
