@@ -110,7 +110,6 @@ def test_the_camera_vps_without_the_apriltag_library_needs_it_only_when_asked_fo
         (["up", "--profile", "robot"], "zenav[robot]"),
         (["bench", "--quick"], "zenav[bench]"),
         (["record", "x.mcap"], "zenav[tools]"),
-        (["plot", "x.mcap", "-o", "x.png"], "zenav[tools]"),
         (["ros2"], "zenav[ros2]"),
     ],
 )

@@ -63,7 +63,7 @@ class AprilTagDetector:
     or on the frame enlarged `enlarge` times (cubic), for tiny tags."""
 
     def __init__(self, decimate: float = 2.0, enlarge: float = 1.0, threads: int = 1) -> None:
-        lib = extras.require("pupil_apriltags", 'the AprilTag detector ([vps] detector = "apriltag")')
+        lib = extras.require("pupil_apriltags", "the AprilTag detector")
         self.enlarge = enlarge
         self._cv2 = extras.require("cv2", "the camera") if enlarge != 1.0 else None
         self._det = lib.Detector(
