@@ -1,20 +1,25 @@
-"""`zenav camera calibrate` and `snapshot` on pictures of a rendered field."""
+"""`zenav camera calibrate` and `snapshot` on pictures of a rendered field; `detect` on real photos and on bad files."""
 
 import json
 import re
+import subprocess
+import sys
 import threading
 import time
 
 import cv2
 import msgspec
+import numpy as np
 import pytest
 
+from tests.support import realtags
 from zenav.cli import camera
-from zenav.cli.main import EXIT_FAILED, EXIT_OK, main
+from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_USAGE, main
 from zenav.common import codec
 from zenav.common import messages as m
 from zenav.common.config import Camera
 from zenav.services.vps import frames
+from zenav.services.vps.detect import Tag
 from zenav.world.render import Body, Renderer
 
 
@@ -81,3 +86,55 @@ def test_calibrate_from_the_frame_the_sim_renders(tmp_path, capsys):
     assert main(["camera", "calibrate", "--sim", "-o", str(cal)]) == EXIT_OK
     assert "fixed tags [100, 101, 102, 103, 104, 105]" in capsys.readouterr().out
     assert json.loads(cal.read_text())["camera_height_m"] == pytest.approx(2.0, abs=0.01)
+
+
+def zenav(*argv: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "zenav.cli", *argv], capture_output=True, text=True, timeout=120, check=False)
+
+
+@pytest.mark.parametrize("detector", ["apriltag", "opencv"])
+def test_detect_prints_the_tags_of_a_real_photo(detector):
+    photo = realtags.PHOTOS[0]
+    got = zenav("camera", "detect", str(photo), "--detector", detector, "--json")
+    assert got.returncode == EXIT_OK, got.stderr
+    out = json.loads(got.stdout)
+    assert out["detector"] == detector and (out["width"], out["height"]) == (799, 533)
+    tags = [Tag(t["id"], np.array(t["corners"]), t["margin"]) for t in out["tags"]]
+    ref = realtags.reference(photo.with_suffix(".txt"))
+    assert realtags.matched(ref, tags) >= 0.9 * len(ref)
+    assert all(t.margin > 0.0 for t in tags)
+    text = zenav("camera", "detect", str(photo), "--detector", detector)
+    assert text.returncode == EXIT_OK
+    assert re.match(r"tag 0: corners \([-.\d]+, [-.\d]+\)( \([-.\d]+, [-.\d]+\)){3} margin [.\d]+$", text.stdout.splitlines()[0])
+    assert text.stdout.splitlines()[-1].startswith(f"{len(tags)} tags in ")
+
+
+def test_detect_says_when_a_picture_has_no_tag(tmp_path):
+    blank = tmp_path / "blank.png"
+    cv2.imwrite(str(blank), np.full((120, 160), 128, np.uint8))
+    got = zenav("camera", "detect", str(blank))
+    assert got.returncode == EXIT_FAILED and got.stdout == ""
+    assert got.stderr.strip().splitlines() == [f"zenav camera detect: no tag36h11 tag found in {blank} (apriltag detector)"]
+
+
+@pytest.mark.parametrize(
+    "name, content, why",
+    [
+        ("missing.png", None, "No such file or directory"),
+        ("empty.png", b"", "the file is empty"),
+        ("notes.png", b"not a picture\n", "not a picture OpenCV can decode (PNG, JPEG, ...)"),
+        ("cut.jpg", realtags.PHOTOS[0].read_bytes()[:2000], "not a picture OpenCV can decode (PNG, JPEG, ...)"),
+    ],
+)
+def test_detect_refuses_a_file_that_is_no_picture_in_one_line(tmp_path, name, content, why):
+    path = tmp_path / name
+    if content is not None:
+        path.write_bytes(content)
+    got = zenav("camera", "detect", str(path))
+    assert got.returncode == EXIT_USAGE and got.stdout == ""
+    assert got.stderr.strip().splitlines() == [f"zenav camera detect: cannot read {path}: {why}"]
+
+
+def test_detect_documents_its_exit_codes():
+    got = zenav("camera", "detect", "--help")
+    assert "exit codes: 0 tags found, 1 no tag found, 2 the file cannot be read as an image" in got.stdout

@@ -18,6 +18,7 @@ def test_the_sim_profile_is_the_default_stack():
     assert services.DEFAULT_PROFILE == "sim"
     assert services.NAMES == services.PROFILES["sim"].services == ("sim", "motor", "odometry", "vps", "localizer", "navigator")
     assert services.PROFILES["sim"].sets() == ["sim.camera=true", 'vps.source="camera"'] and services.PROFILES["sim"].demo
+    assert services.PROFILES["sim"].sets(camera=False) == []  # where OpenCV is not installed: the synthetic VPS
 
 
 def test_compose_runs_the_sim_profile_with_its_settings():
@@ -28,7 +29,7 @@ def test_compose_runs_the_sim_profile_with_its_settings():
         argv = json.loads(commands[name])
         assert argv[:3] == ["python3", "-m", f"zenav.services.{name}"]
         sets = parse_sets([argv[i + 1] for i, a in enumerate(argv) if a == "--set"])
-        assert sets.get(name, {}) == services.PROFILES["sim"].settings.get(name, {}), name
+        assert sets.get(name, {}) == parse_sets(services.PROFILES["sim"].sets()).get(name, {}), name
 
 
 def test_the_robot_profile_runs_the_driver_instead_of_the_sim_on_the_wall_clock():

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from zenav.cli.main import EXIT_OK
+from zenav.common import extras
 
 # The bench's sections (bench/plan.py SECTIONS; a test keeps them equal): named here so
 # that building the parser imports none of the bench's optional packages.
@@ -34,6 +35,8 @@ def command_line(args: argparse.Namespace) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    for module in ("matplotlib", "mcap", "cv2", "serial"):  # what the sections import or run: zenav[bench] has them all
+        extras.check(module, "the benchmark", extra="bench")
     from zenav.bench import plan, report
     from zenav.bench.run import run as measure
 

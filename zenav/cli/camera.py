@@ -1,41 +1,73 @@
-"""`zenav camera`: calibrate the overhead camera, save an annotated snapshot, stream a real camera's frames.
+"""`zenav camera`: calibrate the overhead camera, save an annotated snapshot, stream a real camera's frames,
+detect the tags in a picture.
 
 A frame comes from --image (a picture file), --device (a video file, a webcam index or
 a URL; default [camera] device), --sim (calibrate: rendered here as the sim renders it) or,
 when none is set, the field's frame topic
 (zenav/field/camera/frame: the sim with `--set sim.camera=true`, or `zenav camera stream`).
+Every verb needs OpenCV (zenav[camera]); its modules are imported when a verb runs.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import threading
 import time
 from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
-import cv2
 import numpy as np
 
-from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_UNAVAILABLE
+from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_UNAVAILABLE, EXIT_USAGE
 from zenav.cli.nav import open_client
-from zenav.common import codec, keys
+from zenav.common import codec, extras, keys
 from zenav.common import messages as m
 from zenav.common.app import deployment_args, settings_from_args, stop_on_signals
 from zenav.common.client import Unavailable
 from zenav.common.config import AUTO_CALIBRATION, CALIBRATION_FILE, Camera
-from zenav.services.vps import calibration, detect, frames, locate, overlay
-from zenav.services.vps.calibration import Calibration, CalibrationError
-from zenav.world.camera import tag_pixels
-from zenav.world.render import Renderer
+from zenav.services.vps import frames
+
+if TYPE_CHECKING:
+    from zenav.services.vps.calibration import Calibration
+    from zenav.services.vps.detect import Tag
 
 FRAME_KEY = keys.field_key("camera/frame")
 SETTLE_FRAMES = 5  # frames read from a live source before the one used (exposure settles)
 
 
+DETECT_EPILOG = """exit codes: 0 tags found, 1 no tag found, 2 the file cannot be read as an image
+(missing, empty, not a picture), bad arguments or OpenCV not installed"""
+
+
 def add_arguments(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("camera", help="the overhead camera: calibrate, snapshot, stream")
+    p = sub.add_parser("camera", help="the overhead camera: calibrate, snapshot, stream, detect")
     verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
+    d = verbs.add_parser(
+        "detect",
+        help="print the tag36h11 tags found in a picture: id, corners [px], decision margin",
+        epilog=DETECT_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    d.add_argument("image", help="the picture (any format OpenCV reads: PNG, JPEG, ...)")
+    d.add_argument(
+        "--detector",
+        choices=("auto", "apriltag", "opencv"),
+        default="auto",
+        help="apriltag (pupil-apriltags), opencv (OpenCV alone) or auto: apriltag if installed (default auto)",
+    )
+    d.add_argument(
+        "--tag-px",
+        type=float,
+        default=0.0,
+        metavar="N",
+        help="edge of the smallest tag to find [px]: from 24 the picture is searched at half size (faster);"
+        " default: any size, the full picture",
+    )
+    d.add_argument("--json", action="store_true", help="print one JSON object: the picture, the detector, the tags")
+    d.set_defaults(func=run_detect)
     for name, text in (
         ("calibrate", "fit the floor homography to the fixed tags in one frame; write [camera] calibration"),
         ("snapshot", "save a PNG of one frame with the field grid, the tags and the fixes drawn"),
@@ -70,15 +102,35 @@ def settings_seed(args: argparse.Namespace) -> int:
     return settings_from_args(args).deployment.seed
 
 
+def opencv() -> Any:
+    """cv2; MissingExtra (printed by `zenav` as one line) when OpenCV is not installed."""
+    return extras.require("cv2", "the camera")
+
+
+def read_picture(path: str) -> np.ndarray:
+    """A picture file as a grey image; RuntimeError says why it cannot be read (missing, empty, not a picture)."""
+    cv2 = opencv()
+    try:
+        data = Path(path).read_bytes()
+    except OSError as e:
+        raise RuntimeError(f"cannot read {path}: {e.strerror or e}") from None
+    if not data:
+        raise RuntimeError(f"cannot read {path}: the file is empty")
+    img = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_GRAYSCALE)
+    if img is None:
+        raise RuntimeError(f"cannot read {path}: not a picture OpenCV can decode (PNG, JPEG, ...)")
+    return img
+
+
 def grab(args: argparse.Namespace, cfg: Camera) -> np.ndarray:
     """One grey frame from --image, the device, or the bus; RuntimeError says what was missing."""
+    opencv()
     if getattr(args, "sim", False):
+        from zenav.world.render import Renderer
+
         return Renderer(cfg, settings_seed(args)).render(0.0, [])
     if args.image:
-        img = cv2.imread(args.image, cv2.IMREAD_GRAYSCALE)
-        if img is None:
-            raise RuntimeError(f"cannot read picture {args.image}")
-        return img
+        return read_picture(args.image)
     device = args.device or cfg.device
     if device:
         cap = frames.Capture(device)
@@ -110,13 +162,26 @@ def grab(args: argparse.Namespace, cfg: Camera) -> np.ndarray:
     return frames.decode(got[0], cfg.width, cfg.height)
 
 
+def detector_of(args: argparse.Namespace, cfg: Camera) -> Any:
+    """The detector the vps would use: [vps] detector, for the robots' tags' size in this camera's frames."""
+    from zenav.services.vps import detect
+    from zenav.services.vps.service import VpsConfig
+    from zenav.world.camera import tag_pixels
+
+    return detect.make(settings_from_args(args).section("vps", VpsConfig).detector, tag_pixels(cfg))
+
+
 def run_calibrate(args: argparse.Namespace) -> int:
     cfg = _config(args)
+    opencv()
+    from zenav.services.vps import calibration
+    from zenav.services.vps.calibration import CalibrationError
+
     try:
         img = grab(args, cfg)
         if img.shape != (cfg.height, cfg.width):
             raise RuntimeError(f"frame is {img.shape[1]}x{img.shape[0]}, [camera] says {cfg.width}x{cfg.height}")
-        tags = detect.make("apriltag", tag_pixels(cfg)).detect(img)
+        tags = detector_of(args, cfg).detect(img)
         cal = calibration.calibrate(tags, cfg)
     except (RuntimeError, frames.FrameError, CalibrationError) as e:
         print(f"zenav camera calibrate: {e}", file=sys.stderr)
@@ -133,6 +198,10 @@ def run_calibrate(args: argparse.Namespace) -> int:
 
 def run_snapshot(args: argparse.Namespace) -> int:
     cfg = _config(args)
+    cv2 = opencv()
+    from zenav.services.vps import calibration, locate, overlay
+    from zenav.services.vps.calibration import CalibrationError
+
     try:
         img = grab(args, cfg)
     except (RuntimeError, frames.FrameError) as e:
@@ -141,7 +210,7 @@ def run_snapshot(args: argparse.Namespace) -> int:
     except Unavailable as e:
         print(f"zenav camera snapshot: {e}", file=sys.stderr)
         return EXIT_UNAVAILABLE
-    tags = detect.make("apriltag", tag_pixels(cfg)).detect(img)
+    tags = detector_of(args, cfg).detect(img)
     cal: Calibration | None = None
     found = None
     try:
@@ -172,6 +241,7 @@ def stream(cap: frames.Capture, publish: Callable[[bytes], None], done: threadin
 def run_stream(args: argparse.Namespace) -> int:
     """Publish a source's frames, stamped on the host's wall clock (the stack's clock with deployment.clock = "wall")."""
     cfg = _config(args)
+    opencv()
     device = args.device or cfg.device
     if not device:
         print("zenav camera stream: name a source: --device (a video file, a webcam index or a URL) or [camera] device", file=sys.stderr)
@@ -190,4 +260,35 @@ def run_stream(args: argparse.Namespace) -> int:
     finally:
         cap.close()
     print(f"published {sent} frames on {FRAME_KEY}")
+    return EXIT_OK
+
+
+def tag_line(tag: Tag) -> str:
+    """One tag as `zenav camera detect` prints it."""
+    corners = " ".join(f"({x:.2f}, {y:.2f})" for x, y in tag.corners)
+    return f"tag {tag.id}: corners {corners} margin {tag.margin:.1f}"
+
+
+def run_detect(args: argparse.Namespace) -> int:
+    """Print the tags in a picture; exit 1 when there is none, 2 when the file is no picture."""
+    from zenav.services.vps import detect
+
+    try:
+        img = read_picture(args.image)
+    except RuntimeError as e:
+        print(f"zenav camera detect: {e}", file=sys.stderr)
+        return EXIT_USAGE
+    backend = detect.resolve(args.detector)
+    tags = sorted(detect.make(backend, args.tag_px).detect(img), key=lambda t: (t.id, t.corners[0, 1], t.corners[0, 0]))
+    if args.json:
+        found = [{"id": t.id, "corners": np.round(t.corners, 3).tolist(), "margin": round(t.margin, 2)} for t in tags]
+        print(json.dumps({"image": args.image, "width": img.shape[1], "height": img.shape[0], "detector": backend, "tags": found}))
+    else:
+        for t in tags:
+            print(tag_line(t))
+    if not tags:
+        print(f"zenav camera detect: no tag36h11 tag found in {args.image} ({backend} detector)", file=sys.stderr)
+        return EXIT_FAILED
+    if not args.json:
+        print(f"{len(tags)} tags in {args.image} ({img.shape[1]}x{img.shape[0]}, {backend} detector)")
     return EXIT_OK

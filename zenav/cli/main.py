@@ -10,6 +10,7 @@ import sys
 from collections.abc import Sequence
 
 from zenav import __version__
+from zenav.common import extras
 
 # Subcommand modules; each defines add_arguments(subparsers) and sets `func` on its parsers.
 MODULES = (
@@ -45,9 +46,6 @@ ENVIRONMENT = """environment:
 exit codes: 0 done, 1 failed (goal aborted or cancelled...), 2 bad arguments or config, 3 no router or service unavailable"""
 
 
-EXTRAS = {"serial": "robot", "rosbags": "ros2"}  # optional package -> the extra that installs it
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="zenav",
@@ -77,9 +75,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         # stdout at exit must not fail again with a traceback.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK
-    except ImportError as e:  # an optional package: recording, view, plots and bench need the `tools` extra
-        extra = EXTRAS.get((e.name or "").split(".")[0], "tools")
-        print(f"zenav {args.command}: needs the optional package {e.name!r}: pip install 'zenav[{extra}]'", file=sys.stderr)
+    except extras.MissingExtra as e:  # a feature's optional package is not installed: one line naming its extra
+        print(f"zenav {args.command}: {e}", file=sys.stderr)
+        return EXIT_USAGE
+    except ImportError as e:  # a module importing an optional package at its top (recording, view, plots: zenav[tools])
+        missing = extras.missing_of(e, "this command")
+        if missing is None:
+            raise
+        print(f"zenav {args.command}: {missing}", file=sys.stderr)
         return EXIT_USAGE
 
 

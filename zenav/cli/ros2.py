@@ -16,6 +16,7 @@ import sys
 from zenav.cli.checks import Failed, fail
 from zenav.cli.main import EXIT_OK, EXIT_USAGE
 from zenav.cli.session import open_bus, robot_id
+from zenav.common import extras
 from zenav.common.app import connection_args, stop_on_signals
 
 DISTROS = ("humble", "jazzy", "kilted")  # as tools/rmw_zenoh.py STORES (not imported here: it needs the extra)
@@ -40,12 +41,10 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    try:
-        from zenav.tools.rmw_zenoh import Wire  # optional dependency (rosbags): imported when used
-        from zenav.tools.ros2bridge import Bridge
-    except ImportError as e:
-        print(f"zenav ros2: needs the optional package {e.name!r}: pip install 'zenav[ros2]'", file=sys.stderr)
-        return EXIT_USAGE
+    extras.require("rosbags", "the ROS 2 bridge")  # the optional package (zenav[ros2]): main prints the one line
+    from zenav.tools.rmw_zenoh import Wire
+    from zenav.tools.ros2bridge import Bridge
+
     try:
         robot = robot_id(args)
         if not ROS_NAME.match(args.node):

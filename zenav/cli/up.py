@@ -15,7 +15,7 @@ import zenoh
 from zenav import services
 from zenav.cli.router import exposed, warn_if_open
 from zenav.cli.screen import render
-from zenav.common import keys
+from zenav.common import extras, keys
 from zenav.common import messages as m
 from zenav.common.app import deployment_args, settings_from_args, stop_on_signals
 from zenav.common.bus import ZenohBus, zenoh_config
@@ -246,7 +246,8 @@ def run(args: argparse.Namespace) -> int:
             f"zenav up: --demo drives the sim's square; on the {args.profile} profile drive with `zenav goto` or a program", file=sys.stderr
         )
         return 2
-    args.set = [*profile.sets(), *args.set]  # the profile's config, under the user's --set (children get both)
+    camera = extras.installed("cv2")  # the base install has no OpenCV: the profile's camera settings are left out
+    args.set = [*profile.sets(camera), *args.set]  # the profile's config, under the user's --set (children get both)
     flag = {} if args.compose is None else {"deployment": {"compose": [n.strip() for n in args.compose.split(",") if n.strip()]}}
     try:
         settings = settings_from_args(args, **flag)  # fail fast here rather than in six children
@@ -255,12 +256,11 @@ def run(args: argparse.Namespace) -> int:
             if cls.config_type is not None:
                 settings.section(name, cls.config_type)
         hang = hang_after(args.hang_after, settings) if args.hang_after > 0 else None
-    except ConfigError as e:
+    except ConfigError as e:  # a feature's missing package too (extras.MissingExtra): [sim] camera, the driver...
         print(f"zenav up: {e}", file=sys.stderr)
         return 2
-    except ImportError as e:  # pyserial, for the driver
-        print(f"zenav up: {name} needs the optional package {e.name!r}: pip install 'zenav[robot]'", file=sys.stderr)
-        return 2
+    if profile.camera and not camera:
+        print("zenav up: no OpenCV here (pip install 'zenav[camera]'): the VPS is the synthetic one, no camera", file=sys.stderr)
     not_run = [n for n in settings.deployment.compose if n not in names] if args.compose is not None else []
     if not_run:  # a config's compose applies to whichever of its services run; the flag names this run's
         print(f"zenav up: --compose {', '.join(not_run)}: not started by this run (it starts {', '.join(names)})", file=sys.stderr)

@@ -26,10 +26,12 @@ class Profile:
     services: tuple[str, ...]  # in start order
     settings: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)  # section -> key -> value
     demo: bool = True  # `zenav up --demo` may drive its square here
+    camera: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)  # settings beside those where OpenCV is installed
 
-    def sets(self) -> list[str]:
-        """The settings as --set items (SECTION.KEY=VALUE, the value in TOML syntax)."""
-        return [f"{s}.{k}={_toml(v)}" for s, values in self.settings.items() for k, v in values.items()]
+    def sets(self, camera: bool = True) -> list[str]:
+        """The settings as --set items (SECTION.KEY=VALUE, the value in TOML syntax); the camera's too if `camera`."""
+        chosen = [*self.settings.items(), *(self.camera.items() if camera else ())]
+        return [f"{s}.{k}={_toml(v)}" for s, values in chosen for k, v in values.items()]
 
 
 def _toml(value: Any) -> str:
@@ -43,10 +45,11 @@ DEFAULT_PROFILE = "sim"
 PROFILES: dict[str, Profile] = {
     # The simulated robot: the sim owns the clock and renders the overhead camera's frames,
     # the vps reads the robot's tag in them (docker-compose.yml sets the same). The synthetic
-    # VPS (the truth plus the scenario's errors, no pixels): --set vps.source=synthetic.
+    # VPS (the truth plus the scenario's errors, no pixels): --set vps.source=synthetic, and
+    # where OpenCV is not installed (the base install: `zenav up` says so).
     "sim": Profile(
         roles.in_profile("sim"),
-        {"sim": {"camera": True}, "vps": {"source": "camera"}},
+        camera={"sim": {"camera": True}, "vps": {"source": "camera"}},
     ),
     # A real robot: the driver instead of the sim; every service on the host's clock
     # (it overrides the config file; the rest, e.g. [odometry] heading_source, is the

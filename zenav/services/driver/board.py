@@ -6,11 +6,13 @@ import os
 import select
 import time
 from collections.abc import Callable
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
-import serial
-
+from zenav.common import extras
 from zenav.services.driver import protocol as p
+
+if TYPE_CHECKING:
+    import serial
 
 T = TypeVar("T")
 READ_SIZE = 4096  # [bytes] read at once: more than a tty holds between two looks
@@ -39,6 +41,7 @@ class Board:
         self.port, self.baud = port, baud
         self.timeout = timeout  # [s] for one reply
         self.garbage = 0  # [bytes] stray or unparsable bytes read away so far
+        self._serial = extras.require("serial", "the driver (the motor board's serial link)")  # pyserial
         self._ser: serial.Serial | None = None
         self._lines = p.Lines()
 
@@ -50,8 +53,8 @@ class Board:
         """Open the port (LinkLost if it is not there)."""
         self.close()
         try:
-            self._ser = serial.Serial(self.port, self.baud, timeout=0, write_timeout=self.timeout, exclusive=True)
-        except (serial.SerialException, OSError, ValueError) as e:
+            self._ser = self._serial.Serial(self.port, self.baud, timeout=0, write_timeout=self.timeout, exclusive=True)
+        except (self._serial.SerialException, OSError, ValueError) as e:
             raise LinkLost(f"cannot open {self.port}: {e}") from None
         self._lines.clear()
 
@@ -61,7 +64,7 @@ class Board:
         if ser is not None:
             try:
                 ser.close()
-            except (serial.SerialException, OSError):
+            except (self._serial.SerialException, OSError):
                 pass
 
     def ask(self, cmd: bytes) -> str:

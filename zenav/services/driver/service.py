@@ -15,6 +15,7 @@ from typing import Annotated
 
 from msgspec import Meta, Struct
 
+from zenav.common import extras
 from zenav.common import messages as m
 from zenav.common.bus import Bus
 from zenav.common.clock import Clock, WallClock
@@ -48,6 +49,7 @@ class DriverConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True
     pid_gains: Annotated[list[Gain], Meta(max_length=4)] = []
 
     def __post_init__(self) -> None:
+        extras.check("serial", "the driver (the motor board's serial link)")  # at start, in one line
         if self.pid_gains and (len(self.pid_gains) != 4 or self.pid_gains[3] == 0):
             raise ValueError("pid_gains is [Kp, Kd, Ki, Ko] with Ko > 0, or empty")
 

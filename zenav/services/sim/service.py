@@ -6,20 +6,22 @@ from __future__ import annotations
 import math
 import time
 from functools import partial
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 from msgspec import Meta, Struct
 
-from zenav.common import codec, keys
+from zenav.common import codec, extras, keys
 from zenav.common import messages as m
 from zenav.common.bus import Bus, Query
 from zenav.common.clock import Clock, ScaledWallClock
 from zenav.common.config import Camera, Settings
 from zenav.common.runtime import Service, on_liveliness, query, subscribe, timer
-from zenav.services.sim.camera import FieldCamera, Shutter
 from zenav.world import faults, sensors
 from zenav.world.bodies import Chassis, Disc, Walls
 from zenav.world.sim import SimRobot
+
+if TYPE_CHECKING:  # the camera renders with OpenCV: imported when [sim] camera is on
+    from zenav.services.sim.camera import Shutter
 
 CHASSIS = (1.6, 1.2)  # the default chassis's length and width, per body_radius: a 4:3 rectangle whose corners touch the disc
 
@@ -46,6 +48,8 @@ class SimConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     body_width: Annotated[float, Meta(ge=0.0, le=10.0)] | None = None
 
     def __post_init__(self) -> None:
+        if self.camera:  # at start, in one line, rather than when the first frame is due
+            extras.check("cv2", "the sim's camera ([sim] camera = true)")
         length, width = self.chassis()
         if (length > 0.0) != (width > 0.0):
             raise ValueError(
@@ -91,6 +95,8 @@ class Sim(Service):
         self.hold = faults.EncoderHold()  # the left count while an encoder_frozen fault lasts
         self.shutter: Shutter | None = None
         if c.camera:
+            from zenav.services.sim.camera import FieldCamera, Shutter
+
             cam = settings.section("camera", Camera)
             hidden = partial(faults.vps_outage, self.scen)  # the scenario's VPS outage hides the robot from the camera
             self.shutter = Shutter(FieldCamera(cam, settings.deployment.seed, cam.robots.get(self.robot), hidden), self._send_frame)

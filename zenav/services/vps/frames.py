@@ -10,12 +10,15 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 
 from zenav.common import messages as m
 from zenav.common.config import Camera, ConfigError, Limits
+
+if TYPE_CHECKING:
+    import cv2
 
 FRAME_OVERHEAD = 256  # [bytes] a CameraFrame's fields besides its pixels, at most
 
@@ -37,6 +40,8 @@ def encode(img: np.ndarray, t: float, seq: int, exposure: float = 0.0, encoding:
     if encoding == "mono8":
         data = np.ascontiguousarray(img, dtype=np.uint8).tobytes()
     else:
+        import cv2  # OpenCV (zenav[camera]) only for compressed frames and capture: a mono8 frame needs none
+
         ok, buf = cv2.imencode(".png" if encoding == "png" else ".jpg", img)
         if not ok:
             raise FrameError(f"cannot encode a {w}x{h} frame as {encoding}")
@@ -60,6 +65,8 @@ def decode(frame: m.CameraFrame, width: int, height: int) -> np.ndarray:
         raise FrameError(f"{frame.encoding} frame has no readable {frame.encoding} header")
     if size != (width, height):
         raise FrameError(f"{frame.encoding} header says {size[0]}x{size[1]}, the camera is configured {width}x{height}: not decoded")
+    import cv2
+
     img = cv2.imdecode(np.frombuffer(frame.data, dtype=np.uint8), cv2.IMREAD_GRAYSCALE)
     if img is None:
         raise FrameError(f"{frame.encoding} frame does not decode")
@@ -119,6 +126,8 @@ class Grabbed:
 
 def open_capture(device: str) -> cv2.VideoCapture:
     """cv2.VideoCapture of a webcam index ("0"), a video file or a URL; FrameError when it does not open."""
+    import cv2
+
     cap = cv2.VideoCapture(int(device) if device.isdigit() else device)
     if not cap.isOpened():
         raise FrameError(f"cannot open camera source {device!r} ([camera] device: a webcam index, a video file or a URL)")
@@ -152,6 +161,8 @@ class Capture:
         self.live = device.isdigit() or "://" in device
 
     def _stamp(self) -> float:
+        import cv2
+
         position = self.cap.get(cv2.CAP_PROP_POS_MSEC) / 1000.0  # [s] a file's timeline; V4L2: the buffer's monotonic time
         if not self.live:
             return self.start + position
@@ -167,6 +178,8 @@ class Capture:
         if not ok or img is None:
             return None
         if img.ndim == 3:
+            import cv2
+
             img = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
         return Grabbed(t, img)
 

@@ -40,7 +40,7 @@ class Reader:
                 " run `zenav camera calibrate` again"
             )
         self.cfg, self.cal = cfg, cal
-        self.detector = detector or detect.make("apriltag", tag_pixels(cfg))
+        self.detector = detector or detect.make("auto", tag_pixels(cfg))
         self.anchors = {a.id for a in cfg.anchors}
 
     def read(self, frame: m.CameraFrame) -> Read:

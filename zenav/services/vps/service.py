@@ -4,21 +4,23 @@ from __future__ import annotations
 
 import statistics
 from collections import deque
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import msgspec
 from msgspec import Struct
 
-from zenav.common import codec, keys
+from zenav.common import codec, extras, keys
 from zenav.common import messages as m
 from zenav.common.config import Camera as CameraConfig
 from zenav.common.runtime import Duplicate, Service, timer
-from zenav.services.vps import calibration
-from zenav.services.vps.calibration import Calibration
+from zenav.services.vps.detect import Backend
 from zenav.services.vps.frames import FrameError, check_fits
-from zenav.services.vps.reader import Reader
 from zenav.world import faults
 from zenav.world.vps import Camera, Delivery, DeliveryQueue, make_rng
+
+if TYPE_CHECKING:  # the camera's modules need OpenCV: imported when the camera is on
+    from zenav.services.vps.calibration import Calibration
+    from zenav.services.vps.reader import Reader
 
 TIMING_WINDOW = 50  # frames whose median pipeline and detection times diag reports
 INPUT_SILENT = 1.0  # [s] truth or frames heard before and silent this long: status error (no fixes)
@@ -31,6 +33,13 @@ class VpsConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
 
     stamp: Literal["capture", "none"] = "capture"  # a fix's t: its capture time, or (none) the time it is sent
     source: Literal["synthetic", "camera"] = "synthetic"  # synthetic: sim/truth plus the scenario's errors; camera: tags in frames
+    detector: Backend = "auto"  # the camera's tag detector: apriltag (pupil-apriltags), opencv, or auto (apriltag if installed)
+
+    def __post_init__(self) -> None:
+        if self.source == "camera":  # at start, in one line, rather than when the first frame comes
+            extras.check("cv2", 'the camera VPS ([vps] source = "camera")')
+            if self.detector == "apriltag":
+                extras.check("pupil_apriltags", 'the AprilTag detector ([vps] detector = "apriltag"; or "opencv")')
 
 
 class Vps(Service):
@@ -51,9 +60,13 @@ class Vps(Service):
         if self.cfg.source == "camera":
             self.blocking = True  # a frame takes milliseconds to detect ...
             self.background = True  # ... and the control loop must not wait for a core meanwhile
+            from zenav.services.vps import calibration, detect
+            from zenav.services.vps.reader import Reader
+            from zenav.world.camera import tag_pixels
+
             cam = self.settings.section("camera", CameraConfig)
             check_fits(cam, self.limits)
-            self.reader = Reader(cam, calibration.configured(cam))
+            self.reader = Reader(cam, calibration.configured(cam), detect.make(self.cfg.detector, tag_pixels(cam)))
             self.link_delay = cam.link_delay  # [s]
             self.queues = {robot: DeliveryQueue() for robot in cam.robots}
             self.timing: dict[str, deque[float]] = {k: deque(maxlen=TIMING_WINDOW) for k in ("pipeline_ms_p50", "detect_ms_p50")}
