@@ -23,6 +23,7 @@ TOPICS: dict[str, type[m.Topic]] = {
     "cmd_vel": m.CmdVel,
     "motors/wheels": m.Wheels,
     "nav/state": m.NavState,
+    "nav/plan": m.Plan,
     "localizer/fixes": m.Fix,
     **{f"diag/{s}": m.Diag for s in SERVICES},
 }

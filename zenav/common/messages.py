@@ -169,6 +169,17 @@ class NavState(Topic, frozen=True, kw_only=True):
     exit: str | None = None  # why the goal's move ended (within_tolerance, settled, timeout, ...); nil while running
 
 
+class Plan(Topic, frozen=True, kw_only=True):
+    """The points a goal drives through (nav/plan), published when it starts: the user's, with the planner's detours."""
+
+    t: Time
+    goal_id: int
+    points: list[Point]  # [m] map frame, [x, y], in order; the last is the goal's
+    length: Finite  # [m] from the start through every point
+    planned: bool  # some leg was planned around an obstacle
+    clearance: Finite | None = None  # [m] the least distance of the way from an obstacle; nil without obstacles
+
+
 class Fix(Topic, frozen=True, kw_only=True):
     t: Time  # capture time of the fix
     t_arrival: Time
@@ -217,6 +228,7 @@ class MoveToPoint(GoalOptions, frozen=True, kw_only=True):
     x: Coord
     y: Coord
     forwards: bool = True  # False: drive there backwards (LemLib's forwards)
+    plan: bool = True  # around the [field] obstacles where the straight way is blocked; False: straight, as asked
 
 
 class MoveToPose(GoalOptions, frozen=True, kw_only=True):
@@ -226,6 +238,7 @@ class MoveToPose(GoalOptions, frozen=True, kw_only=True):
     heading_tolerance: Tolerance | None = None  # [rad]
     lead: Annotated[float, Meta(ge=0.0, le=1.0)] | None = None  # [-] boomerang carrot distance per metre to the goal
     forwards: bool = True  # False: back in (theta is still the heading of the robot's front)
+    plan: bool = True  # around the [field] obstacles where the straight way is blocked; False: straight, as asked
 
 
 TurnDirection = Literal["auto", "cw", "ccw"]  # the shorter way, clockwise, counter-clockwise (LemLib's AngularDirection)
@@ -263,6 +276,7 @@ class FollowPath(GoalOptions, frozen=True, kw_only=True):
     points: Annotated[list[Point], Meta(min_length=1, max_length=10_000)]
     waypoint_tolerance: Tolerance | None = None  # [m] of the points before the last that name none
     forwards: bool = True  # False: drive the path backwards
+    plan: bool = True  # detours around the [field] obstacles between the points; False: straight between them
 
 
 class SetPose(Request, frozen=True, kw_only=True):
@@ -309,6 +323,7 @@ class StatusReply(Reply, frozen=True, kw_only=True):
     pose: PoseStamped | None
     not_ready: str = ""  # why a new goal would be refused now ("": one can start)
     exit: str | None = None  # why the newest goal's move ended; nil while it runs
+    plan: list[Point] | None = None  # [m] the newest goal's points as driven (detours included); nil for a turn or a straight
 
 
 class LocalizerPoseReply(Reply, frozen=True, kw_only=True):

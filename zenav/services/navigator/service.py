@@ -25,7 +25,7 @@ from zenav.common.clock import Clock
 from zenav.common.config import ConfigError, Settings
 from zenav.common.geometry import wrap_angle
 from zenav.common.runtime import QueryError, Service, on_liveliness, publish, query, reply_error, reply_ok, subscribe, timer
-from zenav.services.navigator import goals, intake
+from zenav.services.navigator import goals, intake, planner, routing
 from zenav.services.navigator.controllers import PoseSample, Wheelbase, check_polar_gains, sigmas
 from zenav.services.navigator.goals import End, GoalMachine, Refused
 from zenav.services.navigator.params import Params
@@ -52,6 +52,9 @@ class Navigator(Service):
         self.area = settings.field
         self.machine = GoalMachine(cfg, Wheelbase(r.track_width, r.wheel_radius, r.max_wheel_speed), self.area)
         self.requests = Requests()
+        self.radius = r.radius  # [m] the footprint
+        self.planner = planner.Planner(self.area, r.radius + self.area.margin)  # the field's visibility graph, built once
+        self._plan: list[tuple[float, float]] | None = None  # the newest goal's points as driven
         self._info: dict[str, Any] | None = None  # the newest goal, as nav/state shows it
         self._shown: tuple | None = None  # (state, goal_id, result) last published
         self._motor_gone = False  # the motor's token went (and has not come back)
@@ -195,6 +198,7 @@ class Navigator(Service):
             pose=self._stamped(),
             not_ready=self.machine.refusal(self.clock.now()) or "",
             exit=self.machine.exit,
+            plan=self._plan,
         )
 
     def on_priority(self, suffix: str, queued: bool) -> None:
@@ -250,7 +254,15 @@ class Navigator(Service):
         out = goals.outside(goal, pose, self.area)
         if out is not None:
             raise QueryError("invalid_argument", out)
-        request = Request(goal, info, req.wait, q)
+        asked = len(goal.points)
+        try:
+            if getattr(req, "plan", False):
+                goal = routing.route(goal, (pose.x, pose.y), self.radius, self.planner, self.cfg.corner_tolerance)
+            else:
+                routing.check_targets(goal, self.planner)
+        except routing.Blocked as e:
+            raise QueryError("invalid_argument", str(e)) from None
+        request = Request(goal, info, req.wait, q, detours=len(goal.points) - asked)
         if req.lease is None:
             self._drop_pending("superseded by a newer goal before its lease was seen")
             self._begin(request)
@@ -298,9 +310,31 @@ class Navigator(Service):
         self.requests.started(request, gid)
         self._info = request.info
         self.log.info("goal %d %s %s", gid, request.goal.state, _brief(request.info))
+        self._publish_plan(request, gid)
         if not request.wait:
             self._reply(request.reply_to, m.GoalReply(goal_id=gid, state=self.machine.state, speed=request.goal.speed))
         self._show_changes()
+
+    def _publish_plan(self, request: Request, goal_id: int) -> None:
+        """nav/plan: the points the goal drives through (none for a turn or a straight)."""
+        goal = request.goal
+        if not goal.points:
+            self._plan = None
+            return
+        start = self.machine.pose
+        assert start is not None  # the goal started: there is a pose
+        here = (start.x, start.y)
+        self._plan = [(float(x), float(y)) for x, y in goal.points]
+        gap = planner.clearance(self.planner.shapes, here, self._plan)
+        msg = m.Plan(
+            t=start.t,
+            goal_id=goal_id,
+            points=self._plan,
+            length=planner.length(here, self._plan),
+            planned=request.detours > 0,
+            clearance=None if gap == float("inf") else gap,
+        )
+        self.publish("nav/plan", msg)
 
     def _refuse(self, request: Request, message: str) -> None:
         """Answer a request that will not start `unavailable`, and release its lease watch."""
