@@ -5,6 +5,7 @@ import math
 import pytest
 
 from tests.support.navigator import Rig, reply
+from zenav.common import codec
 from zenav.common import messages as m
 from zenav.common.field import polygon_shape
 
@@ -82,3 +83,14 @@ def test_a_start_overlapping_the_box_is_refused_saying_why(rig):
     rig.pose()
     rep, least = drive(rig, rig.query("nav/move_to_point", {"x": 1.2, "y": 0.0, "wait": True}))
     assert rep.result == "succeeded" and least > RADIUS
+
+
+def test_what_the_motors_guard_holds_back_shows_on_nav_state(rig):
+    rig.bus.publish(
+        "zenav/r1/motor/guard", codec.encode(m.GuardState(t=rig.clock.now(), reason="robot r2 0.004 m ahead", v=0.0, stopped=True))
+    )
+    rig.nav.drain()
+    assert rig.published("nav/state")[-1].guard == "robot r2 0.004 m ahead"
+    rig.bus.publish("zenav/r1/motor/guard", codec.encode(m.GuardState(t=rig.clock.now(), reason="", v=0.2)))
+    rig.nav.drain()
+    assert rig.published("nav/state")[-1].guard == ""

@@ -24,6 +24,7 @@ TOPICS: dict[str, type[m.Topic]] = {
     "motors/wheels": m.Wheels,
     "nav/state": m.NavState,
     "nav/plan": m.Plan,
+    "motor/guard": m.GuardState,
     "localizer/fixes": m.Fix,
     **{f"diag/{s}": m.Diag for s in SERVICES},
 }
@@ -41,6 +42,7 @@ FIELD = "field"
 FIELD_TOPICS: dict[str, type[m.Topic]] = {
     "camera/frame": m.CameraFrame,
     "sim/body": m.Body,
+    "robots": m.Body,
 }
 
 # Query suffix -> (request type, reply type).

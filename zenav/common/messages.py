@@ -167,6 +167,16 @@ class NavState(Topic, frozen=True, kw_only=True):
     cross_track_error: Finite | None = None  # [m]
     message: str = ""
     exit: str | None = None  # why the goal's move ended (within_tolerance, settled, timeout, ...); nil while running
+    guard: str = ""  # what the motor's safety layer holds the commands back for now (motor/guard); "": nothing
+
+
+class GuardState(Topic, frozen=True, kw_only=True):
+    """What the motor's safety layer limits (motor/guard), sent when it changes."""
+
+    t: Time
+    reason: str  # what it holds the command back for, and how far it is ("": nothing, the command passes)
+    v: Velocity  # [m/s] the forward speed it allows now
+    stopped: bool = False  # the forward speed is cut to zero
 
 
 class Plan(Topic, frozen=True, kw_only=True):

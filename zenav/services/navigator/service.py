@@ -54,7 +54,8 @@ class Navigator(Service):
         self.requests = Requests()
         self.radius = r.radius  # [m] the footprint
         self.planner = planner.Planner(self.area, r.radius + self.area.margin)  # the field's visibility graph, built once
-        self._plan: list[tuple[float, float]] | None = None  # the newest goal's points as driven
+        self._plan: list[tuple[float, ...]] | None = None  # the newest goal's points as driven
+        self._guard = ""  # what the motor's guard holds the commands back for now ("": nothing)
         self._info: dict[str, Any] | None = None  # the newest goal, as nav/state shows it
         self._shown: tuple | None = None  # (state, goal_id, result) last published
         self._motor_gone = False  # the motor's token went (and has not come back)
@@ -125,6 +126,13 @@ class Navigator(Service):
         if end is not None:
             self._ended(end)
             self._show_changes()
+
+    @subscribe("motor/guard")
+    def guard_state(self, msg: m.GuardState) -> None:
+        """What the motor's safety layer holds the commands back for: shown on nav/state at once."""
+        if msg.reason != self._guard:
+            self._guard = msg.reason
+            self.publish("nav/state", self._state(self.clock.now()))
 
     @timer("state_period")
     @publish("nav/state")
@@ -324,13 +332,14 @@ class Navigator(Service):
         start = self.machine.pose
         assert start is not None  # the goal started: there is a pose
         here = (start.x, start.y)
-        self._plan = [(float(x), float(y)) for x, y in goal.points]
-        gap = planner.clearance(self.planner.shapes, here, self._plan)
+        points = [(float(x), float(y)) for x, y in goal.points]
+        self._plan = [*points]
+        gap = planner.clearance(self.planner.shapes, here, points)
         msg = m.Plan(
             t=start.t,
             goal_id=goal_id,
             points=self._plan,
-            length=planner.length(here, self._plan),
+            length=planner.length(here, points),
             planned=request.detours > 0,
             clearance=None if gap == float("inf") else gap,
         )
@@ -423,6 +432,7 @@ class Navigator(Service):
             cross_track_error=fb.cross_track_error,
             message=mc.message,
             exit=mc.exit,
+            guard=self._guard,
         )
 
     def _show_changes(self) -> None:
