@@ -132,7 +132,7 @@ class Field(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     y_min: float = -1.0  # [m]
     y_max: float = 3.0  # [m]
     file: str = ""  # a field file (TOML or JSON) with the bounds, obstacles and tags; read when the config is loaded
-    margin: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.02  # [m] kept clear beyond the robot's footprint ([robot] radius)
+    margin: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.05  # [m] kept clear beyond the robot's footprint ([robot] radius)
     obstacles: tuple[Obstacle, ...] = ()
     tags: tuple[FieldTag, ...] = ()
 

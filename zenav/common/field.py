@@ -39,6 +39,14 @@ class Shape:
         d = min(_point_segment(x, y, a, b) for a, b in _edges(self.polygon))
         return -d if contains(self.polygon, x, y) else d
 
+    def nearest(self, x: float, y: float) -> Point:
+        """The point of the shape's edge nearest (x, y)."""
+        if self.circle is not None:
+            cx, cy, r = self.circle
+            d = math.hypot(x - cx, y - cy)
+            return (cx + r, cy) if d < EPS else (cx + (x - cx) * r / d, cy + (y - cy) * r / d)
+        return min((_project(x, y, a, b) for a, b in _edges(self.polygon)), key=lambda p: math.hypot(p[0] - x, p[1] - y))
+
     def segment_clearance(self, a: Point, b: Point) -> float:
         """[m] the least clearance of any point of the segment a-b (0 if it crosses the edge, negative if an end is inside)."""
         if self.circle is not None:
@@ -222,9 +230,15 @@ def _cross(a: Point, b: Point, c: Point, d: Point) -> bool:
     return ((d1 > EPS and d2 < -EPS) or (d1 < -EPS and d2 > EPS)) and ((d3 > EPS and d4 < -EPS) or (d3 < -EPS and d4 > EPS))
 
 
-def _point_segment(x: float, y: float, a: Point, b: Point) -> float:
-    """[m] from (x, y) to the segment a-b."""
+def _project(x: float, y: float, a: Point, b: Point) -> Point:
+    """The point of the segment a-b nearest (x, y)."""
     dx, dy = b[0] - a[0], b[1] - a[1]
     n = dx * dx + dy * dy
     t = 0.0 if n < EPS * EPS else max(0.0, min(1.0, ((x - a[0]) * dx + (y - a[1]) * dy) / n))
-    return math.hypot(x - a[0] - t * dx, y - a[1] - t * dy)
+    return a[0] + t * dx, a[1] + t * dy
+
+
+def _point_segment(x: float, y: float, a: Point, b: Point) -> float:
+    """[m] from (x, y) to the segment a-b."""
+    px, py = _project(x, y, a, b)
+    return math.hypot(x - px, y - py)

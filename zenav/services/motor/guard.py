@@ -49,13 +49,16 @@ class Guard:
     ) -> None:
         self.shapes, self.radius, self.gap, self.decel, self.bounds = tuple(shapes), radius, gap, decel, bounds
 
-    def limit(self, v: float, omega: float, x: float, y: float, theta: float, others: Sequence[tuple[str, Disc]] = ()) -> Limit:
-        """The command (v, omega) for a robot at (x, y, theta), its forward speed capped by the room ahead."""
+    def limit(
+        self, v: float, omega: float, x: float, y: float, theta: float, others: Sequence[tuple[str, Disc]] = (), doubt: float = 0.0
+    ) -> Limit:
+        """The command (v, omega) for a robot at (x, y, theta), its forward speed capped by the room ahead; `doubt` [m]
+        is added to the gap (the pose's uncertainty)."""
         if v == 0.0:
             return Limit(v, omega)
         h = theta if v > 0.0 else theta + math.pi
         dx, dy = math.cos(h), math.sin(h)
-        room, what = self.room(x, y, dx, dy, others)
+        room, what = self.room(x, y, dx, dy, others, doubt)
         if room == math.inf:
             return Limit(v, omega)
         cap = math.sqrt(2.0 * self.decel * max(room, 0.0))
@@ -63,10 +66,12 @@ class Guard:
             return Limit(v, omega)
         return Limit(math.copysign(cap, v), omega, what, max(room, 0.0), stopped=cap == 0.0, ahead=v > 0.0)
 
-    def room(self, x: float, y: float, dx: float, dy: float, others: Sequence[tuple[str, Disc]] = ()) -> tuple[float, str]:
+    def room(
+        self, x: float, y: float, dx: float, dy: float, others: Sequence[tuple[str, Disc]] = (), doubt: float = 0.0
+    ) -> tuple[float, str]:
         """[m] how far the centre may move along the unit direction (dx, dy) before the footprint comes within the gap
-        of something, and what that is (inf, "" when nothing is ahead)."""
-        reach = self.radius + self.gap
+        (plus `doubt`) of something, and what that is (inf, "" when nothing is ahead)."""
+        reach = self.radius + self.gap + doubt
         best, what = math.inf, ""
         for s in self.shapes:
             if s.circle is not None:
@@ -84,6 +89,12 @@ class Guard:
             if d < best:
                 best, what = d, edge
         return best, what
+
+
+def position_sigma(cov: Sequence[float]) -> float:
+    """[m] the position sigma along the worst axis of a row-major 3x3 (x, y, theta) covariance."""
+    a, b, d = cov[0], (cov[1] + cov[3]) / 2.0, cov[4]
+    return math.sqrt(max((a + d) / 2.0 + math.sqrt(((a - d) / 2.0) ** 2 + b * b), 0.0))
 
 
 def _ray_disc(x: float, y: float, dx: float, dy: float, cx: float, cy: float, r: float) -> float:

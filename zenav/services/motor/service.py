@@ -20,7 +20,7 @@ from zenav.common.clock import Clock
 from zenav.common.config import Settings
 from zenav.common.runtime import Service, on_liveliness, publish, subscribe, timer
 from zenav.services.motor import kinematics as kin
-from zenav.services.motor.guard import Guard, Limit
+from zenav.services.motor.guard import Guard, Limit, position_sigma
 
 ZERO = (0.0, 0.0)
 BODY_KEPT = 0.5  # [s] another robot's body not heard again for this long is forgotten
@@ -35,7 +35,8 @@ class MotorConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True)
     watchdog: Annotated[float, Meta(gt=0.0, le=60.0)] = 0.5  # [s] no cmd_vel this long: stop; older ones are stale
     watchdog_period: Annotated[float, Meta(gt=0.0, le=1.0)] = 0.05  # [s] how often the watchdog looks (20 Hz)
     guard: bool = True  # the safety layer: slow near and stop before obstacles, other robots (and edges)
-    guard_gap: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.005  # [m] the footprint stops this far before what it would meet
+    guard_gap: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.005  # [m] the footprint stops this far before what it would meet ...
+    guard_sigmas: Annotated[float, Meta(ge=0.0, le=10.0)] = 2.0  # ... plus this many of the pose's position sigmas
     guard_decel: Annotated[float, Meta(gt=0.0, le=100.0)] = 0.5  # [m/s^2] the speed allowed brakes at this within the room ahead
     guard_edges: bool = False  # also stop before the [field] edge (false: a robot may square up against it)
     guard_pose_age: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.5  # [s] an older pose cannot judge: commands pass, counted
@@ -114,7 +115,8 @@ class Motor(Service):
             self.count("guard_blind")
             self.warn("guard_blind", "no fresh pose: the guard cannot judge the way ahead; commands pass unchecked")
             return self._say(Limit(msg.v, msg.omega))
-        return self._say(self.guard.limit(msg.v, msg.omega, pose.x, pose.y, pose.theta, self._bodies(now)))
+        doubt = self.cfg.guard_sigmas * position_sigma(pose.cov)
+        return self._say(self.guard.limit(msg.v, msg.omega, pose.x, pose.y, pose.theta, self._bodies(now), doubt))
 
     def _say(self, cmd: Limit) -> Limit:
         if cmd.what:
