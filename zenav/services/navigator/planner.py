@@ -18,7 +18,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from zenav.common.config import Field
-from zenav.common.field import Point, Polygon, Shape, inflate
+from zenav.common.field import ARC_SIDES, Point, Polygon, Shape, inflate
 
 INSIDE_EPS = 1e-7  # [m] pieces are shrunk by this for the tests: a segment along a side or through a corner is clear
 ESCAPE_STEPS = 4  # steps out of overlapping pieces at most, for a start or goal inside the approximation
@@ -31,10 +31,10 @@ class NoPath(ValueError):
 class Planner:
     """The visibility graph of one field for one clearance; `plan` answers each start and goal."""
 
-    def __init__(self, area: Field, clearance: float) -> None:
+    def __init__(self, area: Field, clearance: float, arc_sides: int = ARC_SIDES) -> None:
         self.area, self.clearance = area, clearance  # [m] footprint radius + margin
         self.shapes: tuple[Shape, ...] = area.shapes()
-        pieces: list[Polygon] = [poly for s in self.shapes for poly in inflate(s, clearance)]
+        pieces: list[Polygon] = [poly for s in self.shapes for poly in inflate(s, clearance, arc_sides)]
         self.pieces = pieces
         c = clearance
         self.box = (area.x_min + c, area.y_min + c, area.x_max - c, area.y_max - c) if area.enabled else None
