@@ -24,6 +24,7 @@ TOPICS: dict[str, type[m.Topic]] = {
     "motors/wheels": m.Wheels,
     "nav/state": m.NavState,
     "nav/plan": m.Plan,
+    "field": m.FieldMap,
     "motor/guard": m.GuardState,
     "localizer/fixes": m.Fix,
     **{f"diag/{s}": m.Diag for s in SERVICES},

@@ -170,6 +170,20 @@ class NavState(Topic, frozen=True, kw_only=True):
     guard: str = ""  # what the motor's safety layer holds the commands back for now (motor/guard); "": nothing
 
 
+class FieldMap(Topic, frozen=True, kw_only=True):
+    """The field as the navigator knows it (field), sent once a second: its bounds, its obstacles, the robot's footprint."""
+
+    t: Time
+    enabled: bool  # false: no bounds
+    x_min: Coord  # [m] map frame
+    x_max: Coord
+    y_min: Coord
+    y_max: Coord
+    obstacles: list[dict[str, Any]]  # each {"name": str, "polygon": [[x, y], ...]} or {"name": str, "circle": [x, y, r]} [m]
+    radius: Finite  # [m] the robot's footprint ([robot] radius)
+    margin: Finite  # [m] kept clear beyond it ([field] margin)
+
+
 class GuardState(Topic, frozen=True, kw_only=True):
     """What the motor's safety layer limits (motor/guard), sent when it changes."""
 

@@ -32,6 +32,7 @@ from zenav.services.navigator.params import Params
 from zenav.services.navigator.requests import LOST, START, Request, Requests
 
 LEASE_CHARS = 256  # a lease key longer than this is refused (it shows in nav/state and the log)
+FIELD_PERIOD = 1.0  # [s] between two `field` messages
 
 
 class Navigator(Service):
@@ -133,6 +134,29 @@ class Navigator(Service):
         if msg.reason != self._guard:
             self._guard = msg.reason
             self.publish("nav/state", self._state(self.clock.now()))
+
+    @timer(FIELD_PERIOD)
+    @publish("field")
+    def field_tick(self, now: float) -> m.FieldMap:
+        """The field as this navigator knows it, for views and recordings."""
+        a = self.area
+        shapes = [
+            {"name": s.name, "circle": list(s.circle)}
+            if s.circle is not None
+            else {"name": s.name, "polygon": [list(p) for p in s.polygon]}
+            for s in self.planner.shapes
+        ]
+        return m.FieldMap(
+            t=now,
+            enabled=a.enabled,
+            x_min=a.x_min,
+            x_max=a.x_max,
+            y_min=a.y_min,
+            y_max=a.y_max,
+            obstacles=shapes,
+            radius=self.radius,
+            margin=a.margin,
+        )
 
     @timer("state_period")
     @publish("nav/state")
