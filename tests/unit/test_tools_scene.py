@@ -103,3 +103,30 @@ def test_the_scene_has_every_entity():
     assert isinstance(update, fm.SceneUpdate) and len(update.encode()) > 100
     empty = sc.Scene("r1").scene(NS)  # before any message: the same entities, empty
     assert len(empty.encode()) < len(update.encode())
+
+
+def test_the_field_and_the_plan_are_drawn():
+    s = sc.Scene("r1")
+    box = {"name": "box", "polygon": [[0.55, -0.1], [0.75, -0.1], [0.75, 0.1], [0.55, 0.1]]}
+    field = m.FieldMap(
+        t=1.0,
+        enabled=True,
+        x_min=-1,
+        x_max=3,
+        y_min=-1,
+        y_max=3,
+        obstacles=[box, {"name": "c", "circle": [1, 1, 0.1]}],
+        radius=0.1,
+        margin=0.05,
+    )
+    assert len(sc.field_lines(field)) == 3  # the edge, the box, the disc
+    size = len(s.scene(NS).encode())
+    s.update("field", field, NS)
+    with_field = len(s.scene(NS).encode())
+    s.update("nav/state", m.NavState(t=1.0, state="MOVING_TO_POINT", goal_id=1, goal={"x": 1.2, "y": 0.0}), NS)
+    running = len(s.scene(NS).encode())
+    s.update("nav/plan", m.Plan(t=1.0, goal_id=1, points=[(0.5, -0.25), (0.8, -0.25), (1.2, 0.0)], length=1.4, planned=True), NS)
+    planned = len(s.scene(NS).encode())
+    assert size < with_field and running < planned
+    s.update("nav/state", m.NavState(t=2.0, state="STOPPED", goal_id=1, result="succeeded"), NS)
+    assert len(s.scene(NS).encode()) < planned  # the plan of a goal that ended is no longer drawn

@@ -8,7 +8,7 @@ from zenav.common.scenarios import PRESETS
 from zenav.services.localizer.base import MODES
 from zenav.services.navigator.params import CONTROLLERS
 
-SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "settle", "camera", "profile", "fleet")
+SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "settle", "planning", "camera", "profile", "fleet")
 
 
 @dataclass(frozen=True)
@@ -42,6 +42,8 @@ class Plan:
     fleet_window: float = 10.0  # [s] each robot count plays
     fleet_hosts: int = 3  # namespaces, one router each (0: not run)
     settle_trials: int = 100  # seeded trials per move of the settle table (bench/settle.py)
+    planning_pairs: int = 200  # reachable random start/goal pairs per layout (bench/planning.py)
+    planning_drives: int = 20  # goals planned round obstacles driven per layout
     camera_frames: int = 200  # frames rendered and read per camera (bench/camera.py)
     camera_scenarios: tuple[str, ...] = ("default", "harsh")  # the square with the camera VPS and with the synthetic, first seed
     camera_path_seeds: tuple[int, ...] = (1, 2, 3)  # seed 002's path trial with the camera VPS and with the synthetic
@@ -101,8 +103,10 @@ QUICK = Plan(
     camera_frames=20,
     camera_scenarios=("default",),
     camera_path_seeds=(1,),
-    # the camera, the profile and the fleet only when asked (--only ...): the quick run keeps its budget
-    sections=tuple(s for s in SECTIONS if s not in ("camera", "profile", "fleet")),
+    # the camera, the profile, the fleet and planning only when asked (--only ...): the quick run keeps its budget
+    planning_pairs=20,
+    planning_drives=2,
+    sections=tuple(s for s in SECTIONS if s not in ("camera", "profile", "fleet", "planning")),
     limit=120.0,
 )
 

@@ -218,6 +218,8 @@ def write(res: Results, out: Path) -> Path:
         lines += ["", *tables.navigation(res)]
     if res.settle:
         lines += ["", *tables.settle(res)]
+    if res.planning:
+        lines += ["", "## Planning", "", *res.planning]
     if res.cameras or res.camera_runs:
         lines += ["", *tables.camera(res)]
     if res.costs:

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import msgspec
 
-from zenav.bench import accuracy, board, chain, cost, fleet, live, profile, settle, speed, spy
+from zenav.bench import accuracy, board, chain, cost, fleet, live, planning, profile, settle, speed, spy
 from zenav.bench import camera as camera_bench
 from zenav.bench.accuracy import Spec, Summary
 from zenav.bench.board import BoardRun
@@ -75,6 +75,7 @@ class Results:
     fleet: list[Point] = field(default_factory=list)  # the router under N robots' traffic
     hosts: HostsResult | str | None = None  # the fleet over several hosts, or why it was not run
     settle: dict[str, str] = field(default_factory=dict)  # pose error -> the settle table (markdown)
+    planning: list[str] = field(default_factory=list)  # the planning section's tables (markdown lines)
     cameras: dict[str, camera_bench.Measured] = field(default_factory=dict)  # camera -> its frames timed and read
     camera_runs: dict[str, list[tuple[Summary, Summary]]] = field(default_factory=dict)  # trial -> (synthetic, camera) per seed
 
@@ -183,6 +184,9 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
         camera = settle.table(plan.settle_trials, settle.CAMERA_SIGMA, heading_sigma=settle.CAMERA_HEADING_SIGMA)
         res.settle["the camera VPS's pose error"] = camera
         note(f"settle table: {plan.settle_trials} trials per move, two pose errors")
+    if "planning" in plan.sections:
+        res.planning = planning.report(plan.planning_pairs, plan.planning_drives)
+        note(f"planning: {plan.planning_pairs} pairs and {plan.planning_drives} driven goals per layout")
     if "camera" in plan.sections:
         for name, cfg in camera_bench.CAMERAS.items():
             res.cameras[name] = r = camera_bench.measure(cfg, plan.camera_frames)

@@ -11,6 +11,8 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import functools
+import json
+import os
 import re
 import sys
 from dataclasses import dataclass
@@ -24,7 +26,8 @@ else:  # Python 3.10
 import msgspec
 from msgspec import Meta, Struct
 
-from zenav.common import codec
+from zenav.common import codec, geometry
+from zenav.common import field as fieldmod
 from zenav.common import messages as m
 from zenav.common.keys import DEFAULT_CONNECT, SERVICES
 from zenav.common.scenarios import Scenario, scenario
@@ -68,6 +71,7 @@ class Robot(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     max_wheel_speed: Annotated[float, Meta(gt=0.0, le=1e3)] = 10.0  # [rad/s]
     imu_x: Annotated[float, Meta(ge=-10.0, le=10.0)] = 0.0  # [m] the IMU ahead of the middle of the wheels' axle
     imu_y: Annotated[float, Meta(ge=-10.0, le=10.0)] = 0.0  # [m] the IMU left of it
+    radius: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.1  # [m] the footprint, a disc about the middle of the wheels' axle
 
     @property
     def wheel_radius(self) -> float:
@@ -93,18 +97,65 @@ class Limits(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
         return self.max_payload + self.max_params + MESSAGE_HEADROOM
 
 
+class Obstacle(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """One thing on the field the robot must not touch: a polygon's corners, or a disc [x, y, r]."""
+
+    name: Annotated[str, Meta(max_length=64)] = ""  # shown in errors and the scene; "": obstacles[i]
+    polygon: tuple[tuple[float, ...], ...] | None = None  # [m] [[x, y], ...] at least 3 corners, simple
+    circle: tuple[float, ...] | None = None  # [m] [x, y, r]
+
+    def __post_init__(self) -> None:
+        if (self.polygon is None) == (self.circle is None):
+            raise ValueError("an obstacle is either a polygon = [[x, y], ...] or a circle = [x, y, r]")
+
+
+class FieldTag(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """A fixed tag on the field (the cameras' reference): its id and size, and its pose as WPILib's field layouts give it
+    (a translation, and a rotation: yaw about z, then pitch about y, then roll about x; `quaternion` has it as W, X, Y, Z)."""
+
+    id: Annotated[int, Meta(ge=0, le=586)]  # tag36h11 id
+    size: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.15  # [m] edge of its black square
+    x: float  # [m] map frame, the tag's centre
+    y: float  # [m]
+    z: float = 0.0  # [m] above the floor
+    yaw: float = 0.0  # [rad] the tag's normal (its outward face) from map x, about z
+    pitch: float = 0.0  # [rad] about y
+    roll: float = 0.0  # [rad] about x
+
+    @property
+    def quaternion(self) -> tuple[float, float, float, float]:
+        """(W, X, Y, Z) of the rotation, as WPILib's AprilTagFieldLayout writes it."""
+        return geometry.quaternion(self.yaw, self.pitch, self.roll)
+
+
+FIELD_FILE_KEYS = ("x_min", "x_max", "y_min", "y_max", "obstacles", "tags")  # what a [field] file describes
+
+
 class Field(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
-    """The area the robot may drive in (map frame); goals outside it are refused."""
+    """The area the robot may drive in (map frame), what stands on it, and its fixed tags; goals outside it are refused."""
 
     enabled: bool = True  # false: no bounds
     x_min: float = -1.0  # [m]
     x_max: float = 3.0  # [m]
     y_min: float = -1.0  # [m]
     y_max: float = 3.0  # [m]
+    file: str = ""  # a field file (TOML or JSON) with the bounds, obstacles and tags; read when the config is loaded
+    margin: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.05  # [m] kept clear beyond the robot's footprint ([robot] radius)
+    obstacles: tuple[Obstacle, ...] = ()
+    tags: tuple[FieldTag, ...] = ()
 
     def __post_init__(self) -> None:
         if not (self.x_min < self.x_max and self.y_min < self.y_max):
             raise ValueError("x_min < x_max and y_min < y_max are required")
+        ids = [t.id for t in self.tags]
+        twice = sorted({i for i in ids if ids.count(i) > 1})
+        if twice:
+            raise ValueError(f"tags: id {twice[0]} is given twice")
+        fieldmod.check_layout(self.shapes(), (self.x_min, self.y_min, self.x_max, self.y_max) if self.enabled else None)
+
+    def shapes(self) -> tuple[fieldmod.Shape, ...]:
+        """The obstacles as checked shapes (FieldError names a bad one)."""
+        return _shapes(self.obstacles)
 
     def beyond(self, x: float, y: float) -> float:
         """[m] how far (x, y) lies outside the field: 0 inside it (or with the field off)."""
@@ -125,6 +176,40 @@ class Field(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
             if not ok:
                 return f"{value:g} m is outside the field ([field] {name})"
         return None
+
+
+@functools.cache
+def _shapes(obstacles: tuple[Obstacle, ...]) -> tuple[fieldmod.Shape, ...]:
+    out = []
+    for i, o in enumerate(obstacles):
+        name = f"obstacles[{i}]" + (f" {o.name!r}" if o.name else "")
+        out.append(fieldmod.circle_shape(name, o.circle) if o.circle is not None else fieldmod.polygon_shape(name, o.polygon or ()))
+    return tuple(out)
+
+
+def field_file(path: str, base: str | None) -> dict[str, Any]:
+    """The [field] keys a field file sets: a path (relative: to the config file's directory), or the name of a shipped
+    one (zenav/data/fields/<name>.toml); TOML or JSON by its suffix."""
+    shipped = resources.files("zenav").joinpath(f"data/fields/{path}.toml")
+    if "/" not in path and "." not in path and shipped.is_file():
+        text, suffix = shipped.read_text(), ".toml"
+    else:
+        full = os.path.join(os.path.dirname(base), path) if base and not os.path.isabs(path) else path
+        try:
+            with open(full, encoding="utf-8") as f:
+                text, suffix = f.read(), os.path.splitext(full)[1].lower()
+        except OSError as e:
+            raise ConfigError(f"config [field] file: {e}") from None
+    try:
+        raw = json.loads(text) if suffix == ".json" else tomllib.loads(text)
+    except (ValueError, tomllib.TOMLDecodeError) as e:
+        raise ConfigError(f"config [field] file {path}: {e}") from None
+    if not isinstance(raw, dict):
+        raise ConfigError(f"config [field] file {path}: must be a table of {', '.join(FIELD_FILE_KEYS)}")
+    unknown = [k for k in raw if k not in FIELD_FILE_KEYS]
+    if unknown:
+        raise ConfigError(f"config [field] file {path}: unknown key `{unknown[0]}` (a field file has {', '.join(FIELD_FILE_KEYS)})")
+    return raw
 
 
 @functools.cache
@@ -205,7 +290,14 @@ class Settings:
             raise ConfigError(f"config [deployment] scenario: {e}") from None
         robot = _convert(raw.get("robot", {}), Robot, "robot")
         limits = _convert(raw.get("limits", {}), Limits, "limits")
-        bounds = _convert(raw.get("field", {}), Field, "field")
+        area = raw.get("field", {})
+        if area.get("file"):
+            described = field_file(str(area["file"]), path)
+            both = [k for k in described if k in area]
+            if both:
+                raise ConfigError(f"config [field]: `{both[0]}` is set both here and in its file {area['file']}: keep one")
+            area = {**area, **described}
+        bounds = _convert(area, Field, "field")
         if robot.ticks_per_rev is None:  # the encoders are known: take the scenario's
             robot = msgspec.structs.replace(robot, ticks_per_rev=scen.ticks_per_rev)
         sections = {k: v for k, v in raw.items() if k not in OWN_SECTIONS}

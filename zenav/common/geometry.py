@@ -40,3 +40,16 @@ class Pose2(NamedTuple):
     def between(self, other: Pose2) -> Pose2:
         """The motion from this pose to `other`, in this pose's frame (self^-1 * other)."""
         return self.inverse().compose(other)
+
+
+def quaternion(yaw: float, pitch: float = 0.0, roll: float = 0.0) -> tuple[float, float, float, float]:
+    """(w, x, y, z) of the rotation yaw about z, then pitch about y, then roll about x [rad]."""
+    cy, sy = math.cos(yaw / 2.0), math.sin(yaw / 2.0)
+    cp, sp = math.cos(pitch / 2.0), math.sin(pitch / 2.0)
+    cr, sr = math.cos(roll / 2.0), math.sin(roll / 2.0)
+    return (
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    )

@@ -23,6 +23,9 @@ TOPICS: dict[str, type[m.Topic]] = {
     "cmd_vel": m.CmdVel,
     "motors/wheels": m.Wheels,
     "nav/state": m.NavState,
+    "nav/plan": m.Plan,
+    "field": m.FieldMap,
+    "motor/guard": m.GuardState,
     "localizer/fixes": m.Fix,
     **{f"diag/{s}": m.Diag for s in SERVICES},
 }
@@ -40,6 +43,7 @@ FIELD = "field"
 FIELD_TOPICS: dict[str, type[m.Topic]] = {
     "camera/frame": m.CameraFrame,
     "sim/body": m.Body,
+    "robots": m.Body,
 }
 
 # Query suffix -> (request type, reply type).

@@ -171,6 +171,41 @@ class NavState(Topic, frozen=True, kw_only=True):
     exit: str | None = None  # why the goal's move ended (within_tolerance, settled, timeout, ...); nil while running
     position_sigma: Finite | None = None  # [m] 1 sigma of the newest pose's position (its worst axis); nil before the first
     heading_sigma: Finite | None = None  # [rad] 1 sigma of its heading
+    guard: str = ""  # what the motor's safety layer holds the commands back for now (motor/guard); "": nothing
+
+
+class FieldMap(Topic, frozen=True, kw_only=True):
+    """The field as the navigator knows it (field), sent once a second: its bounds, its obstacles, the robot's footprint."""
+
+    t: Time
+    enabled: bool  # false: no bounds
+    x_min: Coord  # [m] map frame
+    x_max: Coord
+    y_min: Coord
+    y_max: Coord
+    obstacles: list[dict[str, Any]]  # each {"name": str, "polygon": [[x, y], ...]} or {"name": str, "circle": [x, y, r]} [m]
+    radius: Finite  # [m] the robot's footprint ([robot] radius)
+    margin: Finite  # [m] kept clear beyond it ([field] margin)
+
+
+class GuardState(Topic, frozen=True, kw_only=True):
+    """What the motor's safety layer limits (motor/guard), sent when it changes."""
+
+    t: Time
+    reason: str  # what it holds the command back for, and how far it is ("": nothing, the command passes)
+    v: Velocity  # [m/s] the forward speed it allows now
+    stopped: bool = False  # the forward speed is cut to zero
+
+
+class Plan(Topic, frozen=True, kw_only=True):
+    """The points a goal drives through (nav/plan), published when it starts: the user's, with the planner's detours."""
+
+    t: Time
+    goal_id: int
+    points: list[Point]  # [m] map frame, [x, y], in order; the last is the goal's
+    length: Finite  # [m] from the start through every point
+    planned: bool  # some leg was planned around an obstacle
+    clearance: Finite | None = None  # [m] the least distance of the way from an obstacle; nil without obstacles
 
 
 class Fix(Topic, frozen=True, kw_only=True):
@@ -221,6 +256,7 @@ class MoveToPoint(GoalOptions, frozen=True, kw_only=True):
     x: Coord
     y: Coord
     forwards: bool = True  # False: drive there backwards (LemLib's forwards)
+    plan: bool = True  # around the [field] obstacles where the straight way is blocked; False: straight, as asked
 
 
 class MoveToPose(GoalOptions, frozen=True, kw_only=True):
@@ -230,6 +266,7 @@ class MoveToPose(GoalOptions, frozen=True, kw_only=True):
     heading_tolerance: Tolerance | None = None  # [rad]
     lead: Annotated[float, Meta(ge=0.0, le=1.0)] | None = None  # [-] boomerang carrot distance per metre to the goal
     forwards: bool = True  # False: back in (theta is still the heading of the robot's front)
+    plan: bool = True  # around the [field] obstacles where the straight way is blocked; False: straight, as asked
 
 
 TurnDirection = Literal["auto", "cw", "ccw"]  # the shorter way, clockwise, counter-clockwise (LemLib's AngularDirection)
@@ -267,6 +304,7 @@ class FollowPath(GoalOptions, frozen=True, kw_only=True):
     points: Annotated[list[Point], Meta(min_length=1, max_length=10_000)]
     waypoint_tolerance: Tolerance | None = None  # [m] of the points before the last that name none
     forwards: bool = True  # False: drive the path backwards
+    plan: bool = True  # detours around the [field] obstacles between the points; False: straight between them
 
 
 class SetPose(Request, frozen=True, kw_only=True):
@@ -322,6 +360,7 @@ class StatusReply(Reply, frozen=True, kw_only=True):
     exit: str | None = None  # why the newest goal's move ended; nil while it runs
     position_sigma: float | None = None  # [m] as in NavState
     heading_sigma: float | None = None  # [rad] as in NavState
+    plan: list[Point] | None = None  # [m] the newest goal's points as driven (detours included); nil for a turn or a straight
 
 
 class LocalizerPoseReply(Reply, frozen=True, kw_only=True):

@@ -48,6 +48,9 @@ COLOURS = {  # r, g, b, a
     "fix_accepted": (0.1, 0.75, 0.2, 0.8),
     "fix_rejected": (0.9, 0.1, 0.1, 0.9),
     "goal": (0.95, 0.8, 0.1, 0.8),
+    "plan": (0.95, 0.55, 0.1, 0.9),
+    "obstacle": (0.85, 0.2, 0.2, 1.0),
+    "edge": (0.7, 0.7, 0.7, 1.0),
     "text": (1.0, 1.0, 1.0, 1.0),
 }
 
@@ -118,6 +121,8 @@ class Scene:
         self.nav: m.NavState | None = None
         self.fixes: deque[list] = deque(maxlen=FIXES_KEPT)  # [t, x, y, accepted or None]
         self.status: dict[str, str] = {}  # service -> diag status
+        self.field: m.FieldMap | None = None
+        self.plan: m.Plan | None = None
 
     def feed(self, suffix: str, msg: Any, ns: int) -> list[tuple[str, Any]]:
         """update(), plus the whole SceneUpdate when `period` has passed since the last one."""
@@ -147,7 +152,11 @@ class Scene:
                 )
                 out.append(("viz/tf", fm.FrameTransforms(transforms=[tf])))
             return out
-        if suffix == "vps/pose":
+        if suffix == "field":
+            self.field = msg
+        elif suffix == "nav/plan":
+            self.plan = msg
+        elif suffix == "vps/pose":
             self.fixes.append([msg.t, msg.x, msg.y, None])
         elif suffix == "localizer/fixes":
             for fix in self.fixes:
@@ -221,7 +230,27 @@ class Scene:
                 )
             )
         entities.append(entity("nav/state", texts=texts))
+        plan = self.plan if self.plan is not None and nav is not None and nav.result is None and self.plan.goal_id == nav.goal_id else None
+        entities.append(entity("nav/plan", lines=[line([tuple(p[:2]) for p in plan.points], "plan", width=2.0, z=0.003)] if plan else []))
+        entities.append(entity("field", lines=field_lines(self.field) if self.field is not None else []))
         return fm.SceneUpdate(entities=entities)
+
+
+def field_lines(f: m.FieldMap) -> list[fm.LinePrimitive]:
+    """The field's edge and its obstacles' outlines (a disc as a 32-sided polygon), closed."""
+    out = []
+    if f.enabled:
+        corners = [(f.x_min, f.y_min), (f.x_max, f.y_min), (f.x_max, f.y_max), (f.x_min, f.y_max)]
+        out.append(line([*corners, corners[0]], "edge"))
+    for o in f.obstacles:
+        if "circle" in o:
+            x, y, r = o["circle"]
+            pts = [(x + r * math.cos(k * math.pi / 16), y + r * math.sin(k * math.pi / 16)) for k in range(33)]
+        else:
+            pts = [(p[0], p[1]) for p in o.get("polygon", [])]
+            pts = [*pts, pts[0]] if pts else []
+        out.append(line(pts, "obstacle", width=3.0))
+    return out
 
 
 def line(points: Any, name: str, width: float = 2.0, z: float = 0.002) -> fm.LinePrimitive:

@@ -24,8 +24,10 @@ Pure: positions in, a position out.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import NamedTuple
+
+from zenav.common.field import Shape
 
 FRICTION = 0.5  # [-] sliding along another body: the travel across it lost per unit of travel into it held back
 SLACK = 1e-12  # [m] a constraint met this closely is met (rounding)
@@ -82,13 +84,34 @@ def _held(x0: float, y0: float, x: float, y: float, nx: float, ny: float, room: 
 
 
 def block(
-    x0: float, y0: float, x1: float, y1: float, radius: float, others: Mapping[str, Disc], walls: Walls | None = None
+    x0: float,
+    y0: float,
+    x1: float,
+    y1: float,
+    radius: float,
+    others: Mapping[str, Disc],
+    walls: Walls | None = None,
+    obstacles: Sequence[Shape] = (),
 ) -> tuple[float, float, list[str]]:
-    """Where a body of `radius` that a step takes from (x0, y0) to (x1, y1) ends among `others` and inside
-    `walls`, and the names of those it met (a wall's: "wall x_max" and so on): a step that would end
-    closer to a disc or a wall than it started, and within contact of it, is held there (_held)."""
+    """Where a body of `radius` that a step takes from (x0, y0) to (x1, y1) ends among `others`, the field's
+    `obstacles` and inside `walls`, and the names of those it met (a wall's: "wall x_max" and so on; an obstacle's
+    its name): a step that would end closer to a disc, an obstacle or a wall than it started, and within contact of
+    it, is held there (_held), across the normal from the obstacle's nearest point."""
     x, y = x1, y1
     met: list[str] = []
+    for shape in obstacles:
+        if shape.clearance(x, y) >= radius:
+            continue
+        px, py = shape.nearest(x0, y0)
+        nx, ny = x0 - px, y0 - py
+        start = math.hypot(nx, ny)
+        if start < 1e-12:
+            continue
+        room = shape.clearance(x0, y0) - radius
+        end = _held(x0, y0, x, y, nx / start, ny / start, room)
+        if end is not None:
+            (x, y) = end
+            met.append(shape.name)
     for name, o in others.items():
         reach = radius + o.radius
         if math.hypot(x - o.x, y - o.y) >= reach:

@@ -15,11 +15,12 @@ generator, so reading a sensor (or not) never changes the path the robot takes.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from zenav.common.config import Robot
+from zenav.common.field import Shape
 from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import Scenario
 from zenav.world import robot as body
@@ -47,11 +48,13 @@ class SimRobot:
         body_radius: float = 0.0,  # [m] the footprint other robots' bodies keep out of (0: none)
         walls: Walls | None = None,  # the field's walls its footprint keeps inside (none without a footprint)
         chassis: Chassis | None = None,  # its footprint against the walls (None: the disc)
+        obstacles: Sequence[Shape] = (),  # the field's obstacles its footprint keeps out of (none without a footprint)
     ) -> None:
         self.robot = robot
         self.body_radius = body_radius
         self.walls = walls if body_radius > 0.0 else None
         self.chassis = chassis if self.walls is not None else None  # it meets the walls only
+        self.obstacles = tuple(obstacles) if body_radius > 0.0 else ()
         self.met: list[str] = []  # the other bodies the last step met
         self.scenario = scenario
         self.body = body.world(robot, scenario)
@@ -92,8 +95,8 @@ class SimRobot:
                 x, y, theta = body.arc(s0.x, s0.y, s0.theta, ds, dtheta)
                 s = s._replace(x=x, y=y, theta=theta, v=ds / dt, omega=dtheta / dt)
         disc_walls = walls if chassis is None else None
-        if self.body_radius > 0.0 and (others or disc_walls is not None):
-            x, y, met = block(s0.x, s0.y, s.x, s.y, self.body_radius, others or {}, disc_walls)
+        if self.body_radius > 0.0 and (others or disc_walls is not None or self.obstacles):
+            x, y, met = block(s0.x, s0.y, s.x, s.y, self.body_radius, others or {}, disc_walls, self.obstacles)
             if met:
                 mid = s0.theta + wrap_angle(s.theta - s0.theta) / 2.0
                 s = s._replace(x=x, y=y, v=((x - s0.x) * math.cos(mid) + (y - s0.y) * math.sin(mid)) / dt)

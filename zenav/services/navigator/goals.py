@@ -477,7 +477,7 @@ class GoalMachine:
     def _aim(self, run: _Run, pose: PoseSample) -> None:
         """Target the current point: a fresh controller, and the old progress invalidated."""
         x, y = run.goal.points[run.index]
-        if run.goal.state == MOVING_TO_POSE:
+        if run.goal.state == MOVING_TO_POSE and run.index + 1 == len(run.goal.points):  # a planned detour's corners: points
             run.target = Target(x, y, run.goal.heading, run.goal.speed, lead=run.goal.lead)
             run.controller = controllers.make(self.params.pose_controller)
         else:

@@ -35,6 +35,7 @@ class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     tolerance: Pos = 0.01  # [m] goal position tolerance of a goal that names none
     heading_tolerance: Pos = 0.0175  # [rad] heading tolerance of a turn or pose that names none (1 deg: above the fused heading noise)
     waypoint_tolerance: Pos = 0.05  # [m] follow_path: tolerance of an intermediate point that names none (seed 002)
+    corner_tolerance: Pos = 0.01  # [m] a planned detour's corners are passed within this ([field] margin must hold it)
     through_speed: NonNeg = 0.08  # [m/s] follow_path: slowest speed through an intermediate point (0: may stop)
     lock_distance: NonNeg = 0.08  # [m] this close to the final point the robot stops turning toward it
     stop_lead: NonNeg = 0.06  # [s] a stop is predicted to coast this long at the current rate (motor lag)

@@ -29,6 +29,7 @@ class Request:
     watch: Any = None  # the token watch, released by the service
     deadline: float = 0.0  # [s] clock time the lease must be seen alive by
     goal_id: int = 0  # once started
+    detours: int = 0  # points the planner added between the asked ones
 
 
 class Requests:

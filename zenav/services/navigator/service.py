@@ -33,13 +33,14 @@ from zenav.common.clock import Clock
 from zenav.common.config import ConfigError, Settings
 from zenav.common.geometry import wrap_angle
 from zenav.common.runtime import QueryError, Service, on_liveliness, publish, query, reply_error, reply_ok, subscribe, timer
-from zenav.services.navigator import goals, intake
+from zenav.services.navigator import goals, intake, planner, routing
 from zenav.services.navigator.controllers import PoseSample, Wheelbase, check_polar_gains, sigmas
 from zenav.services.navigator.goals import End, GoalMachine, Refused
 from zenav.services.navigator.params import Params
 from zenav.services.navigator.requests import LOST, START, Request, Requests
 
 LEASE_CHARS = 256  # a lease key longer than this is refused (it shows in nav/state and the log)
+FIELD_PERIOD = 1.0  # [s] between two `field` messages
 
 
 class Navigator(Service):
@@ -61,6 +62,10 @@ class Navigator(Service):
         self.machine = GoalMachine(cfg, Wheelbase(r.track_width, r.wheel_radius, r.max_wheel_speed), self.area, gated=False)
         self._doubt_told = False  # the warning that a goal drives on an uncertain pose (no vps) was logged
         self.requests = Requests()
+        self.radius = r.radius  # [m] the footprint
+        self.planner = planner.Planner(self.area, r.radius + self.area.margin)  # the field's visibility graph, built once
+        self._plan: list[tuple[float, ...]] | None = None  # the newest goal's points as driven
+        self._guard = ""  # what the motor's guard holds the commands back for now ("": nothing)
         self._info: dict[str, Any] | None = None  # the newest goal, as nav/state shows it
         self._shown: tuple | None = None  # (state, goal_id, result) last published
         self._motor_gone = False  # the motor's token went (and has not come back)
@@ -146,6 +151,36 @@ class Navigator(Service):
             self._ended(end)
             self._show_changes()
 
+    @subscribe("motor/guard")
+    def guard_state(self, msg: m.GuardState) -> None:
+        """What the motor's safety layer holds the commands back for: shown on nav/state at once."""
+        if msg.reason != self._guard:
+            self._guard = msg.reason
+            self.publish("nav/state", self._state(self.clock.now()))
+
+    @timer(FIELD_PERIOD)
+    @publish("field")
+    def field_tick(self, now: float) -> m.FieldMap:
+        """The field as this navigator knows it, for views and recordings."""
+        a = self.area
+        shapes = [
+            {"name": s.name, "circle": list(s.circle)}
+            if s.circle is not None
+            else {"name": s.name, "polygon": [list(p) for p in s.polygon]}
+            for s in self.planner.shapes
+        ]
+        return m.FieldMap(
+            t=now,
+            enabled=a.enabled,
+            x_min=a.x_min,
+            x_max=a.x_max,
+            y_min=a.y_min,
+            y_max=a.y_max,
+            obstacles=shapes,
+            radius=self.radius,
+            margin=a.margin,
+        )
+
     @timer("state_period")
     @publish("nav/state")
     def state_tick(self, now: float) -> m.NavState:
@@ -220,6 +255,7 @@ class Navigator(Service):
             exit=self.machine.exit,
             position_sigma=self._sigmas()[0],
             heading_sigma=self._sigmas()[1],
+            plan=self._plan,
         )
 
     def on_priority(self, suffix: str, queued: bool, arrival: int) -> None:
@@ -280,7 +316,15 @@ class Navigator(Service):
         if self.query_arrival() < self._stopped_at:  # a stop came after it, however late (one held for its lease: stop_query)
             self.count("goals_voided")
             raise QueryError("unavailable", "cancelled by nav/stop: the stop reached the navigator after this goal")
-        request = Request(goal, info, req.wait, q)
+        asked = len(goal.points)
+        try:
+            if getattr(req, "plan", False):
+                goal = routing.route(goal, (pose.x, pose.y), self.radius, self.planner, self.cfg.corner_tolerance)
+            else:
+                routing.check_targets(goal, self.planner)
+        except routing.Blocked as e:
+            raise QueryError("invalid_argument", str(e)) from None
+        request = Request(goal, info, req.wait, q, detours=len(goal.points) - asked)
         if req.lease is None:
             self._drop_pending("superseded by a newer goal before its lease was seen")
             self._begin(request)
@@ -328,9 +372,32 @@ class Navigator(Service):
         self.requests.started(request, gid)
         self._info = request.info
         self.log.info("goal %d %s %s", gid, request.goal.state, _brief(request.info))
+        self._publish_plan(request, gid)
         if not request.wait:
             self._reply(request.reply_to, m.GoalReply(goal_id=gid, state=self.machine.state, speed=request.goal.speed))
         self._show_changes()
+
+    def _publish_plan(self, request: Request, goal_id: int) -> None:
+        """nav/plan: the points the goal drives through (none for a turn or a straight)."""
+        goal = request.goal
+        if not goal.points:
+            self._plan = None
+            return
+        start = self.machine.pose
+        assert start is not None  # the goal started: there is a pose
+        here = (start.x, start.y)
+        points = [(float(x), float(y)) for x, y in goal.points]
+        self._plan = [*points]
+        gap = planner.clearance(self.planner.shapes, here, points)
+        msg = m.Plan(
+            t=start.t,
+            goal_id=goal_id,
+            points=self._plan,
+            length=planner.length(here, points),
+            planned=request.detours > 0,
+            clearance=None if gap == float("inf") else gap,
+        )
+        self.publish("nav/plan", msg)
 
     def _refuse(self, request: Request, message: str) -> None:
         """Answer a request that will not start `unavailable`, and release its lease watch."""
@@ -426,6 +493,7 @@ class Navigator(Service):
             exit=mc.exit,
             position_sigma=self._sigmas()[0],
             heading_sigma=self._sigmas()[1],
+            guard=self._guard,
         )
 
     def _show_changes(self) -> None:

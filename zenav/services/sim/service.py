@@ -86,7 +86,9 @@ class Sim(Service):
         seed = settings.deployment.seed
         length, width = c.chassis()
         chassis = Chassis(length, width) if length > 0.0 else None
-        self.bot = SimRobot(settings.robot, self.scen, seed, c.x0, c.y0, c.theta0, c.encoder_start, c.body_radius, walls, chassis)
+        self.bot = SimRobot(
+            settings.robot, self.scen, seed, c.x0, c.y0, c.theta0, c.encoder_start, c.body_radius, walls, chassis, f.shapes()
+        )
         self.others: dict[str, tuple[float, Disc]] = {}  # robot -> (sim time heard, its body): what the bodies step among
         self.steps = 0  # steps taken: sim time is steps / rate, never read from the wall
         self.base = 0.0  # [s] scheduling-clock time of step 0 (moves forward on a resync)
@@ -203,7 +205,7 @@ class Sim(Service):
         for what in self.bot.met:
             if what not in was:  # a contact begins
                 self.count("contacts")
-                what = what if what.startswith("wall ") else f"robot {what}"
+                what = what if what.startswith(("wall ", "obstacles[")) else f"robot {what}"
                 self.log.info("drove into %s at (%.3f, %.3f): held there, the wheels slipping", what, s.x, s.y)
         fx = faults.at(self.scen, t)
         left, right = self.bot.encoders()
