@@ -1,24 +1,48 @@
 # One image for the whole stack: the router and every service.
-#   docker compose build                      (base: the public Python image)
-#   docker/build-image.sh                     (offline: local base, wheels from the host)
-# The build context is either this checkout (installed from the package index)
-# or a directory holding wheels/ (zenav and its dependencies; installed offline).
+#   docker compose build                      (base: the public Python image; dependencies from the package index)
+#   docker/build-image.sh                     (no package index: the dependencies' wheels downloaded on the host)
+# The context is this checkout (.dockerignore keeps the package: pyproject.toml,
+# README.md, LICENSE, zenav/). Build arguments:
+#   BASE    the base image (a Debian with python3 and its venv module)
+#   EXTRAS  the extras installed with zenav; `auto` (the default): camera (OpenCV),
+#           robot (pyserial), and apriltag where pupil-apriltags has a wheel (x86-64)
+#   WHEELS  an image whose /wheels holds every dependency's wheel: installed from
+#           there, offline (docker/build-image.sh makes one); empty: the package index
 ARG BASE=python:3.11-slim
+ARG WHEELS=
+
+FROM ${WHEELS:-${BASE}} AS wheels
+RUN mkdir -p /wheels
 
 FROM ${BASE} AS build
 LABEL zenav.stage=build
+ARG EXTRAS=auto
+COPY --from=wheels /wheels /wheels
+# The dependencies first, from pyproject.toml alone (and the version in zenav/__init__.py):
+# a change to the rest of the source builds on this layer.
+COPY pyproject.toml /deps/
+COPY zenav/__init__.py /deps/zenav/
+RUN set -e; \
+    extras="$EXTRAS"; \
+    if [ "$extras" = auto ]; then \
+        extras=camera,robot; \
+        if [ "$(uname -m)" = x86_64 ]; then extras="$extras,apriltag"; fi; \
+    fi; \
+    echo "$extras" > /deps/extras; \
+    if [ -n "$(ls /wheels)" ]; then export PIP_NO_INDEX=1 PIP_FIND_LINKS=/wheels; fi; \
+    touch /deps/README.md; \
+    python3 -m venv /opt/zenav; \
+    /opt/zenav/bin/pip install --no-cache-dir --disable-pip-version-check "setuptools>=77" "/deps[$extras]"; \
+    /opt/zenav/bin/pip uninstall --yes --quiet zenav
+# Then zenav itself, from the context: nothing more is fetched.
 COPY . /src
-RUN python3 -m venv /opt/zenav \
-    && if [ -d /src/wheels ]; then \
-           /opt/zenav/bin/pip install --no-cache-dir --disable-pip-version-check --no-index --find-links /src/wheels zenav; \
-       else \
-           /opt/zenav/bin/pip install --no-cache-dir --disable-pip-version-check /src; \
-       fi \
+RUN /opt/zenav/bin/pip install --no-cache-dir --disable-pip-version-check --no-index --no-build-isolation "/src[$(cat /deps/extras)]" \
     && /opt/zenav/bin/pip uninstall --yes --quiet pip setuptools
 
 FROM ${BASE}
 LABEL zenav.stage=final
-RUN useradd --system --user-group --uid 10001 --home-dir /nonexistent --shell /usr/sbin/nologin zenav
+# dialout: the serial port of a motor board passed in as a device (the robot profile)
+RUN useradd --system --user-group --groups dialout --uid 10001 --home-dir /nonexistent --shell /usr/sbin/nologin zenav
 COPY --from=build /opt/zenav /opt/zenav
 ENV PATH=/opt/zenav/bin:$PATH \
     PYTHONUNBUFFERED=1 \
