@@ -42,7 +42,8 @@ RUN /opt/zenav/bin/pip install --no-cache-dir --disable-pip-version-check --no-i
 FROM ${BASE}
 LABEL zenav.stage=final
 # dialout: the serial port of a motor board passed in as a device (the robot profile)
-RUN useradd --system --user-group --groups dialout --uid 10001 --home-dir /nonexistent --shell /usr/sbin/nologin zenav
+RUN useradd --system --user-group --groups dialout --uid 10001 --home-dir /nonexistent --shell /usr/sbin/nologin zenav \
+    && install --directory --owner zenav --group zenav /var/log/zenav  # `zenav up`'s logs (the robot profile's volume)
 COPY --from=build /opt/zenav /opt/zenav
 ENV PATH=/opt/zenav/bin:$PATH \
     PYTHONUNBUFFERED=1 \
