@@ -14,12 +14,12 @@ ARG WHEELS=
 FROM ${WHEELS:-${BASE}} AS wheels
 RUN mkdir -p /wheels
 
-FROM ${BASE} AS build
+# The dependencies in a venv, from pyproject.toml alone (and the version in zenav/__init__.py):
+# a change to the rest of the source builds on these layers.
+FROM ${BASE} AS deps
 LABEL zenav.stage=build
 ARG EXTRAS=auto
 COPY --from=wheels /wheels /wheels
-# The dependencies first, from pyproject.toml alone (and the version in zenav/__init__.py):
-# a change to the rest of the source builds on this layer.
 COPY pyproject.toml /deps/
 COPY zenav/__init__.py /deps/zenav/
 RUN set -e; \
@@ -28,23 +28,27 @@ RUN set -e; \
         extras=camera,robot; \
         if [ "$(uname -m)" = x86_64 ]; then extras="$extras,apriltag"; fi; \
     fi; \
-    echo "$extras" > /deps/extras; \
     if [ -n "$(ls /wheels)" ]; then export PIP_NO_INDEX=1 PIP_FIND_LINKS=/wheels; fi; \
     touch /deps/README.md; \
     python3 -m venv /opt/zenav; \
     /opt/zenav/bin/pip install --no-cache-dir --disable-pip-version-check "setuptools>=77" "/deps[$extras]"; \
     /opt/zenav/bin/pip uninstall --yes --quiet zenav
-# Then zenav itself, from the context: nothing more is fetched.
+
+# zenav's wheel, from the context: nothing is fetched.
+FROM deps AS build
 COPY . /src
-RUN /opt/zenav/bin/pip install --no-cache-dir --disable-pip-version-check --no-index --no-build-isolation "/src[$(cat /deps/extras)]" \
-    && /opt/zenav/bin/pip uninstall --yes --quiet pip setuptools
+RUN /opt/zenav/bin/pip wheel --quiet --no-cache-dir --disable-pip-version-check --no-index --no-build-isolation --no-deps --wheel-dir /dist /src
 
 FROM ${BASE}
 LABEL zenav.stage=final
 # dialout: the serial port of a motor board passed in as a device (the robot profile)
 RUN useradd --system --user-group --groups dialout --uid 10001 --home-dir /nonexistent --shell /usr/sbin/nologin zenav \
     && install --directory --owner zenav --group zenav /var/log/zenav  # `zenav up`'s logs (the robot profile's volume)
-COPY --from=build /opt/zenav /opt/zenav
+COPY --from=deps /opt/zenav /opt/zenav
+COPY --from=build /dist /dist
+RUN /opt/zenav/bin/pip install --quiet --no-cache-dir --disable-pip-version-check --no-index --no-deps /dist/*.whl \
+    && /opt/zenav/bin/pip check --disable-pip-version-check \
+    && rm -rf /dist
 ENV PATH=/opt/zenav/bin:$PATH \
     PYTHONUNBUFFERED=1 \
     PYTHONDONTWRITEBYTECODE=1
