@@ -1,38 +1,82 @@
 #!/bin/sh
-# Build the zenav image without the package index: wheels of zenav and its
-# dependencies are built on this host, and the image installs only those.
+# Build the zenav image where a build cannot reach the package index (no registry, or
+# a proxy the build's containers do not trust): the wheels of zenav's dependencies
+# are downloaded on this host into an image of their own, and compose builds the
+# image from this checkout with them (`docker compose build`, the Dockerfile's WHEELS);
+# zenav itself is built inside the build from the context compose sends.
 # Usage: docker/build-image.sh
 # Environment: ZENAV_IMAGE (tag, default zenav:latest), ZENAV_BASE (base image,
-# default zenav-base:bookworm from docker/build-base-image.sh), PYTHON (the host
-# Python that builds the wheels; same version and platform as the base's).
+# default zenav-base:bookworm from docker/build-base-image.sh), ZENAV_EXTRAS (the
+# Dockerfile's EXTRAS, default auto), ZENAV_WHEELS (tag of the wheels' image, default
+# zenav-wheels:latest), PYTHON (the host Python whose pip downloads the wheels, any
+# version: they are chosen for the base's Python and platform).
 set -eu
 
 IMAGE="${ZENAV_IMAGE:-zenav:latest}"
 BASE="${ZENAV_BASE:-zenav-base:bookworm}"
+EXTRAS="${ZENAV_EXTRAS:-auto}"
+WHEELS="${ZENAV_WHEELS:-zenav-wheels:latest}"
 PYTHON="${PYTHON:-python3}"
 REPO="$(cd "$(dirname "$0")/.." && pwd)"
 
-# Wheels of compiled dependencies fit one Python version: the host's must be the base's.
-version='import sys; print("%d.%d" % sys.version_info[:2])'
-host_version="$("$PYTHON" -c "$version")"
-base_version="$(docker run --rm --entrypoint python3 "$BASE" -c "$version")"
-if [ "$host_version" != "$base_version" ]; then
-    echo "$PYTHON is Python $host_version, $BASE has $base_version: set PYTHON to a $base_version" >&2
+if docker compose version >/dev/null 2>&1; then
+    compose="docker compose"
+elif command -v docker-compose >/dev/null 2>&1; then
+    compose=docker-compose
+else
+    echo "neither \`docker compose\` nor \`docker-compose\` is installed" >&2
     exit 1
 fi
+
+# The base's Python version, machine and C library: the wheels must fit them.
+set -- $(docker run --rm --entrypoint python3 "$BASE" -c \
+    'import platform, sys; print("%d.%d" % sys.version_info[:2], platform.machine(), platform.libc_ver()[1])')
+version=$1 machine=$2 glibc=$3
+platforms="--platform manylinux2014_$machine"
+minor=17
+while [ "$minor" -le "${glibc#2.}" ]; do
+    platforms="$platforms --platform manylinux_2_${minor}_$machine"
+    minor=$((minor + 1))
+done
 
 CTX="$(mktemp -d)"
 trap 'rm -rf "$CTX"' EXIT
 
-# Build from a copy so that the checkout gets no build/ or egg-info litter.
-mkdir "$CTX/src"
-tar -C "$REPO" -c --exclude=./.git --exclude=./tests --exclude=./build --exclude='*.egg-info' \
-    --exclude=__pycache__ --exclude=.pytest_cache --exclude=./docker/secure/secrets . | tar -C "$CTX/src" -x
-"$PYTHON" -m pip wheel --quiet --disable-pip-version-check --wheel-dir "$CTX/ctx/wheels" "$CTX/src"
+# zenav's dependencies with the extras the Dockerfile installs (not zenav: the build makes it).
+"$PYTHON" - "$REPO/pyproject.toml" "$EXTRAS" "$machine" > "$CTX/requirements.txt" <<'PY'
+import sys
 
-cp "$REPO/Dockerfile" "$CTX/ctx/Dockerfile"
-docker build --quiet --build-arg BASE="$BASE" --tag "$IMAGE" "$CTX/ctx"
-# Drop untagged zenav images: build stages (never reused, the zenav wheel differs
-# every build) and the image this tag named before.
-docker image prune --force --filter label=zenav.stage >/dev/null
-echo "built $IMAGE from $BASE"
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
+
+with open(sys.argv[1], "rb") as f:
+    project = tomllib.load(f)["project"]
+extras, machine = sys.argv[2], sys.argv[3]
+if extras == "auto":  # as the Dockerfile's
+    extras = "camera,robot" + (",apriltag" if machine == "x86_64" else "")
+requirements, todo, seen = list(project["dependencies"]), extras.split(","), set()
+while todo:
+    extra = todo.pop()
+    if extra and extra not in seen:
+        seen.add(extra)
+        for req in project["optional-dependencies"][extra]:
+            if req.startswith("zenav["):
+                todo += req[len("zenav[") : req.index("]")].split(",")
+            else:
+                requirements.append(req)
+print("\n".join(requirements))
+PY
+echo "setuptools>=77" >> "$CTX/requirements.txt"  # zenav's build backend
+# shellcheck disable=SC2086
+"$PYTHON" -m pip download --quiet --disable-pip-version-check --dest "$CTX/wheels" --only-binary :all: \
+    --implementation cp --python-version "$version" $platforms --requirement "$CTX/requirements.txt"
+
+printf 'FROM %s\nCOPY wheels /wheels\n' "$BASE" > "$CTX/Dockerfile"
+docker build --quiet --tag "$WHEELS" "$CTX" >/dev/null
+ZENAV_IMAGE="$IMAGE" ZENAV_BASE="$BASE" ZENAV_WHEELS="$WHEELS" ZENAV_EXTRAS="$EXTRAS" \
+    $compose --file "$REPO/docker-compose.yml" build router
+# Drop the image this tag named before (the build stages stay: they are the layer cache).
+docker image prune --force --filter label=zenav.stage=final >/dev/null
+echo "built $IMAGE from $BASE with the wheels of $WHEELS"

@@ -153,3 +153,10 @@ def test_stop_and_status_on_a_partial_stack(stack, router, capsys):
     header, sim = out[1].split(), next(line.split() for line in out if line.startswith("sim "))
     assert header[7] == "cpu" and sim[7].endswith("%") and float(sim[7][:-1]) > 0.0  # the sim's process's, of one core
     assert header[5:7] == ["bad", "dropped"] and sim[5].isdigit() and sim[6].isdigit()
+
+
+def test_status_of_named_services_is_their_liveliness(stack, router, capsys):
+    code, out, err = zenav(capsys, "status", "--connect", router, "--service", "sim", "--service", "navigator")
+    assert code == EXIT_OK and out == ["robot r1: sim alive, navigator alive"], err
+    code, out, err = zenav(capsys, "status", "--connect", router, "--service", "sim", "--service", "motor")
+    assert code == EXIT_UNAVAILABLE and out == ["robot r1: sim alive, motor not alive"], err

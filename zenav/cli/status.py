@@ -19,6 +19,13 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("status", help="services, rates, counters and navigation state of a running stack")
     connection_args(p)
     p.add_argument("--timeout", type=positive, default=2.0, help="seconds to collect diag (default 2; diag is 1 Hz)")
+    p.add_argument(
+        "--service",
+        action="append",
+        choices=services.ALL,
+        metavar="NAME",
+        help="only whether this service holds its liveliness token (repeatable): exit 0 if each named does, else 3 (a healthcheck)",
+    )
     p.set_defaults(func=run)
 
 
@@ -29,9 +36,19 @@ def run(args: argparse.Namespace) -> int:
     except Failed as e:
         return fail("status", e)
     try:
+        if args.service:
+            return check_alive(Client(robot, bus=bus), args.service)
         return report(Client(robot, bus=bus), args.timeout)
     finally:
         bus.close()
+
+
+def check_alive(client: Client, names: list[str]) -> int:
+    """One line: whether each named service holds its liveliness token; EXIT_UNAVAILABLE if one does not."""
+    with client:
+        alive = client.alive(timeout=1.0)
+    print(f"robot {client.robot}: " + ", ".join(f"{n} {'alive' if n in alive else 'not alive'}" for n in names))
+    return EXIT_OK if set(names) <= alive else EXIT_UNAVAILABLE
 
 
 def report(client: Client, timeout: float) -> int:
