@@ -69,7 +69,7 @@ def context_copy(dest: Path) -> Path:
 def package_files(root: Path) -> set[str]:
     """What the package ships from a source tree, as a wheel names them: its modules, py.typed, zenav/data."""
     files = [p.relative_to(root) for p in (root / "zenav").rglob("*") if p.is_file() and "__pycache__" not in p.parts]
-    return {p.as_posix() for p in files if p.suffix == ".py" or p.name == "py.typed" or p.parent.as_posix() == "zenav/data"}
+    return {p.as_posix() for p in files if p.suffix == ".py" or p.name == "py.typed" or p.parts[:2] == ("zenav", "data")}
 
 
 @pytest.fixture(scope="module")

@@ -102,14 +102,15 @@ def test_the_secrets_are_private(secrets):
 
 
 def test_an_operator_commands_its_own_robot_only(router):
-    navigator, motor, watcher = router.login("navigator"), router.login("motor"), router.login("viewer")
+    navigators = {robot: router.login(f"navigator-{robot}") for robot in ("r1", "r2")}
+    motor, watcher = router.login("motor-r2"), router.login("viewer")
     goals: list[str] = []
 
     def serve(q: zenoh.Query) -> None:
         goals.append(str(q.key_expr))
         q.reply(q.key_expr, b"accepted")
 
-    for robot in ("r1", "r2"):
+    for robot, navigator in navigators.items():
         navigator.declare_queryable(f"zenav/{robot}/nav/move_to_point", serve)
     commands, leases = Inbox(), Inbox()
     motor.declare_subscriber("zenav/*/cmd_vel", commands.on_sample)
@@ -123,8 +124,9 @@ def test_an_operator_commands_its_own_robot_only(router):
 
     for robot in ("r1", "r2"):
         publish(op1, f"zenav/{robot}/cmd_vel", "operator-r1")  # only the navigator drives the wheels
-    publish(navigator, "zenav/r2/cmd_vel", "navigator")
-    assert commands.settle({("zenav/r2/cmd_vel", "navigator")}) == {("zenav/r2/cmd_vel", "navigator")}
+    publish(navigators["r1"], "zenav/r2/cmd_vel", "navigator-r1")  # and only its own robot's
+    publish(navigators["r2"], "zenav/r2/cmd_vel", "navigator-r2")
+    assert commands.settle({("zenav/r2/cmd_vel", "navigator-r2")}) == {("zenav/r2/cmd_vel", "navigator-r2")}
 
     tokens = [op1.liveliness().declare_token(f"zenav/{robot}/lease/goal") for robot in ("r1", "r2")]
     assert leases.settle({("zenav/r1/lease/goal", "")}) == {("zenav/r1/lease/goal", "")}
@@ -133,10 +135,10 @@ def test_an_operator_commands_its_own_robot_only(router):
 
 
 def test_each_service_holds_only_its_own_tokens(router):
-    """Liveliness and instance tokens (duplicate detection) pass for their own service; the driver logs in too."""
+    """Liveliness and instance tokens (duplicate detection) pass for their own service and robot; the driver logs in too."""
     watcher, alive = router.login("viewer"), Inbox()
     watcher.liveliness().declare_subscriber("zenav/r1/**", alive.on_sample, history=True)
-    navigator, driver, operator = router.login("navigator"), router.login("driver"), router.login("operator-r1")
+    navigator, driver, operator = router.login("navigator-r1"), router.login("driver-r1"), router.login("operator-r1")
     held = {
         navigator: ["zenav/r1/alive/navigator", "zenav/r1/instance/navigator/host-1-a"],
         driver: ["zenav/r1/alive/driver", "zenav/r1/instance/driver/host-2-b", "zenav/r1/alive/motor"],
@@ -147,8 +149,8 @@ def test_each_service_holds_only_its_own_tokens(router):
     assert alive.settle(allowed) == allowed
     encoders = Inbox()
     watcher.declare_subscriber("zenav/r1/sensors/encoders", encoders.on_sample)
-    publish(driver, "zenav/r1/sensors/encoders", "driver")
-    assert encoders.settle({("zenav/r1/sensors/encoders", "driver")}) == {("zenav/r1/sensors/encoders", "driver")}
+    publish(driver, "zenav/r1/sensors/encoders", "driver-r1")
+    assert encoders.settle({("zenav/r1/sensors/encoders", "driver-r1")}) == {("zenav/r1/sensors/encoders", "driver-r1")}
     for token in tokens:
         token.undeclare()
 

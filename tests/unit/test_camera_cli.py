@@ -89,7 +89,7 @@ def test_calibrate_from_the_frame_the_sim_renders(tmp_path, capsys):
 
 
 def zenav(*argv: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "zenav.cli", *argv], capture_output=True, text=True, timeout=120, check=False)
+    return subprocess.run([sys.executable, "-m", "zenav", *argv], capture_output=True, text=True, timeout=120, check=False)
 
 
 @pytest.mark.parametrize("detector", ["apriltag", "opencv"])

@@ -9,6 +9,7 @@ import cv2
 import pytest
 
 from zenav import services
+from zenav.common import roles
 from zenav.common import extras
 from zenav.common.config import ConfigError
 
@@ -42,7 +43,7 @@ def without_optional(code: str, *args: str, blocked: tuple[str, ...] = OPTIONAL)
 
 
 def test_the_base_paths_import_no_optional_package():
-    services_ = [e.target.split(":")[0] for e in services.REGISTRY]
+    services_ = [r.target.split(":")[0] for r in roles.TABLE]
     got = without_optional(
         f"""
         import importlib

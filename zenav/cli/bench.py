@@ -13,7 +13,7 @@ from zenav.common import extras
 
 # The bench's sections (bench/plan.py SECTIONS; a test keeps them equal): named here so
 # that building the parser imports none of the bench's optional packages.
-SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "settle", "camera", "profile", "fleet")
+SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "settle", "planning", "camera", "profile", "fleet")
 DEFAULT_OUT = Path("bench-report")  # a scratch directory: the committed report is written with --out docs/bench
 
 
