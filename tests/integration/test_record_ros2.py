@@ -25,6 +25,7 @@ TYPES = {
     "/tf": "tf2_msgs/msg/TFMessage",
     "/nav/state": "std_msgs/msg/String",
     "/cmd_vel": "geometry_msgs/msg/Twist",
+    "/map": "nav_msgs/msg/OccupancyGrid",
 }
 
 
@@ -49,14 +50,16 @@ def test_a_driven_goal_recorded_as_a_ros2_bag(make_stack, router, tmp_path):
         assert proc.wait(timeout=60) == 0
     raw.close()
     summary = lines.get(timeout=10)
-    assert f"{bag}: " in summary and " messages on 6 topics" in summary, summary
+    assert f"{bag}: " in summary and " messages on 7 topics" in summary, summary
 
     wire = Wire(distro="jazzy")
     with Reader(bag) as reader:
         assert {c.topic: c.msgtype for c in reader.connections} == TYPES
         counts = {c.topic: c.msgcount for c in reader.connections}
         assert counts["/pose"] > 20 and counts["/odom"] >= counts["/pose"] and counts["/tf"] >= counts["/odom"]
-        assert counts["/cmd_vel"] > 5 and counts["/nav/state"] > 2
+        assert counts["/cmd_vel"] > 5 and counts["/nav/state"] > 2 and counts["/map"] == 1  # the field did not change
+        [latched] = [c.ext.offered_qos_profiles for c in reader.connections if c.topic == "/map"]
+        assert [(q.durability.name, q.depth) for q in latched] == [("TRANSIENT_LOCAL", 1)]  # replayed latched, as a map server's
         assert all(c.digest == wire.type_hash(c.msgtype) for c in reader.connections)  # the RIHS01 hashes ROS checks
         last: dict[str, object] = {}
         for conn, _, data in reader.messages():

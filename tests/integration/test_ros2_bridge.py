@@ -12,6 +12,7 @@ import uuid
 import numpy as np
 import pytest
 import zenoh
+import zenoh.ext
 
 from tests.support.rawclient import RawClient
 from zenav.common import messages as m
@@ -24,11 +25,13 @@ from zenav.tools.rmw_zenoh import Wire, attachment, parse_attachment
 pytestmark = pytest.mark.timeout(120)
 
 ODOMETRY, POSE_TYPE, TF = "nav_msgs/msg/Odometry", "geometry_msgs/msg/PoseWithCovarianceStamped", "tf2_msgs/msg/TFMessage"
+GRID = "nav_msgs/msg/OccupancyGrid"
+BOX = {"name": "box", "polygon": [[2.4, 2.4], [2.6, 2.4], [2.6, 2.6], [2.4, 2.6]]}  # out of the tests' way
 
 
 @pytest.fixture
 def rig(make_stack, router):
-    make_stack(["sim", "motor", "odometry", "vps", "localizer", "navigator"], navigator={"stale_after": 2.0})
+    make_stack(["sim", "motor", "odometry", "vps", "localizer", "navigator"], navigator={"stale_after": 2.0}, field={"obstacles": [BOX]})
     raw = RawClient(router)
     raw.follow("pose")
     raw.follow("nav/state")
@@ -97,6 +100,7 @@ def test_graph_tokens_for_ros_tools(rig):
         ("MP", "%r1%odom", "nav_msgs::msg::dds_::Odometry_"),
         ("MP", "%tf", "tf2_msgs::msg::dds_::TFMessage_"),
         ("MP", "%r1%nav%state", "std_msgs::msg::dds_::String_"),
+        ("MP", "%r1%map", "nav_msgs::msg::dds_::OccupancyGrid_"),
         ("MS", "%r1%goal_pose", "geometry_msgs::msg::dds_::PoseStamped_"),
         ("MS", "%r1%cmd_vel", "geometry_msgs::msg::dds_::Twist_"),
         ("MS", "%r1%cmd_vel", "geometry_msgs::msg::dds_::TwistStamped_"),
@@ -109,6 +113,30 @@ def test_graph_tokens_for_ros_tools(rig):
     }
     status = next(t for t in tokens if "%status/" in t)
     assert status.endswith("/:1:,1:,:,:,,")  # transient local, depth 1, as rcl's action status QoS
+    latched_map = next(t for t in tokens if "%r1%map/" in t)
+    assert latched_map.endswith("/:1:,1:,:,:,,")  # as a map server's
+
+
+def test_the_field_is_a_latched_map_for_late_subscribers(rig):
+    """rviz2 or Nav2 started after the bridge still get the map: from the advanced publisher's cache
+    (rmw_zenoh on zenoh 1.1+) and from the publication-cache query of earlier rmw_zenoh releases."""
+    _, wire, bridge, ros = rig
+    key = f"3/r1/map/nav_msgs::msg::dds_::OccupancyGrid_/{wire.type_hash(GRID)}"
+    got: queue.Queue[zenoh.Sample] = queue.Queue()
+    late = zenoh.ext.declare_advanced_subscriber(ros, key, got.put, history=zenoh.ext.HistoryConfig(detect_late_publishers=True))
+    try:
+        first = got.get(timeout=20.0)
+    finally:
+        late.undeclare()
+    grid = wire.deserialize(first.payload.to_bytes(), GRID)
+    assert (grid.header.frame_id, grid.info.width, grid.info.height) == ("map", 200, 200)  # the default field, 4 m x 4 m
+    cells = np.asarray(grid.data).reshape(200, 200)
+    assert cells[175, 175] == rm.OCCUPIED and cells[50, 50] == rm.FREE  # (2.5, 2.5) m inside the box; (0, 0) free
+    assert int((cells == rm.OCCUPIED).sum()) == 100
+    replies = [r.ok for r in ros.get(f"*/{key}", timeout=5.0, accept_replies=zenoh.ReplyKeyExpr.ANY) if r.ok is not None]
+    assert [str(r.key_expr) for r in replies] == [key]
+    assert wire.deserialize(replies[0].payload.to_bytes(), GRID).data.tolist() == grid.data.tolist()
+    assert bridge.counts["map"] == 1  # sent once: the field has not changed
 
 
 def test_goal_pose_drives_the_robot(rig):

@@ -113,3 +113,46 @@ def test_goal_from_pose_stamped(wire):
     msg = types["geometry_msgs/msg/PoseStamped"](header=rm.header(types, 1.0, "map"), pose=pose)
     frame, x, y, heading = rm.goal(wire.deserialize(wire.serialize(msg, "geometry_msgs/msg/PoseStamped"), "geometry_msgs/msg/PoseStamped"))
     assert (frame, x, y) == ("map", 1.0, -0.5) and heading == pytest.approx(-2.0)
+
+
+def field_map(**changes) -> m.FieldMap:
+    box = {"name": "box", "polygon": [[0.5, -0.1], [0.7, -0.1], [0.7, 0.1], [0.5, 0.1]]}
+    base = dict(t=3.0, enabled=True, x_min=-1.0, x_max=1.0, y_min=-0.5, y_max=0.5, obstacles=[box, {"circle": [-0.5, 0.0, 0.1]}])
+    return m.FieldMap(**{**base, "radius": 0.1, "margin": 0.05, **changes})
+
+
+def test_the_field_as_grid_cells_inside_obstacles_occupied():
+    x0, y0, cells = rm.field_cells(field_map())
+    assert (x0, y0, cells.shape) == (-1.0, -0.5, (50, 100))  # 2 m x 1 m in 2 cm cells, row 0 at y_min
+
+    def at(x: float, y: float) -> int:
+        return int(cells[int((y - y0) / rm.MAP_RESOLUTION), int((x - x0) / rm.MAP_RESOLUTION)])
+
+    assert [at(0.6, 0.0), at(0.69, 0.09), at(-0.5, 0.0), at(-0.5, 0.09)] == [rm.OCCUPIED] * 4
+    assert [at(0.75, 0.0), at(0.6, 0.15), at(-0.5, 0.13), at(0.0, 0.0)] == [rm.FREE] * 4
+    assert int((cells == rm.OCCUPIED).sum()) == pytest.approx(100 + math.pi * 25, rel=0.1)  # the box's 10x10 cells, the disc's
+
+
+def test_a_field_without_bounds_is_drawn_round_its_obstacles_and_an_empty_one_not_at_all():
+    x0, y0, cells = rm.field_cells(field_map(enabled=False))
+    assert (x0, y0) == pytest.approx((-0.6 - rm.MAP_PAD, -0.1 - rm.MAP_PAD))
+    assert cells.shape == (round((0.2 + 2 * rm.MAP_PAD) / rm.MAP_RESOLUTION), round((1.3 + 2 * rm.MAP_PAD) / rm.MAP_RESOLUTION))
+    assert rm.field_cells(field_map(enabled=False, obstacles=[])) is None
+
+
+def test_the_map_round_trips_through_cdr(wire):
+    grid = rm.occupancy_grid(wire.types(), field_map(), 1_700_000_000.5)
+    back = wire.deserialize(wire.serialize(grid, "nav_msgs/msg/OccupancyGrid"), "nav_msgs/msg/OccupancyGrid")
+    assert (back.header.frame_id, back.info.width, back.info.height) == ("map", 100, 50)
+    assert back.info.resolution == pytest.approx(rm.MAP_RESOLUTION)
+    assert (back.info.origin.position.x, back.info.origin.position.y) == (-1.0, -0.5)
+    assert np.array_equal(np.asarray(back.data), rm.field_cells(field_map())[2].reshape(-1))
+
+
+def test_the_map_is_sent_again_only_when_the_field_changes(wire):
+    from zenav.tools import ros2_out as ro
+
+    conv = ro.Converter(wire.types())
+    conv.feed(m.Clock(t=1.0, wall=1_700_000_000.0))
+    sent = [[topic for topic, _ in conv.feed(field_map(t=t, **change))] for t, change in [(2.0, {}), (3.0, {}), (4.0, {"x_max": 2.0})]]
+    assert sent == [["map"], [], ["map"]]

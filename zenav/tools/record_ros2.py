@@ -5,9 +5,10 @@ serialization `cdr`, the RIHS01 type hashes, counts, times) and `<name>.mcap`, w
 channels carry CDR messages (message encoding `cdr`) with `ros2msg` schemas (the .msg
 text and its dependencies), written by rosbags' rosbag2 writer. The topics and messages
 are those `zenav ros2` publishes (tools/ros2_out.py: /odom, /odometry, /pose, /tf,
-/nav/state) and /cmd_vel (geometry_msgs/Twist, what the navigator or a teleop commanded),
+/nav/state, /map) and /cmd_vel (geometry_msgs/Twist, what the navigator or a teleop commanded),
 stamped in wall time; a message's log time is the recorder's wall clock when the zenav
-sample arrived.
+sample arrived. /map is recorded with a transient local QoS (reliable, keep last 1), so
+`ros2 bag play` republishes it latched, as a map server does.
 
 metadata.yaml is written when the recording stops; a recorder that dies leaves the
 .mcap without it (`ros2 bag reindex DIR` writes it from the .mcap).
@@ -19,6 +20,7 @@ import time
 from collections import Counter
 from typing import Any, Literal
 
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from zenav.common import codec, keys
@@ -30,6 +32,10 @@ from zenav.tools.tap import Tap
 LINGER = 0.25  # [s] wall time stop() still listens, for samples sent just before it
 TOPICS = (*ro.BRIDGED, ro.CMD_VEL)
 VERSION: Literal[8] = 8  # rosbag2 metadata version (Iron, Jazzy; Kilted reads it too)
+_NEVER = QosTime(sec=0x7FFFFFFF, nsec=0xFFFFFFFF)  # rmw's "infinite" duration, as rosbag2 writes it
+LATCHED_QOS = Qos(  # a map server's: keep last 1, reliable, transient local
+    QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL, _NEVER, _NEVER, QosLiveliness.AUTOMATIC, _NEVER, False
+)
 
 
 class Ros2Recorder:
@@ -84,7 +90,9 @@ class Ros2Recorder:
             ros_type = ro.TYPES[name][0]
             conn = self._connections.get(topic)
             if conn is None:
-                conn = self._connections[topic] = self._writer.add_connection(topic, ros_type, typestore=self.wire.store)
+                qos = (LATCHED_QOS,) if name in ro.LATCHED else ()
+                conn = self._writer.add_connection(topic, ros_type, typestore=self.wire.store, offered_qos_profiles=qos)
+                self._connections[topic] = conn
             self._writer.write(conn, wall_ns, self.wire.serialize(ros, ros_type))
             self.counts[topic] += 1
             self._first_ns = wall_ns if self._first_ns is None else self._first_ns

@@ -13,6 +13,7 @@ from typing import Any
 import msgspec
 import numpy as np
 
+from zenav.common import field as fd
 from zenav.common import messages as m
 from zenav.common.geometry import wrap_angle
 
@@ -141,3 +142,61 @@ def velocity(msg: Any) -> tuple[float, float]:
 def in_map(frame: str) -> bool:
     """Whether a message's frame is the map (or left empty)."""
     return frame.strip("/") in ("", MAP)
+
+
+MAP_RESOLUTION = 0.02  # [m] a cell of the field's OccupancyGrid
+MAP_PAD = 0.5  # [m] round the obstacles, when the field has no bounds
+FREE, OCCUPIED = 0, 100
+
+
+def field_cells(field: m.FieldMap, resolution: float = MAP_RESOLUTION) -> tuple[float, float, np.ndarray] | None:
+    """The field as a grid: (x, y) of its lower-left corner [m] and rows of cells (row 0 at y, FREE or
+    OCCUPIED: a cell whose centre is inside an obstacle); None when the field has neither bounds nor obstacles."""
+    shapes = [_shape(o) for o in field.obstacles]
+    if field.enabled:
+        x0, x1, y0, y1 = field.x_min, field.x_max, field.y_min, field.y_max
+    elif shapes:
+        boxes = np.array([s.bounds() for s in shapes])  # (x_min, y_min, x_max, y_max) each
+        x0, y0 = boxes[:, 0].min() - MAP_PAD, boxes[:, 1].min() - MAP_PAD
+        x1, y1 = boxes[:, 2].max() + MAP_PAD, boxes[:, 3].max() + MAP_PAD
+    else:
+        return None
+    cols, rows = max(1, math.ceil((x1 - x0) / resolution - 1e-9)), max(1, math.ceil((y1 - y0) / resolution - 1e-9))
+    xs, ys = np.meshgrid(x0 + (np.arange(cols) + 0.5) * resolution, y0 + (np.arange(rows) + 0.5) * resolution)
+    inside = np.zeros((rows, cols), dtype=bool)
+    for s in shapes:
+        inside |= _inside(s, xs, ys)
+    return x0, y0, np.where(inside, OCCUPIED, FREE).astype(np.int8)
+
+
+def occupancy_grid(types: Any, field: m.FieldMap, t: float, resolution: float = MAP_RESOLUTION) -> Any:
+    """nav_msgs/OccupancyGrid of the field (frame `map`, stamped `t` [s]); None when there is nothing to draw."""
+    grid = field_cells(field, resolution)
+    if grid is None:
+        return None
+    x0, y0, cells = grid
+    rows, cols = cells.shape
+    info = types["nav_msgs/msg/MapMetaData"](
+        map_load_time=stamp(types, t), resolution=resolution, width=cols, height=rows, origin=_pose(types, x0, y0, 0.0)
+    )
+    return types["nav_msgs/msg/OccupancyGrid"](header=header(types, t, MAP), info=info, data=cells.reshape(-1))
+
+
+def _shape(obstacle: dict[str, Any]) -> fd.Shape:
+    name = str(obstacle.get("name", "obstacle"))
+    return fd.circle_shape(name, obstacle["circle"]) if "circle" in obstacle else fd.polygon_shape(name, obstacle["polygon"])
+
+
+def _inside(shape: fd.Shape, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """Which points (xs, ys) lie inside `shape` (even-odd rule for a polygon)."""
+    if shape.circle is not None:
+        cx, cy, r = shape.circle
+        return np.hypot(xs - cx, ys - cy) < r
+    inside = np.zeros(xs.shape, dtype=bool)
+    pts = shape.polygon
+    for (ax, ay), (bx, by) in zip(pts, pts[1:] + pts[:1]):
+        crosses = (ay > ys) != (by > ys)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x_at = ax + (ys - ay) * (bx - ax) / (by - ay)
+        inside ^= crosses & (xs < x_at)
+    return inside

@@ -9,34 +9,75 @@ from __future__ import annotations
 
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from typing import Any
 
 import zenoh
+import zenoh.ext
 
 from zenav.common.bus import undeclare_all
-from zenav.tools.rmw_zenoh import Endpoint, Wire, attachment, gid, parse_attachment
+from zenav.tools.rmw_zenoh import TRANSIENT_LOCAL, Endpoint, Wire, attachment, gid, parse_attachment
 
 Incoming = Callable[[bytes], None]  # a sample's payload
 QueryCallback = Callable[[zenoh.Query], None]
 
 
 class Publisher:
-    """One ROS publisher: its rmw_zenoh key, GID and sequence numbers."""
+    """One ROS publisher: its rmw_zenoh key, GID and sequence numbers.
+
+    A transient local one (a latched topic: a map, an action's status) keeps its last `depth`
+    samples for subscribers that come later, both ways rmw_zenoh's subscriptions ask for them:
+    a Zenoh advanced publisher's cache (rmw_zenoh on zenoh 1.1 and later) and a queryable on
+    `<session id>/<key>`, the publication cache of earlier releases, answered on the key itself.
+    """
 
     def __init__(self, session: zenoh.Session, wire: Wire, ep: Endpoint, token: str) -> None:
         self.ros_type, self.key, self.gid, self.seq = ep.ros_type, wire.key(ep), gid(token), 0
         self.wire, self._lock = wire, threading.Lock()
-        self._pub = session.declare_publisher(self.key, encoding=zenoh.Encoding.APPLICATION_CDR)
+        self._latched: deque[tuple[bytes, bytes]] | None = None  # (payload, attachment) of the last samples
+        self._handles: list[Any] = []
+        if ep.durability == TRANSIENT_LOCAL:
+            self._latched = deque(maxlen=max(1, ep.depth))
+            self._pub: Any = zenoh.ext.declare_advanced_publisher(
+                session,
+                self.key,
+                encoding=zenoh.Encoding.APPLICATION_CDR,
+                cache=zenoh.ext.CacheConfig(max(1, ep.depth)),
+                sample_miss_detection=zenoh.ext.MissDetectionConfig(
+                    heartbeat=None, sporadic_heartbeat=None
+                ),  # sequence numbers, not timestamps
+                publisher_detection=True,
+            )
+            self._cache_key = f"{session.zid()}/{self.key}"
+            self._handles.append(session.declare_queryable(self._cache_key, self._history, complete=True))
+        else:
+            self._pub = session.declare_publisher(self.key, encoding=zenoh.Encoding.APPLICATION_CDR)
 
     def put(self, msg: Any) -> None:
         """Serialize and publish one message (from any thread: the sequence numbers stay in order)."""
         data = self.wire.serialize(msg, self.ros_type)
         with self._lock:
             self.seq += 1
-            self._pub.put(data, attachment=attachment(self.seq, time.time_ns(), self.gid))
+            extra = attachment(self.seq, time.time_ns(), self.gid)
+            if self._latched is not None:
+                self._latched.append((data, extra))
+            self._pub.put(data, attachment=extra)
+
+    def _history(self, query: zenoh.Query) -> None:
+        """A late subscription's query: the kept samples, on the topic's key (a Zenoh thread: no waiting).
+        A query that takes replies on matching keys only (not a querying subscriber's) gets them on the cache's key."""
+        with self._lock:
+            kept = list(self._latched or ())
+        key = self.key if query.accepts_replies() == zenoh.ReplyKeyExpr.ANY else self._cache_key
+        try:
+            for data, extra in kept:
+                query.reply(key, data, encoding=zenoh.Encoding.APPLICATION_CDR, attachment=extra)
+        finally:
+            query.drop()
 
     def undeclare(self) -> None:
+        undeclare_all(self._handles)
         self._pub.undeclare()
 
 

@@ -9,6 +9,9 @@ is global), following REP-105 (frames `map`, `odom`, `base_link`):
 - `/tf`: `odom -> base_link` for every `odom`, and `map -> odom` for every `pose` whose odom
   sample (same t) came before it: the correction the localizer applied;
 - `nav/state`: std_msgs/String, zenav's `nav/state` as JSON;
+- `map`: nav_msgs/OccupancyGrid of the field the navigator plans on (its `field` topic: bounds
+  and obstacles, 2 cm cells, 100 inside an obstacle, 0 free), sent when it changes (latched:
+  transient local, depth 1, as a ROS map server's);
 - `cmd_vel` (only when asked: the bridge takes `cmd_vel` in, so it must not send it out): geometry_msgs/Twist.
 
 Stamps are wall time: a wall-clock stack's t is wall time already; a sim clock's t (under
@@ -24,7 +27,7 @@ from typing import Any
 from zenav.common import messages as m
 from zenav.tools import ros2_msgs as rm
 
-POSE, ODOMETRY, ODOM, TF, NAV_STATE, CMD_VEL = "pose", "odometry", "odom", "/tf", "nav/state", "cmd_vel"
+POSE, ODOMETRY, ODOM, TF, NAV_STATE, CMD_VEL, MAP = "pose", "odometry", "odom", "/tf", "nav/state", "cmd_vel", "map"
 TYPES = {  # ROS topic -> (type, the keep-last depth its publisher announces)
     POSE: ("geometry_msgs/msg/PoseWithCovarianceStamped", 10),
     ODOMETRY: ("nav_msgs/msg/Odometry", 10),
@@ -32,9 +35,11 @@ TYPES = {  # ROS topic -> (type, the keep-last depth its publisher announces)
     TF: ("tf2_msgs/msg/TFMessage", 100),  # tf2's broadcaster depth
     NAV_STATE: ("std_msgs/msg/String", 10),
     CMD_VEL: ("geometry_msgs/msg/Twist", 10),
+    MAP: ("nav_msgs/msg/OccupancyGrid", 1),  # latched (LATCHED)
 }
-BRIDGED = (POSE, ODOMETRY, ODOM, TF, NAV_STATE)  # what the bridge publishes
-SUFFIXES = ("clock", "odom", "pose", "nav/state", "cmd_vel")  # the zenav topics read
+LATCHED = (MAP,)  # topics published transient local: a late subscriber gets the last message
+BRIDGED = (POSE, ODOMETRY, ODOM, TF, NAV_STATE, MAP)  # what the bridge publishes
+SUFFIXES = ("clock", "odom", "pose", "nav/state", "cmd_vel", "field")  # the zenav topics read
 ODOM_KEEP = 500  # odom samples kept to find the one a pose is for (5 s at 100 Hz)
 WALL_SINCE = 1e9  # [s] a stack time after this (2001) is wall time; before, a sim clock's
 
@@ -49,6 +54,7 @@ class Converter:
         self.offset: float | None = None  # [s] wall time minus stack time, from the clock topic
         self.unstamped = 0  # messages not converted: a sim clock's, before its first tick
         self._odom: OrderedDict[float, rm.Pose2] = OrderedDict()
+        self._field: tuple[Any, ...] | None = None  # the field last sent as a map (bounds, obstacles)
 
     def wall_time(self, t: float) -> float | None:
         """The wall time [s] of stack time `t`; None while a sim clock's offset is unknown."""
@@ -77,7 +83,19 @@ class Converter:
             return self._on_odom(msg, t)
         if isinstance(msg, m.Pose):
             return self._on_pose(msg, t)
+        if isinstance(msg, m.FieldMap):
+            return self._on_field(msg, t)
         return []
+
+    def _on_field(self, field: m.FieldMap, t: float) -> Out:
+        shape = (field.enabled, field.x_min, field.x_max, field.y_min, field.y_max, repr(field.obstacles))
+        if shape == self._field:
+            return []
+        grid = rm.occupancy_grid(self.types, field, t)
+        if grid is None:
+            return []
+        self._field = shape
+        return [(MAP, grid)]
 
     def _on_odom(self, odom: m.Odom, t: float) -> Out:
         xyt = (odom.x, odom.y, odom.theta)

@@ -2,7 +2,7 @@
 
 To ROS it is a node (default `zenav_bridge`) with, by relative name (under its namespace):
 
-- out: `odom`, `odometry`, `pose`, `/tf`, `nav/state` (tools/ros2_out.py);
+- out: `odom`, `odometry`, `pose`, `/tf`, `nav/state`, `map` (latched) (tools/ros2_out.py);
 - in: `cmd_vel` (geometry_msgs/Twist or TwistStamped) -> zenav's `cmd_vel` (t = 0, "now"; the
   motor applies its limits and watchdog), stopping a running goal first (`nav/stop`, once per
   goal, as `zenav teleop` does: the hand has the robot, not the goal); `initialpose`
@@ -31,7 +31,7 @@ from zenav.common.client import Client, Latest, ZenavError
 from zenav.common.navgoals import STOPPED
 from zenav.tools import ros2_msgs as rm
 from zenav.tools import ros2_out as ro
-from zenav.tools.rmw_zenoh import Wire
+from zenav.tools.rmw_zenoh import TRANSIENT_LOCAL, Wire
 from zenav.tools.ros2_action import NavigateToPose
 from zenav.tools.ros2_node import Node
 
@@ -76,14 +76,16 @@ class Bridge:
     def start(self) -> Bridge:
         """Declare the ROS node, its endpoints and the zenav subscriptions; start the threads."""
         node = self.node = Node(self.bus.session, self.wire)
-        self._pubs = {name: node.publisher(name, *ro.TYPES[name]) for name in ro.BRIDGED}
+        self._pubs = {
+            name: node.publisher(name, *ro.TYPES[name], durability=TRANSIENT_LOCAL if name in ro.LATCHED else None) for name in ro.BRIDGED
+        }
         handlers = {GOAL_POSE: self._goal, CMD_VEL: self._cmd_vel, INITIAL_POSE: self._initial_pose}
         for name, ros_types in SUBSCRIBED.items():
             for ros_type in ros_types:
                 node.subscription(name, ros_type, functools.partial(self._on_sample, handlers[name], ros_type))
         self.action = NavigateToPose(node, self.client, self.submit, self.counts)
         self._nav = self.client.latest("nav/state")
-        for suffix in ("clock", "odom", "pose", "nav/state"):
+        for suffix in ("clock", "odom", "pose", "nav/state", "field"):
             self.client.subscribe(suffix, self._enqueue)
         for target in (self._work, self._run_jobs):
             thread = threading.Thread(target=target, name=f"ros2-{target.__name__.strip('_')}", daemon=True)
