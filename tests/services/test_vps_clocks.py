@@ -79,4 +79,3 @@ def test_without_the_sync_a_host_off_by_a_second_puts_fixes_a_second_off(on_time
     fixes = fixes[-len(on_time) :]  # the first second's too: they wait for no sync
     # what the sync above undoes (to within half its 3 ms round trip: the stack answered at its end)
     assert all(abs(a.t - b.t - 1.0) <= 1.5e-3 + 1e-6 for a, b in zip(fixes, on_time))
-
