@@ -90,7 +90,10 @@ class Pipeline:
         """A frame as the vps gets it: rendered, shaken, through JPEG when the camera sends JPEG."""
         img = shake(self.renderer.render(t, bodies), self.errors, self.rng)
         q = self.errors.jpeg_quality
-        return cv2.imdecode(np.frombuffer(jpeg(img, q), np.uint8), cv2.IMREAD_GRAYSCALE) if q > 0 else img
+        if q <= 0:
+            return img
+        out: np.ndarray = cv2.imdecode(np.frombuffer(jpeg(img, q), np.uint8), cv2.IMREAD_GRAYSCALE)
+        return out
 
     def locate(self, img: np.ndarray, robots: dict[str, int]) -> locate.Located:
         c = self.cfg

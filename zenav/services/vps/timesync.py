@@ -6,7 +6,7 @@ reply comes (`received`). The stack's reading was taken somewhere in between, so
 `stack - (sent + received) / 2` is the offset, wrong by at most half the round trip
 (Cristian's algorithm, as NTP and PhotonVision's time sync use it). Round trips that
 waited in a queue on the way are the worst: of the last WINDOW exchanges only the
-quickest (round trip within KEEP of the quickest's) are fitted, a straight line of the
+quickest half are fitted, a straight line of the
 offset over the host's time, whose slope is the drift (a crystal's 10-100 ppm: 0.1 ms
 a second). With too few or too short a span for a slope, the quickest one's offset alone.
 """
@@ -19,7 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 WINDOW = 30  # exchanges kept (one a second: half a minute)
-KEEP = 0.002  # [s] exchanges whose round trip is within this of the quickest one's are fitted
+KEEP = 0.5  # the quickest half of the exchanges kept are fitted (at least MIN_FIT)
+MIN_FIT = 3  # exchanges a drift is fitted to at least
 MIN_SPAN = 5.0  # [s] of host time the fitted exchanges span at least for a drift to be fitted
 MAX_DRIFT = 1e-3  # a fitted drift over 1000 ppm is not a clock's: the offset alone is used
 MAX_RTT = 0.5  # [s] a longer round trip is refused: it places the stack's reading too loosely
@@ -73,19 +74,18 @@ class TimeSync:
         return ""
 
     def _fit(self) -> None:
-        best = min(e.rtt for e in self.exchanges)
-        kept = [e for e in self.exchanges if e.rtt <= best + KEEP]
-        self.rtt = best
+        quick = sorted(self.exchanges, key=lambda e: e.rtt)
+        kept = quick[: max(MIN_FIT, round(len(quick) * KEEP))]
+        self.rtt = quick[0].rtt
         t = np.array([e.mid for e in kept])
         off = np.array([e.offset for e in kept])
         self.ref = float(t.mean())
-        if len(kept) >= 3 and t.max() - t.min() >= MIN_SPAN:
+        if len(kept) >= MIN_FIT and t.max() - t.min() >= MIN_SPAN:
             slope, intercept = np.polyfit(t - self.ref, off, 1)
             if abs(slope) <= MAX_DRIFT:
                 self.offset, self.drift = float(intercept), float(slope)
                 return
-        quickest = min(kept, key=lambda e: e.rtt)
-        self.offset, self.drift, self.ref = quickest.offset, 0.0, quickest.mid
+        self.offset, self.drift, self.ref = quick[0].offset, 0.0, quick[0].mid
 
     def to_stack(self, t_host: float) -> float:
         """[s] the stack's clock when the host's read t_host."""
