@@ -92,8 +92,9 @@ class Pipeline:
         q = self.errors.jpeg_quality
         if q <= 0:
             return img
-        out: np.ndarray = cv2.imdecode(np.frombuffer(jpeg(img, q), np.uint8), cv2.IMREAD_GRAYSCALE)
-        return out
+        out = cv2.imdecode(np.frombuffer(jpeg(img, q), np.uint8), cv2.IMREAD_GRAYSCALE)
+        assert out is not None  # a JPEG just encoded
+        return np.asarray(out)
 
     def locate(self, img: np.ndarray, robots: dict[str, int]) -> locate.Located:
         c = self.cfg
