@@ -40,8 +40,11 @@ def cal_file(renderer, tmp_path_factory) -> str:
     return str(path)
 
 
+IDEAL = {"model": "ideal", "clock_sync": False}  # frames rendered without a real camera's errors, on the stack's clock
+
+
 def make(cal_file: str, **camera) -> Rig:
-    return Rig(Vps, vps={"source": "camera"}, camera={"calibration": cal_file, "robots": ROBOTS, **camera})
+    return Rig(Vps, vps={"source": "camera"}, camera={"calibration": cal_file, "robots": ROBOTS, **IDEAL, **camera})
 
 
 def frame(renderer, t: float, bodies) -> bytes:
@@ -151,7 +154,7 @@ def test_no_calibration_is_a_clear_error(tmp_path):
 
 
 def test_auto_calibration_fits_the_first_frame_then_fixes(renderer):
-    rig = Rig(Vps, vps={"source": "camera"})  # [camera] calibration = "auto", the default
+    rig = Rig(Vps, vps={"source": "camera"}, camera=IDEAL)  # [camera] calibration = "auto", the default
     rig.bus.publish(FRAME, frame(renderer, 1.0, [Body(0, 0.2, 0.3, 0.5)]))
     rig.drain()
     c = rig.svc.counters.values
@@ -196,7 +199,7 @@ def test_no_frames_is_an_error_and_a_hidden_tag_degraded(renderer, cal_file):
 
 
 def test_the_sim_publishes_frames_the_vps_reads(cal_file):
-    cam = FieldCamera(Camera(), seed=1, tag=0)
+    cam = FieldCamera(Camera(model="ideal"), seed=1, tag=0)
     assert [cam.due(t) for t in (0.0, 0.05, 0.1, 0.19, 0.2)] == [True, False, True, False, True]  # 10 Hz
     shot = cam.frame(m.Truth(t=0.0, x=0.4, y=0.6, theta=1.0, v=0.0, omega=0.0))
     assert (shot.width, shot.height, len(shot.data), shot.seq) == (640, 480, 640 * 480, 1)
@@ -210,7 +213,7 @@ def test_the_sim_publishes_frames_the_vps_reads(cal_file):
 
 
 def test_the_scenarios_vps_outage_hides_the_robot_from_the_camera(cal_file):
-    rig = Rig(Sim, sim={"camera": True}, scenario={"vps_outage_start": 0.1, "vps_outage_duration": 0.1})
+    rig = Rig(Sim, sim={"camera": True}, camera=IDEAL, scenario={"vps_outage_start": 0.1, "vps_outage_duration": 0.1})
     for _ in range(25):
         rig.advance(0.01)
         assert rig.svc.shutter is not None and rig.svc.shutter.idle(10.0)
@@ -225,7 +228,7 @@ def test_the_scenarios_vps_outage_hides_the_robot_from_the_camera(cal_file):
 
 
 def test_the_sim_renders_frames_beside_its_steps():
-    rig = Rig(Sim, sim={"camera": True})
+    rig = Rig(Sim, sim={"camera": True}, camera=IDEAL)
     assert rig.svc.shutter is not None
     for _ in range(25):
         rig.advance(0.01)
@@ -238,7 +241,7 @@ def test_the_sim_renders_frames_beside_its_steps():
 
 
 def test_a_frame_due_while_the_last_is_drawn_is_skipped_and_failures_are_told():
-    small = Camera(width=160, height=120, fx=133.25, fy=133.25)
+    small = Camera(width=160, height=120, fx=133.25, fy=133.25, model="ideal")
     release, sent = threading.Event(), []
 
     def slow_send(frame: m.CameraFrame) -> None:
@@ -259,7 +262,7 @@ def test_a_frame_due_while_the_last_is_drawn_is_skipped_and_failures_are_told():
 
 
 def test_frames_are_drawn_at_a_lower_priority_than_the_steps():
-    small = Camera(width=160, height=120, fx=133.25, fy=133.25)
+    small = Camera(width=160, height=120, fx=133.25, fy=133.25, model="ideal")
     drawn_at = []
     shutter = Shutter(FieldCamera(small, seed=1, tag=0), lambda frame: drawn_at.append(niceness()))
     assert shutter.take(m.Truth(t=0.0, x=0.5, y=0.5, theta=0.0, v=0.0, omega=0.0)) == "taken" and shutter.idle(10.0)

@@ -6,7 +6,9 @@
 and the whole stack with the camera VPS against the synthetic one; this command adds
 OpenCV's detector ([vps] detector = "opencv") for comparison.
 
-Frames are rendered by the sim's camera model from known poses; the VPS pipeline
+Frames are rendered by the sim's camera model from known poses, with a real camera's
+errors ([camera] model = "realistic": the lens off its calibration, a tilted and shaken
+mount, tag height and print scale, rolling shutter, JPEG) but for the ideal row; the VPS pipeline
 (detect, undistort, plane homography from a calibration fitted to the fixed tags in
 a frame without robots) turns them into fixes, compared with the truth. Accuracy runs
 over a grid of poses across the camera's view, at rest and moving (0.3 m/s and
@@ -23,6 +25,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import cv2
 import msgspec
 import numpy as np
 
@@ -30,14 +33,20 @@ from zenav.common import codec
 from zenav.common import messages as m
 from zenav.common.config import Camera
 from zenav.common.geometry import wrap_angle
-from zenav.services.vps import calibration, detect, locate
+from zenav.services.vps import calibration, detect, locate, placing
 from zenav.services.vps import frames as camera_frames
 from zenav.world.camera import tag_pixels
-from zenav.world.render import Body, Renderer
+from zenav.world.camera_errors import imperfect, jpeg, shake
+from zenav.world.render import Body, Renderer, pose_at
 
 # A worse camera: half the resolution, darker (longer exposure, more blur), noisier, more uneven light.
 WORSE = {"width": 320, "height": 240, "fx": 266.5, "fy": 266.5, "exposure": 0.03, "noise": 6.0, "lighting": 0.4, "k1": -0.12}
-CAMERAS = {"default 640x480": Camera(), "worse 320x240, blur, noise, distortion": msgspec.structs.replace(Camera(), **WORSE)}
+CAMERAS = {
+    "default 640x480": Camera(),  # a real camera's errors ([camera] model = "realistic")
+    "ideal 640x480": Camera(model="ideal"),  # the same without them: what the image alone allows
+    "worse 320x240, blur, noise, distortion": msgspec.structs.replace(Camera(), **WORSE),
+}
+SHAKE_STREAM = 0x534841  # the mount's shake, as the sim's camera draws it
 XS, YS = np.linspace(-0.4, 1.4, 7).tolist(), np.linspace(0.0, 1.0, 5).tolist()  # [m] the pose grid, inside the default view
 HEADINGS = (0.3, 1.9, -2.6, -1.0)  # [rad]
 MOTIONS = ((0.0, 0.0), (0.3, 1.0))  # (v [m/s], omega [rad/s])
@@ -66,12 +75,26 @@ class Accuracy:
 
 
 class Pipeline:
-    """A renderer and the VPS's detector with a calibration from the fixed tags."""
+    """The sim's camera (its errors drawn for the seed: world/camera_errors.py) and the VPS's detector with a
+    calibration from the fixed tags."""
 
     def __init__(self, cfg: Camera, backend: detect.Backend = "auto", seed: int = 1) -> None:
-        self.cfg, self.renderer, self.detector = cfg, Renderer(cfg, seed), detect.make(backend, tag_pixels(cfg))
-        tags = self.detector.detect(self.renderer.render(0.0, []))
+        self.cfg, self.errors = cfg, imperfect(cfg, seed)
+        self.renderer = Renderer(self.errors.true, seed, readout=self.errors.readout)
+        self.rng = np.random.default_rng([seed, SHAKE_STREAM])
+        self.detector = detect.make(backend, tag_pixels(cfg))
+        tags = self.detector.detect(self.shoot(0.0, []))
         self.cal = calibration.calibrate(tags, cfg)
+
+    def shoot(self, t: float, bodies: Sequence[Body]) -> np.ndarray:
+        """A frame as the vps gets it: rendered, shaken, through JPEG when the camera sends JPEG."""
+        img = shake(self.renderer.render(t, bodies), self.errors, self.rng)
+        q = self.errors.jpeg_quality
+        if q <= 0:
+            return img
+        out = cv2.imdecode(np.frombuffer(jpeg(img, q), np.uint8), cv2.IMREAD_GRAYSCALE)
+        assert out is not None  # a JPEG just encoded
+        return np.asarray(out)
 
     def locate(self, img: np.ndarray, robots: dict[str, int]) -> locate.Located:
         c = self.cfg
@@ -81,20 +104,23 @@ class Pipeline:
 
 
 def accuracy(p: Pipeline, xs: Sequence[float] = XS, ys: Sequence[float] = YS, motions: Sequence[tuple[float, float]] = MOTIONS) -> Accuracy:
-    """Errors of one robot's fixes over a grid of poses: every (x, y) [m] at every heading and motion."""
+    """Errors of one robot's fixes over a grid of poses: every (x, y) [m] at every heading and motion, each fix
+    against the truth at the time the vps stamps it (its row's, with a rolling shutter)."""
     pos, head, zp, zh, n = [], [], [], [], 0
     for k, ((x, y), th, (v, w)) in enumerate(itertools.product(itertools.product(xs, ys), HEADINGS, motions)):
         n += 1
-        img = p.renderer.render(0.1 * k, [Body(0, float(x), float(y), th, v, w)])
-        fixes = p.locate(img, {"r1": 0}).fixes
+        body = Body(0, float(x), float(y), th, v, w)
+        fixes = p.locate(p.shoot(0.1 * k, [body]), {"r1": 0}).fixes
         if not fixes:
             continue
         f = fixes[0]
-        e, eh = math.hypot(f.x - x, f.y - y), abs(wrap_angle(f.theta - th))
+        tx, ty, tth = pose_at(body, placing.stamp(0.0, f, p.cfg))
+        cov = placing.widen(f, p.cfg)
+        e, eh = math.hypot(f.x - tx, f.y - ty), abs(wrap_angle(f.theta - tth))
         pos.append(e * 1000.0)
         head.append(math.degrees(eh))
-        zp.append(e / math.sqrt(f.cov[0] + f.cov[4]))
-        zh.append(eh / math.sqrt(f.cov[8]))
+        zp.append(e / math.sqrt(cov[0] + cov[4]))
+        zh.append(eh / math.sqrt(cov[8]))
     return Accuracy(n, len(pos), (pct(pos, 50), pct(pos, 95)), (pct(head, 50), pct(head, 95)), (pct(zp, 50), pct(zh, 50)))
 
 
@@ -121,7 +147,7 @@ def timing(p: Pipeline, frames: int) -> dict[str, Timing]:
         t = 0.1 * k
         bodies = [Body(0, 0.5 + 0.6 * math.cos(t), 0.5 + 0.4 * math.sin(t), t, 0.3, 1.0), Body(1, 0.5, 0.5, -t, 0.0, -1.0)]
         marks = [(time.perf_counter(), time.thread_time())]
-        img = p.renderer.render(t, bodies)
+        img = p.shoot(t, bodies)
         marks.append((time.perf_counter(), time.thread_time()))
         msg = codec.decode(codec.encode(camera_frames.encode(img, t, k)), m.CameraFrame)
         img = camera_frames.decode(msg, p.cfg.width, p.cfg.height)
@@ -141,7 +167,7 @@ def two_robots(p: Pipeline, trials: int, seed: int = 7) -> tuple[int, int, int]:
     for k in range(trials):
         a = (rng.uniform(-0.4, 0.4), rng.uniform(0.0, 1.0), rng.uniform(-math.pi, math.pi))
         b = (rng.uniform(0.6, 1.4), rng.uniform(0.0, 1.0), rng.uniform(-math.pi, math.pi))
-        img = p.renderer.render(0.1 * k, [Body(0, *a), Body(1, *b)])
+        img = p.shoot(0.1 * k, [Body(0, *a), Body(1, *b)])
         fixes = {f.robot: f for f in p.locate(img, {"r1": 0, "r2": 1}).fixes}
         both += len(fixes) == 2
         truth = {"r1": a, "r2": b}
@@ -193,10 +219,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--frames", type=int, default=100, help="frames timed per camera (default 100)")
     ap.add_argument("--quick", action="store_true", help="only the default camera with pupil-apriltags")
     args = ap.parse_args(argv)
-    (default, cfg), (worse, worse_cfg) = CAMERAS.items()
+    (default, cfg), (ideal, ideal_cfg), (worse, worse_cfg) = CAMERAS.items()
     runs: list[tuple[str, Camera, detect.Backend]] = [(f"{default}, apriltag", cfg, "apriltag")]
     if not args.quick:
-        runs += [(f"{default}, opencv", cfg, "opencv"), (f"{worse}, apriltag", worse_cfg, "apriltag")]
+        runs += [
+            (f"{default}, opencv", cfg, "opencv"),
+            (f"{ideal}, apriltag", ideal_cfg, "apriltag"),
+            (f"{worse}, apriltag", worse_cfg, "apriltag"),
+        ]
     print("\n".join(lines({name: measure(c, args.frames, backend) for name, c, backend in runs}, args.frames)))
     return 0
 

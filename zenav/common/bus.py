@@ -50,6 +50,7 @@ class Query(Protocol):
 
 
 QueryCallback = Callable[[Query], None]
+ReplyCallback = Callable[[bool, bytes], None]  # (ok, payload) of one reply
 
 
 class Handle(Protocol):
@@ -89,6 +90,9 @@ class Bus(Protocol):
     def queryable(self, key: str, callback: QueryCallback, urgent: bool = False) -> Handle:
         """Serve queries on `key`. `urgent` (nav/stop): on a link of its own where the bus has links,
         so the query never waits behind other input still on the wire."""
+
+    def request(self, key: str, payload: bytes, callback: ReplyCallback, timeout: float = 1.0) -> None:
+        """Query `key` without waiting: `callback(ok, payload)` runs for each reply on the bus's thread (only enqueue there)."""
 
     def token(self, key: str) -> Handle: ...
 
@@ -131,8 +135,8 @@ class Subscribed:
 class MemoryQuery:
     """A query on the in-memory bus; its replies are kept for the test to read."""
 
-    def __init__(self, key: str, payload: bytes = b"", params: dict[str, str] | None = None) -> None:
-        self.key, self.payload, self.params = key, payload, dict(params or {})
+    def __init__(self, key: str, payload: bytes = b"", params: dict[str, str] | None = None, on_reply: ReplyCallback | None = None) -> None:
+        self.key, self.payload, self.params, self.on_reply = key, payload, dict(params or {}), on_reply
         self.params_size = sum(len(k) + len(v) + 2 for k, v in self.params.items())
         self.replies: list[tuple[bool, bytes]] = []  # (ok, payload)
         self.encodings: list[str] = []  # the Zenoh encoding of each reply
@@ -141,10 +145,14 @@ class MemoryQuery:
     def reply(self, data: bytes, encoding: str = MSGPACK) -> None:
         self.replies.append((True, data))
         self.encodings.append(encoding)
+        if self.on_reply is not None:
+            self.on_reply(True, data)
 
     def reply_err(self, data: bytes, encoding: str = MSGPACK) -> None:
         self.replies.append((False, data))
         self.encodings.append(encoding)
+        if self.on_reply is not None:
+            self.on_reply(False, data)
 
     def finish(self) -> None:
         self.finished = True
@@ -180,14 +188,19 @@ class MemoryBus:
         self._queryables.append(entry)
         return _MemHandle(self._queryables, entry)
 
-    def query(self, key: str, payload: bytes = b"", params: dict[str, str] | None = None) -> MemoryQuery:
-        """Send a query; the returned object collects the replies."""
-        q = MemoryQuery(key, payload, params)
+    def query(
+        self, key: str, payload: bytes = b"", params: dict[str, str] | None = None, on_reply: ReplyCallback | None = None
+    ) -> MemoryQuery:
+        """Send a query; the returned object collects the replies (and passes each to `on_reply`)."""
+        q = MemoryQuery(key, payload, params, on_reply)
         ke = zenoh.KeyExpr(key)
         for expr, cb in list(self._queryables):
             if expr.intersects(ke):
                 cb(q)
         return q
+
+    def request(self, key: str, payload: bytes, callback: ReplyCallback, timeout: float = 1.0) -> None:
+        self.query(key, payload, on_reply=callback)
 
     def token(self, key: str) -> Handle:
         entry = (key,)
@@ -460,6 +473,15 @@ class ZenohBus:
 
     def _lookup(self, key: str, timeout: float) -> set[str]:
         return {str(r.ok.key_expr) for r in self.session.liveliness().get(key, timeout=timeout) if r.ok is not None}
+
+    def request(self, key: str, payload: bytes, callback: ReplyCallback, timeout: float = 1.0) -> None:
+        def on_reply(rep: zenoh.Reply) -> None:
+            if rep.ok is not None:
+                callback(True, rep.ok.payload.to_bytes())
+            elif rep.err is not None:
+                callback(False, rep.err.payload.to_bytes())
+
+        self.session.get(key, _direct(on_reply), payload=payload, timeout=timeout)
 
     def get(self, selector: str, payload: bytes | None = None, timeout: float = 5.0, urgent: bool = False) -> list[tuple[bool, bytes]]:
         """Query and collect the replies as (ok, payload) pairs.

@@ -358,6 +358,21 @@ class Camera(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     calibration: str = AUTO_CALIBRATION
     link_delay: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.3  # [s] added after detection (the radio link)
     corner_sigma: Annotated[float, Meta(gt=0.0, le=100.0)] = 0.3  # [px] 1 sigma of a sharp tag corner, the base of a fix's covariance
+    # The camera's own errors (world/camera_errors.py): the sim renders them; the vps stamps rows by the readout and
+    # widens each fix's covariance by the rest. "ideal": none of them (unit tests that need exact figures).
+    model: Literal["realistic", "ideal"] = "realistic"
+    calibration_error: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.3  # [px] rms: the true lens off the calibrated one
+    mount_tilt: Annotated[float, Meta(ge=0.0, le=0.2)] = 0.0175  # [rad] sim: the mount off the configured tilt and yaw
+    vibration: Annotated[float, Meta(ge=0.0, le=0.05)] = 0.0003  # [rad] 1 sigma: the mount's shake, frame to frame
+    tag_height_error: Annotated[float, Meta(ge=0.0, le=0.5)] = 0.003  # [m] 1 sigma: a robot tag's true height off tag_height
+    print_scale_error: Annotated[float, Meta(ge=0.0, le=0.2)] = 0.005  # [-] 1 sigma: the printed tags' scale off 1
+    readout: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.03  # [s] rolling shutter: top row to bottom row; 0: global shutter
+    jpeg_quality: Annotated[int, Meta(ge=0, le=100)] = 80  # sim: frames sent as JPEG of this quality; 0: raw mono8
+    drop_rate: Annotated[float, Meta(ge=0.0, le=0.9)] = 0.02  # sim: fraction of frames lost on the way
+    link_jitter: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.01  # [s] 1 sigma: the link delay's spread
+    clock_sync: bool = True  # the vps measures the camera host's clock against the stack's (time/sync) and restamps
+    clock_offset: Annotated[float, Meta(ge=-1e6, le=1e6)] = 0.0  # [s] sim: the camera host's clock ahead of the stack's
+    clock_drift: Annotated[float, Meta(ge=-1e4, le=1e4)] = 0.0  # [ppm] sim: the camera host's clock running fast
 
     @property
     def principal(self) -> tuple[float, float]:

@@ -60,6 +60,7 @@ QUERIES: dict[str, tuple[type[m.Request], type[m.Reply]]] = {
     "localizer/pose": (m.Empty, m.LocalizerPoseReply),
     "localizer/set_pose": (m.SetPose, m.PoseStamped),
     "sim/reset": (m.SimReset, m.PoseStamped),
+    "time/sync": (m.Empty, m.ClockReply),
 }
 
 

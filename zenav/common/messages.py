@@ -363,6 +363,12 @@ class StatusReply(Reply, frozen=True, kw_only=True):
     plan: list[Point] | None = None  # [m] the newest goal's points as driven (detours included); nil for a turn or a straight
 
 
+class ClockReply(Reply, frozen=True, kw_only=True):
+    """The stack's clock, for a camera host measuring its own against it (time/sync)."""
+
+    t: float  # [s] stack clock when the query was served
+
+
 class LocalizerPoseReply(Reply, frozen=True, kw_only=True):
     t: float
     x: float

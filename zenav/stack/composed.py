@@ -35,7 +35,7 @@ from zenav.common.app import (
     stop_on_signals,
     watch_parent,
 )
-from zenav.common.bus import MSGPACK, Handle, MemoryBus, QueryCallback, SampleCallback, TokenCallback, ZenohBus
+from zenav.common.bus import MSGPACK, Handle, MemoryBus, QueryCallback, ReplyCallback, SampleCallback, TokenCallback, ZenohBus
 from zenav.common.config import ConfigError, Settings
 from zenav.common.roles import CONTROL_LOOP
 from zenav.common.runtime import Duplicate, Executor, Service
@@ -145,6 +145,9 @@ class LocalBus:
 
     def queryable(self, key: str, callback: QueryCallback, urgent: bool = False) -> Handle:
         return self.rest.queryable(key, callback, urgent)
+
+    def request(self, key: str, payload: bytes, callback: ReplyCallback, timeout: float = 1.0) -> None:
+        self.rest.request(key, payload, callback, timeout)
 
     def token(self, key: str) -> Handle:
         return self.rest.token(key)

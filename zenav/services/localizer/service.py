@@ -107,6 +107,11 @@ class Localizer(Service):
             raise QueryError("unavailable", "no odometry received yet")
         return m.LocalizerPoseReply(t=p.t, x=p.x, y=p.y, theta=p.theta, cov=p.cov, calibration=p.calibration, vps_latency=self.mode.latency)
 
+    @query("time/sync", acts=False)
+    def time_sync(self, req: m.Empty, q) -> m.ClockReply:
+        """The stack's clock now, for a camera host that measures its own against it (the camera vps)."""
+        return m.ClockReply(t=self.clock.now())
+
     @query("localizer/set_pose")
     def set_pose(self, req: m.SetPose, q) -> m.PoseStamped:
         """setPose / setPosition / setHeading: any subset of x, y, theta but none, from now on."""

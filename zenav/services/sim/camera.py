@@ -11,22 +11,32 @@ from __future__ import annotations
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor, wait
 
+import numpy as np
+
 from zenav.common import messages as m
 from zenav.common.config import Camera
 from zenav.common.runtime import background_thread
+from zenav.world.camera_errors import dropped, imperfect, jpeg, shake
 from zenav.world.render import Body, Renderer
+
+RNG_STREAM = 0x534841  # "SHA": the mount's shake and the frames lost
 
 
 class FieldCamera:
     """Frames of the robot with tag `tag` (None: no tag, the floor only) at `rate_hz`, on the sim's step grid;
-    `hidden(t)`: the robot is out of sight at t (the scenario's VPS outage: someone between camera and robot)."""
+    `hidden(t)`: the robot is out of sight at t (the scenario's VPS outage: someone between camera and robot).
+    The camera has a real one's errors ([camera] model, world/camera_errors.py): frames are rendered through the
+    true lens and mount, shaken, some lost, sent as JPEG, and stamped on the camera host's clock."""
 
     def __init__(self, cfg: Camera, seed: int, tag: int | None, hidden: Callable[[float], bool] = lambda t: False) -> None:
         self.cfg, self.tag, self.hidden = cfg, tag, hidden
-        self.renderer = Renderer(cfg, seed)
+        self.errors = imperfect(cfg, seed)
+        self.renderer = Renderer(self.errors.true, seed, readout=self.errors.readout)
+        self.rng = np.random.default_rng([seed, RNG_STREAM])
         self.period = 1.0 / cfg.rate_hz  # [s]
         self._next: float | None = None  # [s] time of the next frame
         self.seq = 0
+        self.lost = 0  # frames lost on the way (drop_rate)
 
     def due(self, t: float) -> bool:
         """Whether a frame is taken at sim time t [s] (and then the next one is scheduled)."""
@@ -37,15 +47,21 @@ class FieldCamera:
         self._next += self.period
         return True
 
-    def frame(self, truth: m.Truth) -> m.CameraFrame:
-        """The frame whose exposure is centred on truth.t."""
+    def frame(self, truth: m.Truth) -> m.CameraFrame | None:
+        """The frame whose exposure is centred on truth.t, stamped on the camera host's clock; None: lost on the way."""
         bodies = []
         if self.tag is not None and not self.hidden(truth.t):
             bodies.append(Body(self.tag, truth.x, truth.y, truth.theta, truth.v, truth.omega))
-        img = self.renderer.render(truth.t, bodies)
+        img = shake(self.renderer.render(truth.t, bodies), self.errors, self.rng)
         self.seq += 1
+        if dropped(self.errors, self.rng):
+            self.lost += 1
+            return None
         h, w = img.shape
-        return m.CameraFrame(t=truth.t, seq=self.seq, width=w, height=h, exposure=self.cfg.exposure, data=img.tobytes())
+        t, q = self.errors.host_time(truth.t), self.errors.jpeg_quality
+        if q > 0:
+            return m.CameraFrame(t=t, seq=self.seq, width=w, height=h, encoding="jpeg", exposure=self.cfg.exposure, data=jpeg(img, q))
+        return m.CameraFrame(t=t, seq=self.seq, width=w, height=h, exposure=self.cfg.exposure, data=img.tobytes())
 
 
 class Shutter:
@@ -71,7 +87,9 @@ class Shutter:
 
     def _shoot(self, truth: m.Truth) -> None:
         try:
-            self.send(self.camera.frame(truth))
+            frame = self.camera.frame(truth)
+            if frame is not None:
+                self.send(frame)
             self.error = ""
         except Exception as e:  # reported by the caller through `error` and `failed`: the worker must go on
             self.error = f"{type(e).__name__}: {e}"

@@ -246,6 +246,9 @@ class Sim(Service):
         outcome = self.shutter.take(truth)
         if outcome is not None:
             self.count(f"frames_{outcome}")
+        lost = self.shutter.camera.lost - self.counters.values.get("frames_lost", 0)
+        if lost > 0:  # the camera's drop_rate: lost on the way, as a real link loses frames
+            self.count("frames_lost", lost)
         failed = self.shutter.failed - self.counters.values.get("frames_failed", 0)
         if failed > 0:
             self.count("frames_failed", failed)

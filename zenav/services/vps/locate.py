@@ -34,6 +34,7 @@ class Sighting:
     theta: float  # [rad]
     cov: tuple[float, ...]  # 3x3 row-major: x, y [m^2], theta [rad^2]
     side_px: float  # [px] mean edge of the tag in the image
+    row: float = 0.0  # [px] the tag's centre's image row (a rolling shutter exposed it then)
 
 
 @dataclass
@@ -68,7 +69,9 @@ def sighting(cal: Calibration, tag: Tag, robot: str, h: float, corner_sigma: flo
     cov_xy = J @ J.T * (s * s / 4.0) + np.eye(2) * cal.rms**2
     var_th = (s / side_px) ** 2
     cov = (cov_xy[0, 0], cov_xy[0, 1], 0.0, cov_xy[1, 0], cov_xy[1, 1], 0.0, 0.0, 0.0, var_th)
-    fix = Sighting(robot, tag.id, float(centre[0]), float(centre[1]), _heading(on_plane), tuple(float(v) for v in cov), side_px)
+    fix = Sighting(
+        robot, tag.id, float(centre[0]), float(centre[1]), _heading(on_plane), tuple(float(v) for v in cov), side_px, float(c_px[1])
+    )
     return fix, edge_m
 
 

@@ -13,6 +13,7 @@ from zenav.common import codec, extras, keys
 from zenav.common import messages as m
 from zenav.common.config import Camera as CameraConfig
 from zenav.common.runtime import Duplicate, Service, timer
+from zenav.services.vps.clocks import SYNC_PERIOD, HostClock
 from zenav.services.vps.detect import Backend
 from zenav.services.vps.frames import FrameError, check_fits
 from zenav.world import faults
@@ -57,6 +58,7 @@ class Vps(Service):
         self._heard: float | None = None  # [s] clock time the newest truth sample or frame came
         self._seen = 0.0  # [s] clock time this robot's tag was last located (camera)
         self.reader: Reader | None = None
+        self.host: HostClock | None = None  # the camera host's clock and its sync to each robot's stack (camera)
         if self.cfg.source == "camera":
             self.blocking = True  # a frame takes milliseconds to detect ...
             self.background = True  # ... and the control loop must not wait for a core meanwhile
@@ -69,6 +71,7 @@ class Vps(Service):
             self.reader = Reader(cam, calibration.configured(cam), detect.make(self.cfg.detector, tag_pixels(cam)))
             self.link_delay = cam.link_delay  # [s]
             self.queues = {robot: DeliveryQueue() for robot in cam.robots}
+            self.host = HostClock(cam, self.clock, self.bus, self.settings.deployment.seed)
             self.timing: dict[str, deque[float]] = {k: deque(maxlen=TIMING_WINDOW) for k in ("pipeline_ms_p50", "detect_ms_p50")}
 
     def on_start(self) -> None:
@@ -76,8 +79,10 @@ class Vps(Service):
             self.subscribe("sim/truth", m.Truth, self.on_truth)
         else:
             self._claim_robots()
-            # A detector slower than the camera reads the newest frame each time, not one ever older.
-            self.subscribe("camera/frame", m.CameraFrame, self.on_frame, latest=True)
+            # A detector slower than the camera reads the newest frame each time, not one ever older. Frames are
+            # stamped on the camera host's clock, not this stack's: no stamp of theirs is judged against the stack's.
+            self.subscribe("camera/frame", m.CameraFrame, self.on_frame, latest=True, other_clock=True)
+            self.sync_clocks(self.clock.now())
 
     def _claim_robots(self) -> None:
         """Every robot this camera serves besides its own must have no other vps (its own stack's, or another
@@ -100,6 +105,16 @@ class Vps(Service):
         for q in self.queues.values():
             self.count("fixes_voided", len(q))
             q.clear()
+        if self.host is not None:
+            self.host.forget()
+
+    @timer(SYNC_PERIOD)
+    def sync_clocks(self, now: float) -> None:
+        """Ask each robot's stack for its clock (time/sync); take in the replies that came meanwhile."""
+        if self.host is None:
+            return
+        self._synced()
+        self.host.ask()
 
     def _behind(self, t: float) -> float | None:
         """[s] how far a stamp is behind the stack clock, when that is more than STALE (else None)."""
@@ -119,12 +134,16 @@ class Vps(Service):
             self._hold(self.robot, d)
 
     def on_frame(self, msg: m.CameraFrame) -> None:
-        """One camera frame: each robot tag in it becomes a fix, sent after the link delay."""
-        assert self.reader is not None
-        behind = self._behind(msg.t)
+        """One camera frame: each robot tag in it becomes a fix on its stack's clock, sent after the link delay."""
+        from zenav.services.vps import placing  # OpenCV's (through locate): imported once the camera is on
+
+        assert self.reader is not None and self.host is not None
+        self._synced()
+        host_now = self.host.now()
+        behind = host_now - msg.t
         try:
-            if behind is not None:
-                raise FrameError(f"stamped t={msg.t:.3f}, {behind:.3f} s behind the stack clock (more than {STALE:g} s)")
+            if self.clock.ready and abs(behind) > STALE:
+                raise FrameError(f"stamped t={msg.t:.3f}, {behind:.3f} s behind the camera host's clock (more than {STALE:g} s either way)")
             got = self.reader.read(msg)
         except FrameError as e:
             self.count("frames_refused")
@@ -144,14 +163,29 @@ class Vps(Service):
         self.count("tags_unknown", got.located.unknown)
         self.count("tags_duplicate", got.located.duplicates)
         self.count("tags_wrong_size", got.located.wrong_size)
-        for robot, fix in got.fixes:
-            self._hold(robot, Delivery(now + self.link_delay, msg.seq, fix))
-            if robot == self.robot:
+        for s in got.located.fixes:
+            t = self.host.to_stack(s.robot, placing.stamp(msg.t, s, self.reader.cfg))
+            if t is None:
+                self.count("fixes_unsynced")
+                self.warn("unsynced", f"no fix for {s.robot}: its stack has not told its clock yet (time/sync)")
+                continue
+            self._hold(s.robot, Delivery(now + self.host.link_delay(), msg.seq, placing.fix(s, max(t, 0.0), self.reader.cfg)))
+            if s.robot == self.robot:
                 self._seen = now
-        self.timing["pipeline_ms_p50"].append((now - msg.t) * 1e3)  # exposure's middle to detection done, stack clock
+        self.timing["pipeline_ms_p50"].append((host_now - msg.t) * 1e3)  # exposure's middle to detection done, host clock
         self.timing["detect_ms_p50"].append(got.detect_time * 1e3)
         for name, window in self.timing.items():
             self.counters.values[name] = round(statistics.median(window))
+
+    def _synced(self) -> None:
+        """Take in the clock replies that came since the last look; count and log the refused ones."""
+        assert self.host is not None
+        for refused in self.host.take_replies():
+            self.count("sync_refused")
+            self.warn("sync", f"time/sync reply refused: {refused}")
+        for robot, sync in self.host.syncs.items():
+            if sync.ready:
+                self.counters.values[f"clock_offset_us_{robot}"] = round(sync.offset * 1e6)
 
     def _calibrated(self, cal: Calibration) -> None:
         """A calibration fitted to the frames' fixed tags ([camera] calibration = "auto")."""
