@@ -67,7 +67,9 @@ def test_gyro_steers_the_heading_and_standing_still_reveals_its_bias():
     nz = model.Noise(TRACK, 2 * math.pi * 0.03365 / 360, 1e-6, 0.0, 1e-6, 0.0)
     s = [0.0] * 8
     P = np.diag([0.0, 0.0, 0.0, 0.05**2, 0.05**2, 0.05**2, 0.05**2, 0.05**2]).tolist()
-    for _ in range(200):  # 2 s still: the wheels show nothing, the gyro reads its bias
+    # 10 s still: the wheels show nothing, the gyro reads its bias. Each still step is weighed as any other (its counts
+    # may hide up to a tick of travel), so the bias comes in over seconds, not at once.
+    for _ in range(1000):
         s, P = model.predict(s, P, model.Step(0.0, 0.0, 0.01, 0.01 * 0.01), nz)
     assert s[model.BG] == pytest.approx(0.01, rel=0.05)
     s2, _ = model.predict(s, P, model.Step(0.0, 0.0, 0.01, 0.01 * 0.01), nz)
@@ -85,9 +87,21 @@ def test_update_pulls_to_the_fix_and_shrinks_the_covariance():
 
 
 def test_calibration_in_user_terms():
-    cal = model.calibration(state(es=0.01, ew=0.02, ed=-0.003), TRACK, gyro=False)
+    cal = model.calibration(state(es=0.01, ew=0.02, ed=-0.003), TRACK, 0.03, gyro=False)
     assert cal["distance_scale"] == pytest.approx(1.01) and cal["track_width_scale"] == pytest.approx(1.02)
     assert cal["wheel_radius_ratio"] == pytest.approx(1.013 / 1.007) and "gyro_bias" not in cal
+    # the geometry a config takes: the track and the mean diameter, and each wheel's radius
+    assert cal["track_width"] == pytest.approx(TRACK * 1.02) and cal["wheel_diameter"] == pytest.approx(0.06 * 1.01)
+    assert (cal["wheel_radius_left"], cal["wheel_radius_right"]) == pytest.approx((0.03 * 1.013, 0.03 * 1.007))
+
+
+def test_the_rounding_of_an_increment_weighs_the_same_whatever_its_counts_show():
+    """An increment that shows a tick and one that shows none are weighed alike against the gyro's: else the
+    scale estimates come out low on coarse encoders."""
+    nz = model.Noise(TRACK, tick=0.013, wheel_var=0.0, calib_var=0.0, gyro_var=1e-6, bias_var=0.0)
+    none = model.Step(0.0, 0.0, 0.01, gyro=0.05)  # turning at 5 rad/s, the counts not yet moved
+    one = model.Step(0.0065, 0.013 / TRACK, 0.01, gyro=0.05)
+    assert model._wheel_vars(none, nz)[2] == model._wheel_vars(one, nz)[2] == pytest.approx(0.013**2 / 3.0)
 
 
 def test_gyro_integral_between_samples_and_gaps():

@@ -8,7 +8,7 @@ from zenav.common.scenarios import PRESETS
 from zenav.services.localizer.base import MODES
 from zenav.services.navigator.params import CONTROLLERS
 
-SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "settle", "planning", "camera", "profile", "fleet")
+SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "settle", "planning", "camera", "peers", "profile", "fleet")
 
 
 @dataclass(frozen=True)
@@ -50,6 +50,11 @@ class Plan:
     # Realtime factor of those runs: the sim renders each frame in its own process, so faster than
     # realtime the rendering delays its steps on a small machine; 1 is how `zenav up` runs it.
     camera_rtf: float = 1.0
+    # WPILib's DifferentialDrivePoseEstimator on the stream zenav's localizer gets (bench/peers.py): each scenario's
+    # square on the live stack with each VPS (first seed), and on the world model over `wpilib_seeds`
+    wpilib_scenarios: tuple[str, ...] = ("default", "coarse", "harsh")
+    wpilib_vps: tuple[str, ...] = ("synthetic", "camera")
+    wpilib_seeds: tuple[int, ...] = (1, 2, 3, 4, 5)
     sections: tuple[str, ...] = SECTIONS
     limit: float | None = None  # [s] the whole run should take less (the quick plan's CI budget)
 
@@ -103,10 +108,13 @@ QUICK = Plan(
     camera_frames=20,
     camera_scenarios=("default",),
     camera_path_seeds=(1,),
-    # the camera, the profile, the fleet and planning only when asked (--only ...): the quick run keeps its budget
+    wpilib_scenarios=("default",),
+    wpilib_vps=("synthetic",),
+    wpilib_seeds=(1,),
+    # the camera, the peers, the profile, the fleet and planning only when asked (--only ...): the quick run keeps its budget
     planning_pairs=20,
     planning_drives=2,
-    sections=tuple(s for s in SECTIONS if s not in ("camera", "profile", "fleet", "planning")),
+    sections=tuple(s for s in SECTIONS if s not in ("camera", "peers", "profile", "fleet", "planning")),
     limit=120.0,
 )
 

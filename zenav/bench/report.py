@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from zenav.bench import cost, tables
+from zenav.bench import cost, peers, tables
 from zenav.bench.latency import END_TO_END, Stats
 from zenav.bench.profile import RATE
 from zenav.bench.run import Results
@@ -222,6 +222,8 @@ def write(res: Results, out: Path) -> Path:
         lines += ["", "## Planning", "", *res.planning]
     if res.cameras or res.camera_runs:
         lines += ["", *tables.camera(res)]
+    if res.peers:
+        lines += ["", "## WPILib's pose estimator on the same streams", "", peers.INTRO, "", *peers.lines(res.peers)]
     if res.costs:
         lines += ["", *tables.profile(res)]
     if res.fleet:

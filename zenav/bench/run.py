@@ -11,6 +11,7 @@ measures the in-process stack that the integration tests use.
 from __future__ import annotations
 
 import shutil
+import statistics
 import sys
 import tempfile
 import time
@@ -20,7 +21,7 @@ from pathlib import Path
 
 import msgspec
 
-from zenav.bench import accuracy, board, chain, cost, fleet, live, planning, profile, settle, speed, spy
+from zenav.bench import accuracy, board, chain, cost, fleet, live, peers, planning, profile, settle, speed, spy
 from zenav.bench import camera as camera_bench
 from zenav.bench.accuracy import Spec, Summary
 from zenav.bench.board import BoardRun
@@ -78,6 +79,7 @@ class Results:
     planning: list[str] = field(default_factory=list)  # the planning section's tables (markdown lines)
     cameras: dict[str, camera_bench.Measured] = field(default_factory=dict)  # camera -> its frames timed and read
     camera_runs: dict[str, list[tuple[Summary, Summary]]] = field(default_factory=dict)  # trial -> (synthetic, camera) per seed
+    peers: dict[str, list[peers.Compared]] = field(default_factory=dict)  # stream -> zenav beside WPILib's estimator on it
 
 
 def run(plan: Plan, out: Path, command: str, say: Callable[[str], None] = lambda line: print(line, file=sys.stderr)) -> Results:
@@ -198,6 +200,18 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
             res.camera_runs[trial] = [(runs.get(s, rtf), runs.get(replace(s, vps="camera"), rtf)) for s in group]
             cam = [c.pose.rmse for _, c in res.camera_runs[trial]]
             note(f"camera VPS, {trial}: pose RMSE {', '.join(f'{x * 100:.2f}' for x in cam)} cm")
+
+    if "peers" in plan.sections:
+        _peers(plan, res, logs, note)
+
+
+def _peers(plan: Plan, res: Results, logs: Path, note: Callable[[str], None]) -> None:
+    """WPILib's estimator beside zenav's localizer: the world model's streams over seeds, then the live stack's."""
+    for name, runs in peers.study(plan.wpilib_scenarios, plan.wpilib_seeds).items():
+        res.peers[f"{name}, synthetic VPS, world model, seeds {', '.join(map(str, plan.wpilib_seeds))}"] = runs
+        note(f"peers, {name}, world model: WPILib's best / zenav {statistics.fmean(c.ratio for c in runs):.1f}x")
+    rtfs = {"synthetic": res.rtf, "camera": plan.camera_rtf}
+    res.peers.update(peers.live(plan.wpilib_scenarios, plan.wpilib_vps, plan.seeds[0], plan.laps, rtfs, logs, note))
 
 
 def _busy(plan: Plan, res: Results, logs: Path, note: Callable[[str], None]) -> None:

@@ -28,7 +28,7 @@ WARMUP = scoring.WARMUP  # [s] of stack time before the first goal too (the loca
 GOAL_TIMEOUT = 60.0  # [s] of stack time a goal may take
 RECOVER = 1.0  # [s] of stack time poses must flow again after a failed goal before the next (not a burst of refusals)
 ENDED_WELL = ("succeeded", "cancelled")  # goal results that are no failure (a stop cancels the goal running)
-RECORDED = ("sim/truth", "odom", "pose", "vps/pose", "localizer/fixes", "sensors/imu", "sensors/compass")
+RECORDED = ("sim/truth", "odom", "pose", "vps/pose", "localizer/fixes", "sensors/imu", "sensors/compass", "sensors/encoders")
 
 
 class Recorder:

@@ -13,7 +13,7 @@ from zenav.common import extras
 
 # The bench's sections (bench/plan.py SECTIONS; a test keeps them equal): named here so
 # that building the parser imports none of the bench's optional packages.
-SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "settle", "planning", "camera", "profile", "fleet")
+SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "settle", "planning", "camera", "peers", "profile", "fleet")
 DEFAULT_OUT = Path("bench-report")  # a scratch directory: the committed report is written with --out docs/bench
 
 
@@ -44,6 +44,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.verbose:  # the stacks run in this process for accuracy: their warnings would flood the terminal
         logging.getLogger("zenav").setLevel(logging.ERROR)
     chosen = plan.only(plan.QUICK if args.quick else plan.FULL, args.only)
+    if "peers" in chosen.sections:
+        extras.check("wpimath", "the WPILib comparison", extra="peers")
     if args.rtf is not None:
         chosen = dataclasses.replace(chosen, rtf=args.rtf)
     args.out.mkdir(parents=True, exist_ok=True)

@@ -7,6 +7,11 @@ The end position comes from the VPS (`--measure vps`, the default) or is typed i
 left). The fit gives the track width and the right/left wheel radius ratio; the track
 width is written into the [robot] section of `--write` (default: `--config`).
 `--cw X,Y --ccw X,Y` fit end errors measured before, without driving.
+
+`--from-localizer` drives nothing: it reads the wheel geometry the running localizer has
+learnt online (the calibration of its `localizer/pose` reply: the ekf learns it from the
+gyro and the camera as the robot drives) and writes its track width and mean wheel
+diameter into [robot], so that the next run starts calibrated.
 """
 
 from __future__ import annotations
@@ -42,6 +47,9 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--speed", type=finite, default=0.15, help="top speed of a leg [m/s] (default 0.15)")
     p.add_argument("--measure", choices=("vps", "manual"), default="vps", help="where the end positions come from (default vps)")
     p.add_argument("--write", metavar="TOML", help="config file to write [robot] track_width into (default: --config; none: print it)")
+    p.add_argument(
+        "--from-localizer", action="store_true", help="write the geometry the running localizer has learnt instead of driving squares"
+    )
     p.add_argument("--cw", type=point, action="append", default=[], metavar="X,Y", help="a clockwise end error [m] measured before")
     p.add_argument("--ccw", type=point, action="append", default=[], metavar="X,Y", help="a counter-clockwise end error [m]")
     p.set_defaults(func=run)
@@ -61,6 +69,11 @@ def run(args: argparse.Namespace) -> int:
     if bool(args.cw) != bool(args.ccw):
         print("zenav calibrate: give both --cw and --ccw errors, or neither (to drive)", file=sys.stderr)
         return EXIT_USAGE
+    if args.from_localizer:
+        if args.cw or args.ccw:
+            print("zenav calibrate: --from-localizer drives no squares: give it no --cw or --ccw", file=sys.stderr)
+            return EXIT_USAGE
+        return from_localizer(args)
     runs = [u.Run(c, u.square(args.side, c, nominal.track), tuple(e)) for c in (True, False) for e in (args.cw if c else args.ccw)]
     if not runs:
         try:
@@ -78,15 +91,47 @@ def run(args: argparse.Namespace) -> int:
         print(f"zenav calibrate: {e}", file=sys.stderr)
         return EXIT_FAILED
     print(report(fit, nominal))
-    target = args.write or args.config
-    if target:
-        with open(target, encoding="utf-8") as f:
-            text = f.read()
-        with open(target, "w", encoding="utf-8") as f:
-            f.write(set_keys(text, "robot", {"track_width": round(fit.geometry.track, 5)}))
-        print(f"wrote [robot] track_width = {fit.geometry.track:.5f} into {target}")
-    else:
-        print(f"[robot]\ntrack_width = {fit.geometry.track:.5f}")
+    write(args.write or args.config, {"track_width": round(fit.geometry.track, 5)})
+    return EXIT_OK
+
+
+def write(target: str | None, values: dict[str, float]) -> None:
+    """Set [robot] `values` in the config file `target` (None: print them as its lines)."""
+    lines = "\n".join(f"{k} = {v!r}" for k, v in values.items())
+    if not target:
+        print(f"[robot]\n{lines}")
+        return
+    with open(target, encoding="utf-8") as f:
+        text = f.read()
+    with open(target, "w", encoding="utf-8") as f:
+        f.write(set_keys(text, "robot", values))
+    print(f"wrote [robot] {', '.join(f'{k} = {v}' for k, v in values.items())} into {target}")
+
+
+LEARNT = ("track_width", "wheel_diameter", "wheel_radius_left", "wheel_radius_right")  # the calibration's geometry [m]
+
+
+def from_localizer(args: argparse.Namespace) -> int:
+    """Read the running localizer's learnt geometry and write it into [robot]."""
+    try:
+        with Client(args.robot or "r1", args.connect, connect_timeout=CONNECT_TIMEOUT) as client:
+            reply = client.query("localizer/pose")
+    except ZenavError as e:
+        print(f"zenav calibrate: the localizer: {e}", file=sys.stderr)
+        return EXIT_UNAVAILABLE
+    cal = reply.calibration
+    if not all(k in cal for k in LEARNT):
+        print('zenav calibrate: the localizer learns no geometry in its mode (only [localizer] mode = "ekf" does)', file=sys.stderr)
+        return EXIT_FAILED
+    if cal["distance_scale"] == 1.0 and cal["track_width_scale"] == 1.0:
+        print("zenav calibrate: the localizer has learnt nothing yet: drive the robot where the camera sees it first", file=sys.stderr)
+        return EXIT_FAILED
+    print(
+        f"track width  {cal['track_width'] * 1e3:.2f} mm (x{cal['track_width_scale']:.4f} of the running config's)\n"
+        f"wheels       {cal['wheel_diameter'] * 1e3:.3f} mm diameter (x{cal['distance_scale']:.4f}); radii left / right "
+        f"{cal['wheel_radius_left'] * 1e3:.3f} / {cal['wheel_radius_right'] * 1e3:.3f} mm ([robot] takes their mean)"
+    )
+    write(args.write or args.config, {"wheel_diameter": round(cal["wheel_diameter"], 6), "track_width": round(cal["track_width"], 6)})
     return EXIT_OK
 
 

@@ -22,6 +22,7 @@ PACKAGES: dict[str, tuple[str, str]] = {
     "foxglove": ("foxglove-sdk", "tools"),
     "matplotlib": ("matplotlib", "tools"),
     "rosbags": ("rosbags", "ros2"),
+    "wpimath": ("robotpy-wpimath", "peers"),
 }
 
 

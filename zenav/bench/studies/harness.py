@@ -2,7 +2,7 @@
 
     trial = Trial(Robot(), scenario, seed=1)
     trial.run(lambda tr: tr.bot.wheels(0.2, 0.0), duration=5.0)  # wheel commands [rad/s], None to stop
-    trial.streams.truth, .odom, .imu, .compass, .fixes
+    trial.streams.truth, .odom, .imu, .compass, .encoders, .fixes
 
 Each sample is what the sim and vps services would publish at that t: the truth, the
 IMU, the compass on its own schedule, the encoders turned into odometry by the
@@ -50,6 +50,7 @@ class Streams:
     odom: list[m.Odom] = field(default_factory=list)
     imu: list[m.Imu] = field(default_factory=list)
     compass: list[m.Compass] = field(default_factory=list)
+    encoders: list[m.Encoders] = field(default_factory=list)  # the counts odometry is computed from (a peer estimator's input)
     fixes: list[tuple[float, m.VpsPose]] = field(default_factory=list)  # (arrival time [s], fix), in arrival order
 
 
@@ -123,6 +124,7 @@ class Trial:
             self.odometry, _ = od.on_compass(self.odometry, fx.stamp, heading)
         left, right = self.bot.encoders()
         left = self.hold.apply(fx, left)
+        out.encoders.append(m.Encoders(t=fx.stamp, left=left, right=right))
         for _ in range(fx.copies):
             self.odometry, odom, event = od.update(self.odometry, self.params, left, right, fx.stamp, self.cmd)
             if event == od.BASELINE:  # the odom frame's origin, so that every stream starts at t = 0
