@@ -55,3 +55,35 @@ def test_a_simulated_robot_that_drives_into_another_stops_at_its_body(make_stack
     assert end.x > 0.25 and there.x == 0.5  # it drove up to r2, and did not push it
     diag = client.latest("diag/sim").wait(lambda d: d.counters.get("contacts", 0) >= 1, timeout=10.0)
     assert diag.counters["contacts"] == 1
+
+
+STACK = ["sim", "motor", "odometry", "vps", "localizer", "navigator"]
+NAV = {"stale_after": 2.0, "tolerance": 0.03}  # six services per robot share one process: a pose may come late
+
+
+def test_two_robots_swapping_places_both_arrive_and_their_sims_count_no_contact(make_stack, router, client):
+    """Each navigator drives round the other robot's body (zenav/field/robots): both goals reached, no contact."""
+    make_stack(STACK, sim={"camera": False, "x0": 0.0, "y0": 0.5}, navigator=NAV)
+    make_stack(STACK, deployment={"robot": "r2"}, sim={"camera": False, "x0": 1.2, "y0": 0.5, "theta0": math.pi}, navigator=NAV)
+    with Client("r2", router) as r2:
+        bots = {"r1": client, "r2": r2}
+        for c in bots.values():
+            c.wait_alive(STACK, timeout=30.0)
+            pose = c.latest("pose")
+            for _ in range(300):  # bounded: a pose 0.1 s apart each, 30 s of stack time at most
+                if not c.query("nav/status").not_ready:
+                    break
+                t = pose.wait(timeout=10.0).t
+                pose.wait(lambda p, t=t: p.t >= t + 0.1, timeout=10.0)
+        states = {name: c.latest("nav/state") for name, c in bots.items()}
+        ids = {
+            "r1": client.query("nav/move_to_point", {"x": 1.2, "y": 0.5}).goal_id,
+            "r2": r2.query("nav/move_to_point", {"x": 0.0, "y": 0.5}).goal_id,
+        }
+        ends = {n: s.wait(lambda st, n=n: st.goal_id == ids[n] and st.result is not None, timeout=120.0) for n, s in states.items()}
+        assert {n: (e.result, e.message) for n, e in ends.items()} == {"r1": ("succeeded", "arrived"), "r2": ("succeeded", "arrived")}
+        for c in bots.values():
+            diag = c.latest("diag/sim").wait(timeout=10.0)
+            assert diag.counters.get("contacts", 0) == 0
+        truth = {n: c.latest("sim/truth").wait(timeout=10.0) for n, c in bots.items()}
+    assert math.hypot(truth["r1"].x - 1.2, truth["r1"].y - 0.5) < 0.05 and math.hypot(truth["r2"].x, truth["r2"].y - 0.5) < 0.05

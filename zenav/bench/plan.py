@@ -44,6 +44,7 @@ class Plan:
     settle_trials: int = 100  # seeded trials per move of the settle table (bench/settle.py)
     planning_pairs: int = 200  # reachable random start/goal pairs per layout (bench/planning.py)
     planning_drives: int = 20  # goals planned round obstacles driven per layout
+    crossing_runs: int = 50  # perturbed runs of 2 robots swapping and of 4 crossing the centre (bench/crossing.py)
     camera_frames: int = 200  # frames rendered and read per camera (bench/camera.py)
     camera_scenarios: tuple[str, ...] = ("default", "harsh")  # the square with the camera VPS and with the synthetic, first seed
     camera_path_seeds: tuple[int, ...] = (1, 2, 3)  # seed 002's path trial with the camera VPS and with the synthetic
@@ -114,6 +115,7 @@ QUICK = Plan(
     # the camera, the peers, the profile, the fleet and planning only when asked (--only ...): the quick run keeps its budget
     planning_pairs=20,
     planning_drives=2,
+    crossing_runs=3,
     sections=tuple(s for s in SECTIONS if s not in ("camera", "peers", "profile", "fleet", "planning")),
     limit=120.0,
 )

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import msgspec
 
-from zenav.bench import accuracy, board, chain, cost, fleet, live, peers, planning, profile, settle, speed, spy
+from zenav.bench import accuracy, board, chain, cost, crossing, fleet, live, peers, planning, profile, settle, speed, spy
 from zenav.bench import camera as camera_bench
 from zenav.bench.accuracy import Spec, Summary
 from zenav.bench.board import BoardRun
@@ -187,8 +187,11 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
         res.settle["the camera VPS's pose error"] = camera
         note(f"settle table: {plan.settle_trials} trials per move, two pose errors")
     if "planning" in plan.sections:
-        res.planning = planning.report(plan.planning_pairs, plan.planning_drives)
-        note(f"planning: {plan.planning_pairs} pairs and {plan.planning_drives} driven goals per layout")
+        res.planning = planning.report(plan.planning_pairs, plan.planning_drives) + ["", *crossing.report(plan.crossing_runs)]
+        note(
+            f"planning: {plan.planning_pairs} pairs and {plan.planning_drives} driven goals per layout; "
+            f"{plan.crossing_runs} runs of crossing robots per case"
+        )
     if "camera" in plan.sections:
         for name, cfg in camera_bench.CAMERAS.items():
             res.cameras[name] = r = camera_bench.measure(cfg, plan.camera_frames)

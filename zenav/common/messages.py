@@ -114,6 +114,8 @@ class Body(Topic, frozen=True, kw_only=True):
     x: Coord  # [m] map frame: the centre of the disc
     y: Coord  # [m]
     radius: Annotated[float, Meta(gt=0.0, le=10.0)]  # [m] the footprint, a disc
+    theta: Angle | None = None  # [rad] `robots`: its heading (None: not sent)
+    v: Velocity | None = None  # [m/s] `robots`: its forward speed (None: not sent; taken as standing)
 
 
 class Odom(Topic, frozen=True, kw_only=True):
@@ -172,6 +174,7 @@ class NavState(Topic, frozen=True, kw_only=True):
     position_sigma: Finite | None = None  # [m] 1 sigma of the newest pose's position (its worst axis); nil before the first
     heading_sigma: Finite | None = None  # [rad] 1 sigma of its heading
     guard: str = ""  # what the motor's safety layer holds the commands back for now (motor/guard); "": nothing
+    traffic: str = ""  # why the goal waits for another robot now (e.g. "waiting for robot r1 to leave the goal"); "": it does not
 
 
 class FieldMap(Topic, frozen=True, kw_only=True):

@@ -165,7 +165,7 @@ class Motor(Service):
         pose = self.pose
         if pose is None or now - pose.t > self.cfg.guard_pose_age:
             return None
-        return m.Body(t=pose.t, robot=self.robot, x=pose.x, y=pose.y, radius=self.radius)
+        return m.Body(t=pose.t, robot=self.robot, x=pose.x, y=pose.y, radius=self.radius, theta=pose.theta, v=pose.v)
 
     @timer("watchdog_period")
     @publish("motors/wheels")

@@ -35,6 +35,8 @@ class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     tolerance: Pos = 0.01  # [m] goal position tolerance of a goal that names none
     heading_tolerance: Pos = 0.0175  # [rad] heading tolerance of a turn or pose that names none (1 deg: above the fused heading noise)
     waypoint_tolerance: Pos = 0.05  # [m] follow_path: tolerance of an intermediate point that names none (seed 002)
+    avoid_robots: bool = True  # drive round the other robots on the field (`robots`), keeping right, and give way by id
+    robot_wait: Pos = 20.0  # [s] a goal that waited for other robots this long in all aborts (stalled)
     corner_tolerance: Pos = 0.01  # [m] a planned detour's corners are passed within this ([field] margin must hold it)
     through_speed: NonNeg = 0.08  # [m/s] follow_path: slowest speed through an intermediate point (0: may stop)
     lock_distance: NonNeg = 0.08  # [m] this close to the final point the robot stops turning toward it

@@ -23,6 +23,7 @@ nav/status report the sigmas, and the first goal that runs past a limit logs it 
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Callable
 from typing import Any
@@ -35,12 +36,15 @@ from zenav.common.geometry import wrap_angle
 from zenav.common.runtime import QueryError, Service, on_liveliness, publish, query, reply_error, reply_ok, subscribe, timer
 from zenav.services.navigator import goals, intake, planner, routing
 from zenav.services.navigator.controllers import PoseSample, Wheelbase, check_polar_gains, sigmas
-from zenav.services.navigator.goals import End, GoalMachine, Refused
+from zenav.services.navigator.goals import End, Refused
 from zenav.services.navigator.params import Params
 from zenav.services.navigator.requests import LOST, START, Request, Requests
+from zenav.services.navigator.traffic import Other, Traffic
+from zenav.services.navigator.traffic_machine import TrafficMachine
 
 LEASE_CHARS = 256  # a lease key longer than this is refused (it shows in nav/state and the log)
 FIELD_PERIOD = 1.0  # [s] between two `field` messages
+BODY_KEPT = 0.5  # [s] another robot's body not heard from for this long is forgotten (as the motor's guard does)
 
 
 class Navigator(Service):
@@ -59,11 +63,14 @@ class Navigator(Service):
         self.check_period, self.state_period = cfg.check_period, cfg.state_period  # read by @timer
         r = settings.robot
         self.area = settings.field
-        self.machine = GoalMachine(cfg, Wheelbase(r.track_width, r.wheel_radius, r.max_wheel_speed), self.area, gated=False)
+        wheels = Wheelbase(r.track_width, r.wheel_radius, r.max_wheel_speed)
+        self.planner = planner.Planner(self.area, r.radius + self.area.margin)  # the field's visibility graph, built once
+        traffic = Traffic(self.robot, r.radius, self.area.margin, self.planner) if cfg.avoid_robots else None
+        self.machine = TrafficMachine(cfg, wheels, self.area, gated=False, traffic=traffic, wait_limit=cfg.robot_wait)
+        self.robot_bodies: dict[str, tuple[float, Other]] = {}  # robot -> (clock time heard, its body)
         self._doubt_told = False  # the warning that a goal drives on an uncertain pose (no vps) was logged
         self.requests = Requests()
         self.radius = r.radius  # [m] the footprint
-        self.planner = planner.Planner(self.area, r.radius + self.area.margin)  # the field's visibility graph, built once
         self._plan: list[tuple[float, ...]] | None = None  # the newest goal's points as driven
         self._guard = ""  # what the motor's guard holds the commands back for now ("": nothing)
         self._info: dict[str, Any] | None = None  # the newest goal, as nav/state shows it
@@ -85,7 +92,12 @@ class Navigator(Service):
             self.warn("pose_order", f"dropped a pose out of order (t {msg.t:.3f} < {last.t:.3f})")
             return None
         sample = PoseSample(msg.t, msg.x, msg.y, wrap_angle(msg.theta), msg.v, msg.omega, *sigmas(msg.cov), msg.slipping)
-        cmd, end = self.machine.on_pose(sample)
+        why = self.machine.why
+        cmd, end = self.machine.drive(sample, self._bodies())
+        if self.machine.why != why:
+            if self.machine.why:
+                self.log.info("goal %d: %s", self.machine.goal_id, self.machine.why)
+            self.publish("nav/state", self._state(self.clock.now()))
         if end is not None:
             self._ended(end, zero=False)  # the zero goes out below, with this pose's t
         if self._holding is not None:
@@ -150,6 +162,18 @@ class Navigator(Service):
         if end is not None:
             self._ended(end)
             self._show_changes()
+
+    def on_body(self, msg: m.Body) -> None:
+        """Another robot's body on the field (this robot's own comes back too: not kept)."""
+        if msg.robot != self.robot:
+            v = msg.v or 0.0
+            theta = msg.theta or 0.0
+            other = Other(msg.robot, msg.x, msg.y, msg.radius, v * math.cos(theta), v * math.sin(theta))
+            self.robot_bodies[msg.robot] = (self.clock.now(), other)
+
+    def on_start(self) -> None:
+        if self.cfg.avoid_robots:
+            self.subscribe("robots", m.Body, self.on_body, other_clock=True)  # each robot stamps on its own clock
 
     @subscribe("motor/guard")
     def guard_state(self, msg: m.GuardState) -> None:
@@ -288,6 +312,13 @@ class Navigator(Service):
         if end is not None:
             self._ended(end)
             self._show_changes()
+
+    def _bodies(self) -> list[Other]:
+        """The other robots heard within BODY_KEPT."""
+        now = self.clock.now()
+        for robot in [r for r, (heard, _) in self.robot_bodies.items() if now - heard > BODY_KEPT]:
+            del self.robot_bodies[robot]
+        return [o for _, o in self.robot_bodies.values()]
 
     def _pose_or_unavailable(self) -> PoseSample:
         """The newest pose, if a goal may start on it; else an `unavailable` reply."""
@@ -494,6 +525,7 @@ class Navigator(Service):
             position_sigma=self._sigmas()[0],
             heading_sigma=self._sigmas()[1],
             guard=self._guard,
+            traffic=self.machine.why,
         )
 
     def _show_changes(self) -> None:

@@ -1,0 +1,64 @@
+"""The navigator among other robots (their bodies on zenav/field/robots): round one in the way, waiting for one on the goal."""
+
+import math
+
+from tests.support.navigator import Rig, reply
+from zenav.common import codec, keys
+from zenav.common import messages as m
+
+REACH = 0.1 + 0.1 + 0.05  # [m] both footprints and the margin
+
+
+def body(rig, robot, x, y, v=0.0, theta=0.0):
+    """Another robot's body, as its motor sends it."""
+    msg = m.Body(t=rig.clock.now(), robot=robot, x=x, y=y, radius=0.1, theta=theta, v=v)
+    rig.bus.publish(keys.field_key("robots"), codec.encode(msg))
+
+
+def test_a_robot_standing_on_the_way_is_driven_round_on_the_right():
+    rig = Rig()
+    rig.pose()
+    q = rig.query("nav/move_to_point", {"x": 1.2, "y": 0.0, "wait": True})
+    least, side = math.inf, 0.0
+    for _ in range(4000):
+        if q.replies:
+            break
+        body(rig, "r2", 0.6, 0.0)  # on the straight way, in the middle
+        rig.step()
+        least = min(least, math.hypot(rig.x - 0.6, rig.y))
+        side = min(side, rig.y)
+    rep = reply(q)
+    assert rep.result == "succeeded" and math.hypot(rig.x - 1.2, rig.y) < 0.01
+    assert least >= REACH  # never closer than both footprints and the margin
+    assert side < -REACH + 0.05  # passed it on the right (heading +x: right is -y)
+    rig.nav.close()
+
+
+def test_a_robot_standing_on_the_goal_makes_it_wait_saying_why_then_give_up_after_robot_wait():
+    rig = Rig(robot_wait=2.0)
+    rig.pose()
+    q = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "wait": True})
+    why = set()
+    for _ in range(3000):
+        if q.replies:
+            break
+        body(rig, "r0", 1.0, 0.0)
+        rig.step()
+        why |= {s.traffic for s in rig.published("nav/state")}
+    rep = reply(q)
+    assert rep.result == "aborted" and rep.exit == "stalled"
+    assert "waiting for robot r0 to leave the goal" in rep.message and "robot_wait = 2" in rep.message
+    assert "waiting for robot r0 to leave the goal" in why
+    assert math.hypot(rig.x - 1.0, rig.y) >= REACH  # it stood clear of it
+    rig.nav.close()
+
+
+def test_avoid_robots_false_leaves_them_to_the_guard():
+    rig = Rig(avoid_robots=False)
+    rig.pose()
+    rig.query("nav/move_to_point", {"x": 1.2, "y": 0.0})
+    for _ in range(300):
+        body(rig, "r2", 0.6, 0.0)
+        rig.step()
+    assert abs(rig.y) < 0.01  # straight on, at it
+    rig.nav.close()

@@ -1,0 +1,111 @@
+"""The goal machine among other robots: each pose, traffic.py decides whether the goal drives on, waits, or detours.
+
+Pure, like the machine it extends: the pose and the other robots' bodies come in as arguments. Only goals through
+points (move_to_point, move_to_pose, follow_path) are steered round robots, while they drive between their points
+(not while turning at the end or settling); turns and straights are left to the motor's guard. A robot waits standing
+(zero commanded, no progress expected, a fresh controller when it drives on) for at most `robot_wait` [s] in all
+before it drives again; then the goal aborts (stalled) saying whom it waited for. A detour replaces the way's next
+points up to where it rejoins them; its corners are passed within `waypoint_tolerance`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import replace
+
+from zenav.common.config import Field
+from zenav.services.navigator import exits
+from zenav.services.navigator.controllers import PoseSample, Wheelbase
+from zenav.services.navigator.goals import FOLLOWING_PATH, MOVING_TO_POINT, MOVING_TO_POSE, End, Goal, GoalMachine, _Run, behind, path_rest
+from zenav.services.navigator.params import Params
+from zenav.services.navigator.traffic import Decision, Other, Traffic
+
+REPLAN = 0.2  # [s] after a detour or a wait, decided again this much later (planning costs milliseconds)
+STEERED = (MOVING_TO_POINT, MOVING_TO_POSE, FOLLOWING_PATH)
+
+Command = tuple[float, float]
+
+
+class TrafficMachine(GoalMachine):
+    """A GoalMachine that gives way to, and drives round, other robots (`drive` in place of `on_pose`)."""
+
+    def __init__(
+        self,
+        params: Params,
+        wheels: Wheelbase,
+        area: Field | None = None,
+        gated: bool = True,
+        traffic: Traffic | None = None,
+        wait_limit: float = 20.0,
+    ) -> None:
+        super().__init__(params, wheels, area, gated)
+        self.traffic = traffic  # None: other robots are left to the guard
+        self.wait_limit = wait_limit  # [s] of waiting in all, per goal
+        self.waiting = ""  # the robot waited for now ("": none)
+        self.why = ""  # why it waits, for nav/state ("": it does not)
+        self.detours = 0  # detours taken round robots (diag)
+        self.waits = 0  # times it stopped to wait (diag)
+        self._waited = 0.0  # [s] waited so far by the running goal
+        self._since: float | None = None  # [s] pose t of the last pose waited on
+        self._next = -math.inf  # [s] pose t from which to decide again
+
+    def start(self, goal: Goal, now: float) -> End | None:
+        """Start a goal (GoalMachine.start), its waiting counted afresh."""
+        self._waited, self._since, self.waiting, self.why, self._next = 0.0, None, "", "", -math.inf
+        return super().start(goal, now)
+
+    def drive(self, pose: PoseSample, others: Sequence[Other]) -> tuple[Command | None, End | None]:
+        """Take a pose among `others`: the command (None when idle), and the End if the goal ended."""
+        run = self._run
+        decision = Decision()
+        if self.traffic is not None and run is not None and others and self._steered(run):
+            if pose.t < self._next:  # decided a moment ago: as then (a wait goes on; a detour is driven)
+                decision = Decision(self.waiting, self.why)
+            else:
+                decision = self.traffic.decide((pose.x, pose.y), run.goal.points[run.index :], others)
+                if decision.detour is not None or decision.wait:
+                    self._next = pose.t + REPLAN
+        if run is not None and decision.detour is not None:
+            self._reroute(run, pose, decision)
+        if run is None or decision.driving:
+            self.waiting, self.why, self._since = "", "", None
+            return self.on_pose(pose)
+        if not self.waiting:
+            self.waits += 1
+        if self._since is not None:
+            self._waited += max(pose.t - self._since, 0.0)
+        self.waiting, self.why, self._since = decision.wait, decision.why, pose.t
+        if self._waited > self.wait_limit:
+            why = self.why
+            self.waiting, self.why, self._since = "", "", None
+            return (0.0, 0.0), self.abort(f"{why}: waited {self._waited:.1f} s, over robot_wait = {self.wait_limit:g} s", exits.STALLED)
+        self._pause(run, pose)
+        return (0.0, 0.0), None
+
+    @staticmethod
+    def _steered(run: _Run) -> bool:
+        """Whether the run drives between points now (not turning at its end, facing, settling or chained)."""
+        return run.goal.state in STEERED and run.settle_from is None and not run.turning and not run.facing and run.exit is None
+
+    def _pause(self, run: _Run, pose: PoseSample) -> None:
+        """Stand still on this pose: zero commanded, the progress check restarted, a fresh controller for later."""
+        self._lag(pose.t)
+        self.pose = pose
+        self._cmd = (0.0, 0.0)
+        run.best, run.locked = None, False
+        self._aim(run, behind(pose) if run.sign < 0.0 else pose)
+
+    def _reroute(self, run: _Run, pose: PoseSample, decision: Decision) -> None:
+        """The way's next points up to `rejoin` replaced by the detour."""
+        assert decision.detour is not None
+        self.detours += 1
+        goal, i, k = run.goal, run.index, decision.rejoin
+        tols = [self._point_tolerance(run, j) for j in range(len(goal.points))]
+        corners = len(decision.detour) - 1
+        points = goal.points[:i] + decision.detour + goal.points[i + k + 1 :]
+        tolerances = tols[:i] + [self.params.waypoint_tolerance] * corners + tols[i + k :]
+        run.goal = replace(goal, points=tuple(points), point_tolerances=tuple(tolerances))
+        run.rest = path_rest(run.goal.points)
+        run.locked = False
+        self._aim(run, behind(pose) if run.sign < 0.0 else pose)
