@@ -152,6 +152,7 @@ class Vps(Service):
         self.timing["detect_ms_p50"].append(got.detect_time * 1e3)
         for name, window in self.timing.items():
             self.counters.values[name] = round(statistics.median(window))
+        self.reader.explore()  # the frame's periodic whole search, its fixes out
 
     def _calibrated(self, cal: Calibration) -> None:
         """A calibration fitted to the frames' fixed tags ([camera] calibration = "auto")."""
