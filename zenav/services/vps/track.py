@@ -5,7 +5,8 @@ sightings put it now (constant velocity in the image), wide enough for the tag a
 a robot at MAX_SPEED since then. The whole frame is searched every FULL_PERIOD (`due`: it
 catches what a window cannot; the caller may do it once the frame's fixes are out), at
 once, on the same frame, when a followed tag is not in its window (`lost`), and every
-frame while a robot's tag is not followed (out of view): no fix is lost to the windows. Pure: the caller runs the detector on the windows it is given.
+frame while a robot's tag is not followed (out of view): no fix is lost to the windows.
+Pure: the caller runs the detector on the windows it is given.
 """
 
 from __future__ import annotations
