@@ -158,6 +158,7 @@ class Observer:
     """The observer process for one robot: recording from start() until stages()."""
 
     def __init__(self, connect: str, robot: str, mode: str = "client") -> None:
+        self.robot = robot
         self.args = [sys.executable, "-m", "zenav.bench.latency", "observe", "--connect", connect, "--robot", robot, "--mode", mode]
         self.proc: subprocess.Popen[str] | None = None
 

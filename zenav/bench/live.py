@@ -20,7 +20,9 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-from zenav.bench import trials
+from zenav.bench import chain, trials
+from zenav.bench.arm import Arm
+from zenav.bench.chain import Chain
 from zenav.bench.latency import Observer
 from zenav.common import messages as m
 from zenav.common.bus import ZenohBus
@@ -85,6 +87,8 @@ class Live:
     bench_cpu: float  # [s] CPU time of this process (driving the robots; the latency observer is its own) in the window
     machine_busy: float  # fraction of all cores busy in the window (every process on the machine)
     goal_failures: list[str]  # goals aborted or refused, all robots, whole run: why
+    arm: dict[str, list[float]] | None = None  # the relay arm's chain over the same window (bench/arm.py), if run
+    bare: Chain | None = None  # the bare five-hop chain over the same window (bench/chain.py), if run
 
 
 def _diags(client: Client) -> dict[str, Latest]:
@@ -102,6 +106,7 @@ def run(
     compose: tuple[str, ...] = (),
     realtime: int = 0,
     during: Callable[[dict[tuple[str, str], int]], object] | None = None,
+    beside: bool = False,
 ) -> Live:
     """Start robots r1..rN at `rate` [Hz] and `rtf`, drive them, measure `window` wall seconds.
 
@@ -110,6 +115,8 @@ def run(
     realtime: the control loop's and the router's SCHED_FIFO priority (`[deployment] realtime`; 0: normal).
     during: run in the window instead of waiting it out, given every process's pid by (robot, service), for
     about `window` seconds (bench/spy.py's sampling).
+    beside: in the same window on the same router, the relay arm (bench/arm.py) in the same deployment and, with
+    the services as separate processes, the bare five-hop chain (bench/chain.py), which then sets the window's length.
     """
     ids = tuple(f"r{i + 1}" for i in range(robots))
     args = ["--scenario", scenario, "--set", f"sim.rtf={rtf}", "--set", f"scenario.sensor_rate_hz={rate}", "--zenoh-mode", zenoh_mode]
@@ -120,6 +127,8 @@ def run(
     bus = None
     stop = threading.Event()
     observer = Observer(stack.endpoint, ids[0], zenoh_mode)  # r1's chain, in the services' mode
+    arm = Arm(stack.endpoint, args, log_dir / "relay-arm-sim.log", zenoh_mode, composed=bool(compose)) if beside else None
+    bare: Chain | None = None
     try:
         bus = ZenohBus.open(stack.endpoint)
         bots = {r: Robot(r, bus=bus, lease=False) for r in ids}  # sharing one session: the bus closes it
@@ -129,6 +138,9 @@ def run(
         for b in bots.values():
             stack.check()
             trials.wait_ready(b, rtf, timeout=max(deadline - time.monotonic(), 1.0))
+        if arm is not None:
+            arm.start()
+            Robot(arm.observer.robot, bus=bus, lease=False).client.latest("clock").wait(timeout=START_TIMEOUT)
         goals: dict[str, list[trials.GoalEnd]] = {r: [] for r in ids}
         drivers = [trials.drive(b, goals[r], stop, rtf) for r, b in bots.items()]
         stop.wait(SETTLE)
@@ -137,11 +149,14 @@ def run(
         before = {r: {s: d.wait() for s, d in ds.items()} for r, ds in diags.items()}
         p0, busy0, self0 = stack.sample(), machine_cpu(), os.times()
         w0, sim0 = time.monotonic(), {r: c.msg.t for r, c in clocks.items()}
-        if during is None:
-            time.sleep(window)  # the window: the robots drive, the observer stamps
-        else:
+        if during is not None:
             during(stack.pids())
-        chain = observer.stages()
+        elif arm is not None and not compose:
+            bare = chain.measure(stack.endpoint, rate, window, zenoh_mode)  # the window: the chain's samples
+        else:
+            time.sleep(window)  # the window: the robots drive, the observer stamps
+        stages = observer.stages()
+        arm_stages = arm.stages() if arm is not None else None
         p1, busy1, self1 = stack.sample(), machine_cpu(), os.times()
         w1, sim1 = time.monotonic(), {r: c.msg.t for r, c in clocks.items()}
         stack.check()
@@ -157,6 +172,8 @@ def run(
     finally:
         stop.set()
         observer.close()
+        if arm is not None:
+            arm.close()
         if bus is not None:
             bus.close()
         stack.stop()
@@ -173,10 +190,12 @@ def run(
         counters={(r, s): _increase(before[r][s], after[r][s]) for r, s in keys},
         serve={(r, s): after[r][s].serve for r, s in keys},  # the diag that closes the window: its last second
         diag_span={(r, s): after[r][s].t - before[r][s].t for r, s in keys},
-        chain=chain,
+        chain=stages,
         bench_cpu=(self1.user + self1.system) - (self0.user + self0.system),
         machine_busy=(busy1[0] - busy0[0]) / max(busy1[1] - busy0[1], 1e-9),
         goal_failures=[f"{r}: {f}" for r, gs in goals.items() for f in trials.failed(gs)],
+        arm=arm_stages,
+        bare=bare,
     )
 
 

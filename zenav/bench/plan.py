@@ -15,7 +15,7 @@ SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "settle", "pla
 class Plan:
     """How much one bench run measures."""
 
-    latency_window: float  # [s] one robot at 100 Hz: latency and per-process cost
+    latency_window: float  # [s] one robot at 100 Hz: each latency run, and the cost run
     sweep_window: float  # [s] each other point of the rate and robot sweeps
     rates: tuple[float, ...]  # [Hz] sensor rates swept, one robot
     robots: tuple[int, ...]  # robot counts swept on one router, at 100 Hz
@@ -32,6 +32,7 @@ class Plan:
     path_seeds: tuple[int, ...]  # seed 002's path trial (then the turn sweep) per controller
     square_laps: float  # seed 003's square per controller (0: not run)
     kinematic_seeds: int  # the navigator's kinematic path trial per controller (bench/studies/navigator.py)
+    latency_runs: int = 3  # latency runs per deployment, the deployments interleaved (bench/added.py pools them)
     compose: tuple[str, ...] = ("odometry", "localizer", "navigator", "motor")  # run again composed in one process (none: not)
     peers: bool = True  # the latency run again with the services as Zenoh peers, beside a bare chain of peers
     busy: bool = True  # the latency run again with one core kept busy, at normal and at real-time priority
@@ -61,7 +62,7 @@ class Plan:
 
 
 FULL = Plan(
-    latency_window=30.0,
+    latency_window=20.0,
     sweep_window=20.0,
     rates=(50.0, 100.0, 200.0, 400.0),
     robots=(1, 2, 5, 10, 20),
@@ -97,6 +98,7 @@ QUICK = Plan(
     path_seeds=(1,),
     square_laps=0.0,
     kinematic_seeds=3,
+    latency_runs=3,
     compose=(),
     peers=False,
     busy=False,

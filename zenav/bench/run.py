@@ -21,9 +21,11 @@ from pathlib import Path
 
 import msgspec
 
-from zenav.bench import accuracy, board, chain, cost, crossing, fleet, live, peers, planning, profile, settle, speed, spy
+from zenav.bench import accuracy, added, board, cost, crossing, fleet, live, peers, planning, profile, settle, speed, spy
 from zenav.bench import camera as camera_bench
+from zenav.bench import window as window_bench
 from zenav.bench.accuracy import Spec, Summary
+from zenav.bench.added import Added
 from zenav.bench.board import BoardRun
 from zenav.bench.chain import Chain
 from zenav.bench.cost import Load
@@ -37,7 +39,6 @@ from zenav.common.roles import ROBOT_SERVICES
 from zenav.common.scenarios import PRESETS
 from zenav.services.localizer.base import MODES
 from zenav.services.navigator.params import Params
-from zenav.stack.launcher import ProcStack
 from zenav.tools.plot import plot_run
 
 RATE = 100.0  # [Hz] the reference sensor rate (scenarios.md)
@@ -51,8 +52,10 @@ class Results:
     command: str
     started: float  # [s] epoch
     duration: float = 0.0  # [s] wall, whole run
-    chains: dict[str, Chain] = field(default_factory=dict)  # Zenoh mode -> the bare five-hop chain, idle router
-    base: Live | None = None  # one robot at 100 Hz, realtime
+    chains: dict[str, Chain] = field(default_factory=dict)  # Zenoh mode -> the bare five-hop chain, beside the stack's runs
+    added: dict[str, Added] = field(default_factory=dict)  # deployment -> what the robot services add (bench/added.py)
+    plain: Live | None = None  # the cost section's run: the stack alone on its router
+    base: Live | None = None  # one robot at 100 Hz, realtime, its runs' chains pooled (beside its relay arm and the bare chain)
     peer: Live | None = None  # the same with the services as Zenoh peers
     composed: Live | None = None  # the same with the robot's services composed in one process
     busy: dict[int, Live] = field(default_factory=dict)  # the control loop's priority (0: normal) -> the run with one core kept busy
@@ -80,6 +83,7 @@ class Results:
     cameras: dict[str, camera_bench.Measured] = field(default_factory=dict)  # camera -> its frames timed and read
     camera_runs: dict[str, list[tuple[Summary, Summary]]] = field(default_factory=dict)  # trial -> (synthetic, camera) per seed
     peers: dict[str, list[peers.Compared]] = field(default_factory=dict)  # stream -> zenav beside WPILib's estimator on it
+    window: window_bench.Compared | None = None  # a 1280x720 camera: the windowed search against the whole frame
 
 
 def run(plan: Plan, out: Path, command: str, say: Callable[[str], None] = lambda line: print(line, file=sys.stderr)) -> Results:
@@ -100,29 +104,11 @@ def run(plan: Plan, out: Path, command: str, say: Callable[[str], None] = lambda
 
 def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[str], None]) -> None:
     """Each section of the plan in turn, into `res`."""
-    if "latency" in plan.sections or "cost" in plan.sections:
-        halves: dict[str, list[Chain]] = {}  # Zenoh mode -> the bare chain's halves
-
-        def bare_chain(mode: str) -> None:  # half the window on a router of its own: before the stack's run, and after
-            with ProcStack((), (), logs) as router:
-                halves.setdefault(mode, []).append(chain.measure(router.endpoint, RATE, plan.latency_window / 2, mode))
-            note(f"bare five-hop chain, {mode}s, half {len(halves[mode])} of 2: {len(halves[mode][-1].latency)} samples")
-
-        bare_chain("client")
-        res.base = base = live.run(1, RATE, 1.0, plan.latency_window, logs / "base")
-        note(f"one robot at {RATE:g} Hz, realtime: {len(base.chain['end to end'])} chains")
-        bare_chain("client")
-        if plan.peers:
-            bare_chain("peer")
-            res.peer = live.run(1, RATE, 1.0, plan.latency_window, logs / "peer", zenoh_mode="peer")
-            note(f"the same, services as peers: {len(res.peer.chain['end to end'])} chains")
-            bare_chain("peer")
-        res.chains = {mode: Chain.pooled(parts) for mode, parts in halves.items()}
-        if plan.compose:
-            res.composed = live.run(1, RATE, 1.0, plan.latency_window, logs / "composed", compose=plan.compose)
-            note(f"the same, {', '.join(plan.compose)} in one process: {len(res.composed.chain['end to end'])} chains")
-        if plan.busy:
-            _busy(plan, res, logs, note)
+    if "latency" in plan.sections:
+        _latency(plan, res, logs, note)
+    if "cost" in plan.sections:
+        res.plain = base = live.run(1, RATE, 1.0, plan.latency_window, logs / "plain")  # the stack alone on its router
+        note(f"one robot at {RATE:g} Hz, realtime, alone: {len(base.chain['end to end'])} chains")
     if "cost" in plan.sections:
         one = cost.load(base)
         for rate in plan.rates:
@@ -196,6 +182,8 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
         for name, cfg in camera_bench.CAMERAS.items():
             res.cameras[name] = r = camera_bench.measure(cfg, plan.camera_frames)
             note(f"camera {name}: detect + locate p50 {r.timing['detect'].wall[0]:.1f} ms, position p95 {r.accuracy.pos_mm[1]:.2f} mm")
+        res.window = window_bench.measure(plan.camera_frames)
+        note(res.window.line())
         specs = {f"{sc}, square": [Spec(scenario=sc, seed=plan.seeds[0], laps=plan.laps)] for sc in plan.camera_scenarios}
         specs["default, path"] = [Spec(seed=s, trial="path") for s in plan.camera_path_seeds]
         rtf = plan.camera_rtf
@@ -215,6 +203,35 @@ def _peers(plan: Plan, res: Results, logs: Path, note: Callable[[str], None]) ->
         note(f"peers, {name}, world model: WPILib's best / zenav {statistics.fmean(c.ratio for c in runs):.1f}x")
     rtfs = {"synthetic": res.rtf, "camera": plan.camera_rtf}
     res.peers.update(peers.live(plan.wpilib_scenarios, plan.wpilib_vps, plan.seeds[0], plan.laps, rtfs, logs, note))
+
+
+def _latency(plan: Plan, res: Results, logs: Path, note: Callable[[str], None]) -> None:
+    """Each deployment's latency runs, the deployments in turn run after run: the stack, its relay arm and (separate
+    processes) the bare five-hop chain over the same window of each run (live.run's `beside`)."""
+    deployments: dict[str, tuple[str, tuple[str, ...]]] = {"clients": ("client", ())}
+    if plan.peers:
+        deployments["peers"] = ("peer", ())
+    if plan.compose:
+        deployments["composed"] = ("client", plan.compose)
+    runs: dict[str, list[Live]] = {name: [] for name in deployments}
+    for i in range(plan.latency_runs):
+        for name, (mode, compose) in deployments.items():
+            r = live.run(1, RATE, 1.0, plan.latency_window, logs / f"{name}-{i}", zenoh_mode=mode, compose=compose, beside=True)
+            runs[name].append(r)
+            arm = len(r.arm["end to end"]) if r.arm is not None else 0
+            note(f"latency, {name}, run {i + 1}: {len(r.chain['end to end'])} chains, relay arm {arm}")
+    for name, lives in runs.items():
+        arms = [r.arm for r in lives if r.arm is not None]
+        res.added[name] = added.of_runs([r.chain for r in lives], arms)
+        note(res.added[name].line(name))
+    pooled = {name: replace(lives[0], chain=added.pooled([r.chain for r in lives])) for name, lives in runs.items()}
+    res.base, res.peer, res.composed = pooled["clients"], pooled.get("peers"), pooled.get("composed")
+    for name, (mode, _) in deployments.items():
+        bare = [r.bare for r in runs[name] if r.bare is not None]
+        if bare:
+            res.chains[mode] = Chain.pooled(bare)
+    if plan.busy:
+        _busy(plan, res, logs, note)
 
 
 def _busy(plan: Plan, res: Results, logs: Path, note: Callable[[str], None]) -> None:

@@ -176,6 +176,7 @@ class Vps(Service):
         self.timing["detect_ms_p50"].append(got.detect_time * 1e3)
         for name, window in self.timing.items():
             self.counters.values[name] = round(statistics.median(window))
+        self.reader.explore()  # the frame's periodic whole search, its fixes out
 
     def _synced(self) -> None:
         """Take in the clock replies that came since the last look; count and log the refused ones."""

@@ -1,0 +1,169 @@
+"""The relay arm: the same stack with the four robot services replaced in place by relays.
+
+A robot of its own (ROBOT) beside the measured one, on the same router and in the same
+window: its own sim process (started as the stack's, with the same arguments) and, in
+place of odometry, localizer, navigator and motor, one relay process each that decodes
+its input with the service's input type and publishes an output of the service's output
+type stamped with the input's t (its other fields zero: the sim's wheels stand still).
+Composed, one relay process takes the encoder sample and publishes the four outputs in
+chain order, as the composed process does. The stack's own observer process
+(bench/latency.py) stamps the arm's chain as it stamps the stack's, so end to end of the
+stack minus end to end of the arm is what the services' own work adds: their code, their
+runtime's hand-off, their extra messages, all else (sim, hops, codec, router, host load)
+alike.
+
+`python -m zenav.bench.arm relay --connect EP --service odometry` runs one relay
+(`--service composed`: the four in one).
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from zenav.bench.latency import Observer
+from zenav.common import codec, keys
+from zenav.common import messages as m
+from zenav.common.app import PEER_LISTEN
+from zenav.common.bus import ZenohBus
+from zenav.common.roles import ROBOT_SERVICES
+from zenav.stack.launcher import service_argv
+
+ROBOT = "relays"  # the arm's robot id, apart from the stack's
+COMPOSED = "composed"
+READY = "ready"  # a relay's first line on stdout
+STOP_WAIT = 10.0  # [s] for a process to end once told
+
+
+def _odom(t: float) -> m.Odom:
+    return m.Odom(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)
+
+
+def _pose(t: float) -> m.Pose:
+    return m.Pose(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)
+
+
+def _cmd(t: float) -> m.CmdVel:
+    return m.CmdVel(t=t, v=0.0, omega=0.0)
+
+
+def _wheels(t: float) -> m.Wheels:
+    return m.Wheels(t=t, left=0.0, right=0.0)
+
+
+@dataclass(frozen=True)
+class Hop:
+    """What a robot service reads and publishes on the chain."""
+
+    input: str
+    type: type[m.Topic]
+    output: str
+    make: Callable[[float], m.Topic]  # its output for an input of time t
+
+
+HOPS: dict[str, Hop] = {
+    "odometry": Hop("sensors/encoders", m.Encoders, "odom", _odom),
+    "localizer": Hop("odom", m.Odom, "pose", _pose),
+    "navigator": Hop("pose", m.Pose, "cmd_vel", _cmd),
+    "motor": Hop("cmd_vel", m.CmdVel, "motors/wheels", _wheels),
+}
+assert tuple(HOPS) == ROBOT_SERVICES
+
+
+def outputs(service: str, data: bytes) -> list[tuple[str, bytes]]:
+    """A relay's whole work on one message: (topic, payload) to publish, in order; BadInput if it does not decode."""
+    hops = list(HOPS.values()) if service == COMPOSED else [HOPS[service]]
+    t = codec.decode(data, hops[0].type).t  # type: ignore[attr-defined]
+    return [(h.output, codec.encode(h.make(t))) for h in hops]
+
+
+def relay(connect: str, service: str, mode: str, robot: str = ROBOT) -> None:
+    """Stand in for `service` of `robot` until stdin closes."""
+    bus = ZenohBus.open(connect, mode=mode, listen=PEER_LISTEN if mode == "peer" else None)
+    first = HOPS[ROBOT_SERVICES[0]] if service == COMPOSED else HOPS[service]
+
+    def on_msg(key: str, data: bytes) -> None:  # as the bare chain's relays: the floor's own price, on Zenoh's thread
+        try:
+            out = outputs(service, data)
+        except codec.BadInput:
+            return
+        for topic, payload in out:
+            bus.publish(keys.key(robot, topic), payload)
+
+    bus.subscribe(keys.key(robot, first.input), on_msg)
+    print(READY, flush=True)
+    sys.stdin.read()  # the measuring process closes it to end the relay
+    bus.close()
+
+
+class Arm:
+    """The arm's sim, its relays and its observer, on a running router: start() before the window, stages() at its end."""
+
+    def __init__(self, connect: str, sim_args: Sequence[str], log: Path, mode: str = "client", composed: bool = False) -> None:
+        """`log`: the file the arm's sim writes its log to."""
+        sim = service_argv("sim", ["--connect", connect, "--robot", ROBOT, *sim_args, "--set", "sim.body_radius=0"])
+        base = [sys.executable, "-m", "zenav.bench.arm", "relay", "--connect", connect, "--mode", mode, "--service"]
+        self.argv = [sim] + [base + [s] for s in ((COMPOSED,) if composed else ROBOT_SERVICES)]
+        self.observer = Observer(connect, ROBOT, mode)
+        self.log = log
+        self.procs: list[subprocess.Popen[str]] = []
+
+    def start(self) -> Arm:
+        """Start the relays (each subscribed when this returns), the sim, the observer."""
+        try:
+            for argv in self.argv[1:]:
+                p = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+                self.procs.append(p)
+                assert p.stdout is not None
+                if p.stdout.readline().strip() != READY:
+                    raise RuntimeError("a relay of the relay arm did not start")
+            self.log.parent.mkdir(parents=True, exist_ok=True)
+            with open(self.log, "w") as log:
+                self.procs.append(subprocess.Popen(self.argv[0], stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT, text=True))
+            self.observer.start()
+        except BaseException:
+            self.close()
+            raise
+        return self
+
+    def stages(self) -> dict[str, list[float]]:
+        """End the recording: per stage and end to end [ms], as the stack's observer gives them."""
+        return self.observer.stages()
+
+    def close(self) -> None:
+        """Stop everything it started (idempotent)."""
+        self.observer.close()
+        for p in self.procs:
+            if p.stdin is not None:
+                p.stdin.close()  # a relay ends
+            else:
+                p.terminate()  # the sim ends on SIGTERM
+        for p in self.procs:
+            try:
+                p.wait(timeout=STOP_WAIT)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+            if p.stdout is not None:
+                p.stdout.close()
+        self.procs = []
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m zenav.bench.arm", description=__doc__.splitlines()[0])
+    parser.add_argument("role", choices=("relay",))
+    parser.add_argument("--connect", required=True, help="router endpoint")
+    parser.add_argument("--service", required=True, choices=(*ROBOT_SERVICES, COMPOSED), help="the service it stands in for")
+    parser.add_argument("--robot", default=ROBOT, help="robot id")
+    parser.add_argument("--mode", default="client", choices=("client", "peer"), help="Zenoh mode, as the stack's services")
+    args = parser.parse_args(argv)
+    relay(args.connect, args.service, args.mode, args.robot)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
