@@ -9,8 +9,7 @@ import cv2
 import pytest
 
 from zenav import services
-from zenav.common import roles
-from zenav.common import extras
+from zenav.common import extras, roles
 from zenav.common.config import ConfigError
 
 OPTIONAL = tuple(extras.PACKAGES)  # cv2, pupil_apriltags, serial, mcap, foxglove, matplotlib, rosbags
