@@ -93,45 +93,48 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-import msgspec
-
 from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common.bus import JSON, MSGPACK, Bus, Handle, Query, undeclare_all
+from zenav.common.bus import Bus, Handle, Query, undeclare_all
 from zenav.common.clock import FOREIGN, REFUSED, RESTARTED, Clock, SimClock, WallClock
 from zenav.common.config import Settings
+from zenav.common.handlers import on_liveliness, publish, query, subscribe, timer
 from zenav.common.inbox import Inbox
+from zenav.common.replies import FORMAT_PARAM, LOG_CHARS, QueryError, clip, format_refusal, reply_error, reply_ok
 
-LOG_CHARS = 200  # a log line (and an internal error reply) is cut to this many characters
+__all__ = [  # the names services, tools and tests import from here
+    "FORMAT_PARAM",
+    "HOLD",
+    "HOLD_WALL",
+    "LOG_CHARS",
+    "Duplicate",
+    "Executor",
+    "QueryError",
+    "Service",
+    "background_thread",
+    "clip",
+    "format_refusal",
+    "on_liveliness",
+    "publish",
+    "query",
+    "reply_error",
+    "reply_ok",
+    "subscribe",
+    "timer",
+]
+
 # [s] stack clock: a topic flows while its last sample was served less than this and a tick interval ago
 # (and an input `after` it waits as long at most)
 HOLD = 0.05
 HOLD_WALL = 1.0  # [s] wall: how long it waits at most when the stack clock does not move either (a sim paused, a replay at its end)
 HOLD_ITEMS = 64  # inputs held at once at most (more are served at once)
 GAP_GAIN = 0.2  # weight of each new gap in a topic's period (smoothed: one late sample does not move it far)
-FORMAT_PARAM = "_format"  # selector parameter choosing the reply format: msgpack (default) or json
-FORMATS = {"msgpack": MSGPACK, "json": JSON}
 _FIGURES = re.compile(r"\d+(\.\d+)?")  # the figures of a status reason
 BACKGROUND_NICE = 10  # added to the niceness of a thread doing background work (as `nice` adds by default)
 
 
-def clip(text: str, limit: int = LOG_CHARS) -> str:
-    """`text` with each line cut to `limit` characters (a payload's repr must not flood the log)."""
-    return "\n".join(
-        line if len(line) <= limit else f"{line[:limit]}... ({len(line) - limit} more characters)" for line in text.split("\n")
-    )
-
-
 class Duplicate(Exception):
     """Another instance of the service already runs for this robot."""
-
-
-class QueryError(Exception):
-    """Raised by a query handler to answer with an error reply."""
-
-    def __init__(self, code: str, message: str) -> None:
-        super().__init__(message)
-        self.code, self.message = code, message
 
 
 def background_thread() -> None:
@@ -143,107 +146,6 @@ def background_thread() -> None:
         os.setpriority(os.PRIO_PROCESS, tid, min(os.getpriority(os.PRIO_PROCESS, tid) + BACKGROUND_NICE, 19))
     except OSError as e:  # not Linux, or a sandbox that forbids it: the work runs at the priority it has
         logging.getLogger("zenav").warning("could not lower a background thread's priority: %s", e)
-
-
-def format_refusal(fmt: str | None) -> str | None:
-    """Why a query's reply format (its `_format` parameter, None: not given) cannot be served; None if it can."""
-    if fmt is None or fmt in FORMATS:
-        return None
-    return f"{FORMAT_PARAM}={clip(fmt, 40)}: expected one of {', '.join(FORMATS)}"
-
-
-def reply_format(q: Query) -> str:
-    """The encoding a query asked its replies in (`_format=json`: JSON; otherwise msgpack)."""
-    if not q.params_size:
-        return MSGPACK
-    return FORMATS.get(q.params.get(FORMAT_PARAM, "msgpack"), MSGPACK)
-
-
-def _encode(msg: Any, encoding: str) -> bytes:
-    return msgspec.json.encode(msg) if encoding == JSON else codec.encode(msg)
-
-
-def reply_error(q: Query, code: str, message: str, *, read_params: bool = True) -> None:
-    """Answer a query with the contract's error map, and end it.
-
-    `read_params=False`: msgpack without parsing the selector parameters (refused as oversize)."""
-    encoding = reply_format(q) if read_params else MSGPACK
-    q.reply_err(_encode(m.ErrorReply(error=code, message=message), encoding), encoding)
-    q.finish()
-
-
-def reply_ok(q: Query, reply: m.Reply) -> None:
-    """Answer a query with a reply message, and end it."""
-    encoding = reply_format(q)
-    q.reply(_encode(reply, encoding), encoding)
-    q.finish()
-
-
-# ----------------------------------------------------------------- decorators
-def subscribe(suffix: str, typ: type | None = None, *, after: str | None = None, latest: bool = False) -> Callable:
-    """Run the method for every message on `zenav/<robot>/<suffix>`, decoded as `typ`.
-
-    `after`: a periodic topic this service subscribes to; while it flows, each message is
-    served in the gap after its next sample (the module's docstring). `latest`: only the
-    newest message is worth serving (the module's docstring)."""
-
-    def deco(fn: Any) -> Any:
-        fn._zenav_sub = (suffix, typ or keys.TOPICS[suffix], after, latest)
-        return fn
-
-    return deco
-
-
-def publish(suffix: str) -> Callable:
-    """Publish the method's return value (unless None) on `suffix`."""
-
-    def deco(fn: Any) -> Any:
-        fn._zenav_pub = suffix
-        return fn
-
-    return deco
-
-
-def timer(period: float | str) -> Callable:
-    """Run the method every `period` seconds of the service clock.
-
-    `period` is seconds, or the name of an attribute of the service holding them
-    (so that config can set it: `@timer("tick_period")`).
-    """
-
-    def deco(fn: Any) -> Any:
-        fn._zenav_timer = period
-        return fn
-
-    return deco
-
-
-def query(suffix: str, typ: type | None = None, *, priority: bool = False, acts: bool = True) -> Callable:
-    """Serve queries on `suffix`; the method returns a reply, or None to reply later.
-
-    `priority`: taken before any other queued input, and served on a link of its own. `acts=False`: read-only, so a
-    wildcard query may reach it; an acting query runs only on its exact key.
-    """
-
-    def deco(fn: Any) -> Any:
-        fn._zenav_query = (suffix, typ or keys.QUERIES[suffix][0], priority, acts)
-        return fn
-
-    return deco
-
-
-def on_liveliness(service: str) -> Callable:
-    """Run the method with `alive: bool` when `service`'s liveliness token appears or goes.
-
-    A process that dies loses its token as soon as its socket closes: faster than any
-    message timeout, so safety reactions (stop the wheels) hang on it.
-    """
-
-    def deco(fn: Any) -> Any:
-        fn._zenav_liveliness = service
-        return fn
-
-    return deco
 
 
 @dataclass
