@@ -83,9 +83,7 @@ import heapq
 import itertools
 import logging
 import math
-import os
 import re
-import socket
 import threading
 import time
 import traceback
@@ -98,8 +96,10 @@ from zenav.common import messages as m
 from zenav.common.bus import Bus, Handle, Query, undeclare_all
 from zenav.common.clock import FOREIGN, REFUSED, RESTARTED, Clock, SimClock, WallClock
 from zenav.common.config import Settings
+from zenav.common.executor import Executor, background_thread
 from zenav.common.handlers import on_liveliness, publish, query, subscribe, timer
 from zenav.common.inbox import Inbox
+from zenav.common.instances import Duplicate, instance_id, running_for
 from zenav.common.replies import FORMAT_PARAM, LOG_CHARS, QueryError, clip, format_refusal, reply_error, reply_ok
 
 __all__ = [  # the names services, tools and tests import from here
@@ -130,22 +130,6 @@ HOLD_WALL = 1.0  # [s] wall: how long it waits at most when the stack clock does
 HOLD_ITEMS = 64  # inputs held at once at most (more are served at once)
 GAP_GAIN = 0.2  # weight of each new gap in a topic's period (smoothed: one late sample does not move it far)
 _FIGURES = re.compile(r"\d+(\.\d+)?")  # the figures of a status reason
-BACKGROUND_NICE = 10  # added to the niceness of a thread doing background work (as `nice` adds by default)
-
-
-class Duplicate(Exception):
-    """Another instance of the service already runs for this robot."""
-
-
-def background_thread() -> None:
-    """Lower the calling thread's priority by BACKGROUND_NICE (Linux keeps niceness per thread; threads it
-    starts later take it): work off the control loop's path, such as a camera's detector, then yields the
-    cores to it on a computer they share. Lowering a priority needs no privilege."""
-    tid = threading.get_native_id()
-    try:
-        os.setpriority(os.PRIO_PROCESS, tid, min(os.getpriority(os.PRIO_PROCESS, tid) + BACKGROUND_NICE, 19))
-    except OSError as e:  # not Linux, or a sandbox that forbids it: the work runs at the priority it has
-        logging.getLogger("zenav").warning("could not lower a background thread's priority: %s", e)
 
 
 @dataclass
@@ -210,7 +194,7 @@ class Service:
         self._stop = threading.Event()
         self._keys: dict[str, str] = {}  # suffix -> full key (publishing is a hot path)
         self._warned: dict[str, list[float]] = {}  # warning kind -> [count, last wall time]
-        self.instance = _instance_id()  # this process's (and object's) id in instance/<service>/<id>
+        self.instance = instance_id()  # this process's (and object's) id in instance/<service>/<id>
         self._others: set[str] = set()  # instance ids of other instances of this service seen alive
         self._started = False
         self._busy = threading.Lock()  # held while this service's code runs (worker, or a bus thread serving inline)
@@ -543,12 +527,7 @@ class Service:
 
     def running_for(self, robot: str) -> str | None:
         """The ids of the instances of this service that run for `robot` (its tokens), comma-separated; None: none."""
-        found = self.bus.tokens(keys.key(robot, f"instance/{self.name}/*"))
-        if found:
-            return ", ".join(sorted(k.rsplit("/", 1)[-1] for k in found))
-        if self.bus.tokens(keys.alive(robot, self.name)):  # one that holds no instance token
-            return f"instance unknown: alive/{self.name} is held"
-        return None
+        return running_for(self.bus, robot, self.name)
 
     def _instance_enqueuer(self, mine: str) -> Callable[[str, bool], None]:
         def enqueue(key: str, alive: bool) -> None:
@@ -805,57 +784,6 @@ class Service:
 
     def _publish_diag(self, now: float) -> None:
         self.publish(f"diag/{self.name}", self.diag(now))
-
-
-class Executor:
-    """One worker thread for several services of one process (a composed deployment, as
-    ROS 2's component containers run on one executor).
-
-    The services' inboxes share one condition: input from outside wakes the worker once,
-    and a message one service publishes to another in the process is taken on the same
-    thread in the next round, without a thread switch (or at once on the bus's thread that
-    brought it, when that service is idle: `Service.inline`). Each round gives every service a
-    turn of up to ROUND items (priority lane first) and its due timers, in the order given.
-    """
-
-    ROUND = 64  # items one service dispatches before the next gets its turn
-    IDLE = 0.1  # [s] wall, the longest wait without input or a timer due
-
-    def __init__(self) -> None:
-        self.services: list[Service] = []
-        self._wake = threading.Condition(threading.Lock())
-        self._stop = threading.Event()
-
-    def add(self, svc: Service) -> None:
-        """Take `svc` into this worker; before svc.start() (its input then queues here)."""
-        svc._inbox = Inbox(svc.limits.queue_items, svc.limits.queue_bytes, ready=self._wake)
-        self.services.append(svc)
-
-    def run(self) -> None:
-        """Serve the services until stop() (on this thread, lowered first if they are all `background`)."""
-        if self.services and all(svc.background for svc in self.services):
-            background_thread()
-        while not self._stop.is_set():
-            delay: float | None = None
-            for svc in self.services:
-                d = svc.turn(self.ROUND)
-                if d is not None:
-                    delay = d if delay is None else min(delay, d)
-            with self._wake:
-                if not self._stop.is_set() and all([svc._inbox.idle() for svc in self.services]):  # every poke taken
-                    self._wake.wait(self.IDLE if delay is None else min(delay, self.IDLE))
-
-    def stop(self) -> None:
-        """End run() after the current turn (any thread)."""
-        self._stop.set()
-        with self._wake:
-            self._wake.notify()
-
-
-def _instance_id() -> str:
-    """host-pid-random: names one service object (several may share a process in tests)."""
-    host = "".join(c if c.isalnum() or c in "-_." else "_" for c in socket.gethostname())[:40] or "host"
-    return f"{host}-{os.getpid()}-{os.urandom(3).hex()}"
 
 
 def _shape(text: str) -> str:
