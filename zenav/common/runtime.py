@@ -100,6 +100,7 @@ from zenav.common.executor import Executor, background_thread
 from zenav.common.handlers import on_liveliness, publish, query, subscribe, timer
 from zenav.common.inbox import Inbox
 from zenav.common.instances import Duplicate, instance_id, running_for
+from zenav.common.pacing import HOLD, HOLD_WALL, Pacer
 from zenav.common.replies import FORMAT_PARAM, LOG_CHARS, QueryError, clip, format_refusal, reply_error, reply_ok
 
 __all__ = [  # the names services, tools and tests import from here
@@ -123,12 +124,6 @@ __all__ = [  # the names services, tools and tests import from here
     "timer",
 ]
 
-# [s] stack clock: a topic flows while its last sample was served less than this and a tick interval ago
-# (and an input `after` it waits as long at most)
-HOLD = 0.05
-HOLD_WALL = 1.0  # [s] wall: how long it waits at most when the stack clock does not move either (a sim paused, a replay at its end)
-HOLD_ITEMS = 64  # inputs held at once at most (more are served at once)
-GAP_GAIN = 0.2  # weight of each new gap in a topic's period (smoothed: one late sample does not move it far)
 _FIGURES = re.compile(r"\d+(\.\d+)?")  # the figures of a status reason
 
 
@@ -199,11 +194,7 @@ class Service:
         self._started = False
         self._busy = threading.Lock()  # held while this service's code runs (worker, or a bus thread serving inline)
         self.inline = False  # serve a sample on the bus's thread when nothing is queued (set by the deployments; never if blocking)
-        self._held_for: dict[str, str] = {}  # suffix -> the topic its input is held for (@subscribe after=)
-        # topic held for -> [wall time its last sample was served, its period (wall), samples served, the clock's tick then]
-        self._paced: dict[str, list] = {}
-        # (sample it waits for, wall time, tick and stack time it came, item), oldest first
-        self._held: list[tuple[int, float, float, float, tuple]] = []
+        self._pacer = Pacer(clock)  # input held for a periodic topic (@subscribe after=)
         self._arrived: float | None = None  # stack time a held input being served arrived
         self._arrivals = itertools.count(1)  # numbers the queries in the order they reach this service (bus callback)
         self._query_arrival = 0  # the number of the query being served (0: none)
@@ -287,8 +278,7 @@ class Service:
             if hasattr(fn, "_zenav_sub"):
                 suffix, typ, after, latest = fn._zenav_sub
                 if after is not None:
-                    self._held_for[suffix] = after
-                    self._paced[after] = [-math.inf, 0.0, 0, -math.inf]
+                    self._pacer.pace(suffix, after)
                 self.subscribe(suffix, typ, bound, latest=latest)
             if hasattr(fn, "_zenav_query"):
                 suffix, typ, priority, acts = fn._zenav_query
@@ -383,8 +373,8 @@ class Service:
                     break
                 if item is not None:
                     self._serve(item)
-            if self._held:
-                wait = self._held_wait()
+            if self._pacer.held:
+                wait = self._pacer.wait()
                 if wait <= 0.0:
                     self._release()
                 else:
@@ -445,77 +435,29 @@ class Service:
         serves it in the gap after that one) and before anything that comes after that
         sample: in a run replayed faster or slower, it lands between the same inputs."""
         kind, suffix = item[0], item[2]
-        if self._held and (kind == "query" or self._waited() or self._overdue()):
+        pacer = self._pacer
+        if pacer.held and (kind == "query" or pacer.waited() or pacer.overdue()):
             self._release()  # a query, or anything after the sample held input waited for, comes after it
         if kind != "msg":
             self._dispatch(item)
             return
-        after = self._held_for.get(suffix)
+        after = pacer.held_for.get(suffix)
         if after is not None:
-            count, tick = self._paced[after][2:]
-            now = self.clock.tick()
-            if len(self._held) < HOLD_ITEMS and now < tick + self._hold_span():  # it flows
-                self._held.append((count + 1, time.monotonic(), now, self.clock.now(), item))
+            if pacer.hold(after, item):  # it flows
                 self._inbox.poke()  # the worker waits for it
                 return
-            if self._held:
+            if pacer.held:
                 self._release()  # in arrival order
         self._dispatch(item)
-        paced = self._paced.get(suffix)
-        if paced is not None:
-            self._count_sample(paced)
-            if self._held and self._waited():
-                self._inbox.poke()  # its gap begins
-
-    def _waited(self) -> bool:
-        """The sample the oldest held input waits for has been served."""
-        waits_for, _, _, _, item = self._held[0]
-        return self._paced[self._held_for[item[2]]][2] >= waits_for
-
-    def _overdue(self) -> bool:
-        """The sample the oldest held input waits for has not come, and the stack clock has reached `_due`."""
-        return self.clock.tick() >= self._due()
-
-    def _due(self) -> float:
-        """The tick at which the oldest held input stops waiting for the sample: `_hold_span` past the tick it came at."""
-        return self._held[0][2] + self._hold_span()
-
-    def _hold_span(self) -> float:
-        """[s] of stack clock a topic flows after its last sample, and a held input waits at most: HOLD plus one
-        tick interval (the sim's clock may tick slower than the topic: its next sample comes after the next tick)."""
-        return HOLD + self.clock.resolution
-
-    def _count_sample(self, paced: list) -> None:
-        """A sample of a topic input is held for was served: its time, and the topic's period."""
-        wall = time.monotonic()
-        gap = wall - paced[0]
-        if gap < HOLD:  # a longer one is a pause, not the topic's period (wall: it only times the gap's middle)
-            paced[1] = gap if paced[1] == 0.0 else paced[1] + GAP_GAIN * (gap - paced[1])
-        paced[0] = wall
-        paced[2] += 1
-        paced[3] = self.clock.tick()
-
-    def _held_wait(self) -> float:
-        """Wall seconds until the oldest held input is due: the middle of the gap after the sample it waits for;
-        if that sample has not come, when the stack clock reaches `_due` (looked at again then: a stalled sim
-        clock does not get there) or, at the latest, HOLD_WALL after it came."""
-        _, came, _, _, item = self._held[0]
-        last, gap = self._paced[self._held_for[item[2]]][:2]
-        wall = time.monotonic()
-        if self._waited():
-            return last + gap / 2.0 - wall
-        if self._overdue():
-            return 0.0
-        until = self.clock.wall_delay(self._due() - self.clock.tick())
-        return min(HOLD if until is None else until, came + HOLD_WALL - wall)
+        if pacer.served(suffix):
+            self._inbox.poke()  # its gap begins
 
     def _release(self) -> None:
         """Serve every held input, oldest first, as of its arrival."""
-        held, self._held = self._held, []
-        for _, _, _, arrived, item in held:
-            self._arrived = arrived
+        for held in self._pacer.take():
+            self._arrived = held.arrived
             try:
-                self._dispatch(item)
+                self._dispatch(held.item)
             finally:
                 self._arrived = None
 
@@ -777,7 +719,7 @@ class Service:
             rates=rates,
             status=status,
             message=message,
-            queue=self._inbox.qsize() + len(self._held),
+            queue=self._inbox.qsize() + len(self._pacer.held),
             cpu=round(busy, 4),
             serve=serve,
         )
