@@ -261,7 +261,7 @@ def test_clock_restart_reschedules_timers_and_calls_the_hook():
     assert s.counters.values["clock_resets"] == 1
     restarted = published(bus, "diag/motor")[diags:]  # at once: the service is heard from again
     assert len(restarted) == 1 and restarted[0].t < 1.0 and restarted[0].counters["clock_resets"] == 1
-    assert all(tm.due is not None and tm.due < 2.0 for tm in s._timers)  # not waiting for t = 500
+    assert all(tm.due is not None and tm.due < 2.0 for tm in s._timers.timers)  # not waiting for t = 500
     s.close()
 
 

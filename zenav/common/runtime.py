@@ -79,10 +79,8 @@ cut to LOG_CHARS characters a line (`clip`).
 from __future__ import annotations
 
 import functools
-import heapq
 import itertools
 import logging
-import math
 import re
 import threading
 import time
@@ -102,6 +100,7 @@ from zenav.common.inbox import Inbox
 from zenav.common.instances import Duplicate, instance_id, running_for
 from zenav.common.pacing import HOLD, HOLD_WALL, Pacer
 from zenav.common.replies import FORMAT_PARAM, LOG_CHARS, QueryError, clip, format_refusal, reply_error, reply_ok
+from zenav.common.timers import Timers
 
 __all__ = [  # the names services, tools and tests import from here
     "FORMAT_PARAM",
@@ -125,13 +124,6 @@ __all__ = [  # the names services, tools and tests import from here
 ]
 
 _FIGURES = re.compile(r"\d+(\.\d+)?")  # the figures of a status reason
-
-
-@dataclass
-class _Timer:
-    period: float
-    fn: Callable[[float], Any]
-    due: float | None = None
 
 
 @dataclass
@@ -177,10 +169,7 @@ class Service:
         self.status, self.status_message = "ok", ""
         self.limits = settings.limits
         self._inbox = Inbox(self.limits.queue_items, self.limits.queue_bytes)
-        self._timers: list[_Timer] = []
-        self._next_due = -math.inf  # [s] stack time of the earliest timer or call due (before it, none runs)
-        self._calls: list[tuple[float, int, Callable[[float], Any]]] = []  # heap of (stack time, order, fn): call_at
-        self._call_order = itertools.count()
+        self._timers = Timers()  # @timer methods, diag, and call_at
         self._handles: list = []
         self._token: Handle | None = None
         self._started_wall = time.monotonic()
@@ -228,9 +217,7 @@ class Service:
         """Run `fn(now)` once, as a timer, when the stack clock reaches `t` (at once if it has): work
         due at a time known in advance, without a timer waking the service to look for it. Call it
         from a handler; `fn` may carry @publish. A clock reset (the sim restarted) forgets it."""
-        heapq.heappush(self._calls, (t, next(self._call_order), fn))
-        if t < self._next_due or self._next_due == -math.inf:
-            self._next_due = t
+        if self._timers.call_at(t, fn):
             self._inbox.poke()  # the worker may be waiting for a later timer
 
     def count(self, name: str, n: int = 1) -> None:
@@ -289,8 +276,8 @@ class Service:
             if hasattr(fn, "_zenav_timer"):
                 period = fn._zenav_timer
                 period = float(getattr(self, period) if isinstance(period, str) else period)
-                self._timers.append(_Timer(period, bound))
-        self._timers.append(_Timer(self.diag_period, self._publish_diag))
+                self._timers.every(period, bound)
+        self._timers.every(self.diag_period, self._publish_diag)
         self.on_start()
         self._token = self.bus.token(keys.alive(self.robot, self.name))
         self._handles.append(self.bus.token(mine))
@@ -510,10 +497,7 @@ class Service:
         elif outcome == RESTARTED:
             self.log.warning("stack clock at %.2f s from sim instance %s (sim restarted): state reset", msg.t, msg.instance or "-")
             self.count("clock_resets")
-            for tm in self._timers:
-                tm.due = None
-            self._calls.clear()
-            self._next_due = -math.inf
+            self._timers.reset()
             self.on_clock_reset()
             # At once, not a diag period of the new time later: a supervisor that heard nothing
             # while the sim was down (no clock, no timers) must not take the service for hung.
@@ -662,31 +646,8 @@ class Service:
         """Run due timers and calls (call_at); return wall seconds until the next one (None: unknown)."""
         if not self.clock.ready:
             return None
-        now = self.clock.now()
-        if now < self._next_due:  # the common case, once per input: nothing due yet
-            return self.clock.wall_delay(self._next_due - now)
-        nearest = None
-        for tm in self._timers:
-            if tm.due is None:
-                tm.due = now + tm.period
-            if now >= tm.due:
-                self._fire(tm.fn, now)
-                tm.due += tm.period
-                if tm.due <= now:  # fell behind: skip the missed runs rather than burst
-                    self.counters.inc("timer_overruns")
-                    tm.due = now + tm.period
-            left = tm.due - now
-            nearest = left if nearest is None else min(nearest, left)
-        due = []
-        while self._calls and self._calls[0][0] <= now:
-            due.append(heapq.heappop(self._calls)[2])
-        for fn in due:  # after taking them: a call made by one of them waits for the next look
-            self._fire(fn, now)
-        if self._calls:
-            left = max(self._calls[0][0] - now, 0.0)
-            nearest = left if nearest is None else min(nearest, left)
-        self._next_due = -math.inf if nearest is None else now + nearest
-        return None if nearest is None else self.clock.wall_delay(nearest)
+        left = self._timers.run(self.clock.now(), self._fire, lambda: self.counters.inc("timer_overruns"))
+        return None if left is None else self.clock.wall_delay(left)
 
     def _fire(self, fn: Callable[[float], Any], now: float) -> None:
         """Run a timer or a call at `now`, publishing what it returns (@publish); a failure is logged and counted."""
