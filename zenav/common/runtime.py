@@ -81,12 +81,10 @@ from __future__ import annotations
 import functools
 import itertools
 import logging
-import re
 import threading
 import time
 import traceback
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any
 
 from zenav.common import codec, keys
@@ -94,6 +92,7 @@ from zenav.common import messages as m
 from zenav.common.bus import Bus, Handle, Query, undeclare_all
 from zenav.common.clock import FOREIGN, REFUSED, RESTARTED, Clock, SimClock, WallClock
 from zenav.common.config import Settings
+from zenav.common.diagnostics import WARN_LINES, Counters, CpuMeter, WarnLimit, shape
 from zenav.common.executor import Executor, background_thread
 from zenav.common.handlers import on_liveliness, publish, query, subscribe, timer
 from zenav.common.inbox import Inbox
@@ -122,26 +121,6 @@ __all__ = [  # the names services, tools and tests import from here
     "subscribe",
     "timer",
 ]
-
-_FIGURES = re.compile(r"\d+(\.\d+)?")  # the figures of a status reason
-
-
-@dataclass
-class Counters:
-    """Counters and per-topic message counts, published in diag."""
-
-    values: dict[str, int] = field(
-        default_factory=lambda: dict.fromkeys(
-            ("msgs_in", "msgs_out", "bad_input", "dropped_stale", "dropped_future", "oversize", "errors"), 0
-        )
-    )
-    window: dict[str, int] = field(default_factory=dict)  # topic -> messages since the last diag
-
-    def inc(self, name: str, n: int = 1) -> None:
-        self.values[name] = self.values.get(name, 0) + n
-
-    def seen(self, topic: str) -> None:
-        self.window[topic] = self.window.get(topic, 0) + 1
 
 
 class Service:
@@ -173,11 +152,11 @@ class Service:
         self._handles: list = []
         self._token: Handle | None = None
         self._started_wall = time.monotonic()
-        self._cpu_mark = (self._started_wall, time.process_time())  # (wall, process CPU) [s] at the last diag
+        self._cpu = CpuMeter(self._started_wall)
         self._last_diag_t: float | None = None  # stack-clock time of the last diag
         self._stop = threading.Event()
         self._keys: dict[str, str] = {}  # suffix -> full key (publishing is a hot path)
-        self._warned: dict[str, list[float]] = {}  # warning kind -> [count, last wall time]
+        self._warned = WarnLimit()
         self.instance = instance_id()  # this process's (and object's) id in instance/<service>/<id>
         self._others: set[str] = set()  # instance ids of other instances of this service seen alive
         self._started = False
@@ -188,7 +167,6 @@ class Service:
         self._arrivals = itertools.count(1)  # numbers the queries in the order they reach this service (bus callback)
         self._query_arrival = 0  # the number of the query being served (0: none)
         self._other_clock: set[str] = set()  # suffixes stamped on another stack's clock: not held to this one's horizon
-        self._serve_time: dict[str, list] = {}  # suffix -> [wall seconds serving its messages, messages] since the last diag
 
     # ------------------------------------------------------------ helpers
     def key(self, suffix: str) -> str:
@@ -227,20 +205,17 @@ class Service:
     def set_status(self, status: str, message: str = "") -> None:
         """Set the diag status (ok, degraded, error) and its reason; logs changes (not a reason's figures changing:
         "no fix for 1.5 s", then "for 2.0 s" is one line)."""
-        if (status, _shape(message)) != (self.status, _shape(self.status_message)):
+        if (status, shape(message)) != (self.status, shape(self.status_message)):
             level = logging.INFO if status == "ok" else logging.WARNING
             self.log.log(level, "status %s%s", status, clip(f": {message}") if message else "")
         self.status, self.status_message = status, message
 
     def warn(self, kind: str, text: str, level: int = logging.WARNING) -> None:
         """Log a warning (lines clipped), at most a few lines a second per kind (the counters keep the rest)."""
-        now = time.monotonic()
-        seen = self._warned.setdefault(kind, [0, 0.0])
-        seen[0] += 1
-        if seen[0] <= 5 or now - seen[1] >= 5.0:
-            suffix = f" ({seen[0]} so far)" if seen[0] > 5 else ""
+        seen = self._warned.admit(kind)
+        if seen is not None:
+            suffix = f" ({seen} so far)" if seen > WARN_LINES else ""
             self.log.log(level, "%s%s", clip(text), suffix)
-            seen[1] = now
 
     # ------------------------------------------------------------ lifecycle
     def start(self) -> None:
@@ -593,11 +568,7 @@ class Service:
             return
         self._publish_result(fn, out)
         if kind != "clock":
-            spent = self._serve_time.get(suffix)
-            if spent is None:
-                spent = self._serve_time[suffix] = [0.0, 0]
-            spent[0] += time.perf_counter() - start
-            spent[1] += 1
+            self.counters.served(suffix, time.perf_counter() - start)
 
     def _publish_result(self, fn: Callable, out: Any) -> None:
         target = getattr(fn, "_zenav_pub", None)
@@ -661,13 +632,9 @@ class Service:
         """The diag message now (rates per second of stack-clock time since the last one)."""
         span = max(now - self._last_diag_t, 1e-3) if self._last_diag_t is not None else self.diag_period
         self._last_diag_t = now
-        rates = {k: round(v / span, 2) for k, v in self.counters.window.items()}
-        wall, cpu = time.monotonic(), time.process_time()
-        busy = (cpu - self._cpu_mark[1]) / max(wall - self._cpu_mark[0], 1e-3)
-        self._cpu_mark = (wall, cpu)
-        self.counters.window = {}
-        serve = {k: round(spent / n * 1e6, 1) for k, (spent, n) in self._serve_time.items()}
-        self._serve_time = {}
+        rates = self.counters.take_rates(span)
+        busy = self._cpu.busy()
+        serve = self.counters.take_serve()
         status, message = self.status, self.status_message
         if self._others:
             status = "error"
@@ -687,8 +654,3 @@ class Service:
 
     def _publish_diag(self, now: float) -> None:
         self.publish(f"diag/{self.name}", self.diag(now))
-
-
-def _shape(text: str) -> str:
-    """A status reason with its figures blanked: what it says, not how much."""
-    return _FIGURES.sub("#", text)
