@@ -78,25 +78,25 @@ cut to LOG_CHARS characters a line (`clip`).
 
 from __future__ import annotations
 
-import functools
 import itertools
 import logging
 import threading
 import time
-import traceback
 from collections.abc import Callable
 from typing import Any
 
 from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common.bus import Bus, Handle, Query, undeclare_all
+from zenav.common.bus import Bus, Handle, undeclare_all
 from zenav.common.clock import FOREIGN, REFUSED, RESTARTED, Clock, SimClock, WallClock
 from zenav.common.config import Settings
 from zenav.common.diagnostics import WARN_LINES, Counters, CpuMeter, WarnLimit, shape
+from zenav.common.dispatch import Dispatch
 from zenav.common.executor import Executor, background_thread
 from zenav.common.handlers import on_liveliness, publish, query, subscribe, timer
 from zenav.common.inbox import Inbox
 from zenav.common.instances import Duplicate, instance_id, running_for
+from zenav.common.intake import Intake
 from zenav.common.pacing import HOLD, HOLD_WALL, Pacer
 from zenav.common.replies import FORMAT_PARAM, LOG_CHARS, QueryError, clip, format_refusal, reply_error, reply_ok
 from zenav.common.timers import Timers
@@ -123,7 +123,7 @@ __all__ = [  # the names services, tools and tests import from here
 ]
 
 
-class Service:
+class Service(Intake, Dispatch):
     """Base of every zenav service. Subclasses set `name` and declare handlers."""
 
     name = "service"
@@ -360,35 +360,6 @@ class Service:
         return n
 
     # ------------------------------------------------------------ internals
-    def _put(self, item: tuple, size: int = 0, priority: bool = False) -> bool:
-        if self._inbox.put(item, size, priority):
-            return True
-        self.counters.inc("dropped_overflow")
-        return False
-
-    def _put_latest(self, item: tuple, size: int) -> None:
-        """Queue a sample of a `latest` input in place of its topic's one still queued (dropped, counted)."""
-        outcome = self._inbox.put_latest(item[2], item, size)
-        if outcome == "refused":
-            self.counters.inc("dropped_overflow")
-        elif outcome == "replaced":
-            self.counters.inc("dropped_superseded")
-            self.warn(f"superseded:{item[2]}", f"dropped a {item[2]} sample for a newer one: {self.name} is slower than its input")
-
-    def _take(self, item: tuple, size: int, put: Callable[[tuple, int], Any]) -> None:
-        """A sample from a bus thread: served on that thread if the service is idle and nothing
-        older is queued (no thread switch: `inline`), else queued for the worker by `put`
-        (`_put`, or `_put_latest` for a `latest` input: chosen once, at subscription)."""
-        if self.inline and not self.blocking and self._busy.acquire(blocking=False):
-            try:
-                if self._inbox.empty():
-                    self._serve(item)
-                    return
-                put(item, size)
-            finally:
-                self._busy.release()
-            return
-        put(item, size)
 
     def _serve(self, item: tuple) -> None:
         """Dispatch an item, or hold it for the worker (`after`).
@@ -433,31 +404,11 @@ class Service:
         """The ids of the instances of this service that run for `robot` (its tokens), comma-separated; None: none."""
         return running_for(self.bus, robot, self.name)
 
-    def _instance_enqueuer(self, mine: str) -> Callable[[str, bool], None]:
-        def enqueue(key: str, alive: bool) -> None:
-            if key != mine:
-                self._put(("live", functools.partial(self._other_instance, key.rsplit("/", 1)[-1]), key, None, alive), priority=True)
-
-        return enqueue
-
     def _other_instance(self, other: str, alive: bool) -> None:
         """Another instance of this service came or went (diag shows error while one runs)."""
         (self._others.add if alive else self._others.discard)(other)
         if alive:
             self.log.error("another %s runs for robot %s: instance %s (this is %s)", self.name, self.robot, other, self.instance)
-
-    def _oversize(self, what: str, size: int, limit: int, name: str) -> str:
-        """Count and log an input refused for its size (in the bus callback: cheap)."""
-        self.counters.inc("oversize")
-        text = f"{what}: {size} bytes is over [limits] {name} = {limit}"
-        self.warn(f"oversize:{what}", f"dropped {text}")
-        return text
-
-    def _enqueue_clock(self, key: str, data: bytes) -> None:
-        if len(data) > self.limits.max_payload:
-            self._oversize("clock", len(data), self.limits.max_payload, "max_payload")
-            return
-        self._take(("clock", self._on_clock, "clock", m.Clock, data), len(data), self._put)
 
     def _on_clock(self, msg: m.Clock) -> None:
         clock = self.clock
@@ -479,154 +430,12 @@ class Service:
             self._last_diag_t = None
             self._publish_diag(self.clock.now())
 
-    def _enqueuer(self, fn: Callable, suffix: str, typ: type, latest: bool = False) -> Callable[[str, bytes], None]:
-        limit, put = self.limits.max_payload, self._put_latest if latest else self._put
-
-        def enqueue(key: str, data: bytes) -> None:
-            if len(data) > limit:
-                self._oversize(suffix, len(data), limit, "max_payload")
-                return
-            self._take(("msg", fn, suffix, typ, data), len(data), put)
-
-        return enqueue
-
-    def _token_enqueuer(self, fn: Callable) -> Callable[[str, bool], None]:
-        def enqueue(key: str, alive: bool) -> None:
-            self._put(("live", fn, key, None, alive), priority=True)
-
-        return enqueue
-
-    def _query_enqueuer(self, fn: Callable, suffix: str, typ: type, priority: bool, acts: bool) -> Callable[[Query], None]:
-        lim, exact = self.limits, self.key(suffix) if acts else None
-
-        def enqueue(q: Query) -> None:
-            arrival = next(self._arrivals)
-            size, psize = len(q.payload), q.params_size
-            if size > lim.max_payload or psize > lim.max_params:
-                big = size > lim.max_payload
-                text = self._oversize(
-                    f"query {suffix} {'payload' if big else 'parameters'}",
-                    size if big else psize,
-                    lim.max_payload if big else lim.max_params,
-                    "max_payload" if big else "max_params",
-                )
-                reply_error(q, "invalid_argument", text, read_params=psize <= lim.max_params)
-                return
-            queued = self._put(("query", fn, exact, typ, (q, arrival)), size + psize, priority)
-            if priority and q.key == exact:
-                self.on_priority(suffix, queued, arrival)
-            if not queued:
-                reply_error(q, "unavailable", f"{self.name} is overloaded: input queue full")
-
-        return enqueue
-
-    def _dispatch(self, item: tuple) -> None:
-        """Serve one input. Whatever fails (a handler, or sending what it returned or a reply) is counted (`errors`)
-        and logged, and the next input is served: an exception raised here would end the worker, or reach the Zenoh
-        thread that serves inline, where only Zenoh would report it."""
-        try:
-            self._handle(item)
-        except Exception as e:
-            self.counters.inc("errors")
-            what = f"{item[0]} {item[2] or getattr(item[1], '__name__', '')}"  # a query acting on no exact key: its handler
-            self.warn(f"serve:{what}", f"serving {what} failed: {type(e).__name__}: {clip(str(e))}", logging.ERROR)
-
-    def _handle(self, item: tuple) -> None:
-        kind, fn, suffix, typ, data = item
-        if kind == "query":
-            self._dispatch_query(fn, suffix, typ, *data)
-            return
-        if kind == "live":
-            try:
-                self._publish_result(fn, fn(data))
-            except Exception:
-                self.counters.inc("errors")
-                self.warn(f"live:{fn.__name__}", f"liveliness handler {fn.__name__} failed:\n{traceback.format_exc()}")
-            return
-        start = time.perf_counter()
-        if kind != "clock":
-            self.counters.inc("msgs_in")
-            self.counters.seen(suffix)
-        else:
-            self.counters.inc("clock_ticks")  # taken like any message (the transport's cost), not input of the service's
-        try:
-            msg = codec.decode(data, typ)
-        except codec.BadInput as e:
-            self.counters.inc("bad_input")
-            self.warn(f"bad:{suffix}", f"dropped bad input on {suffix}: {e}")
-            return
-        t = getattr(msg, "t", None)
-        if t is not None and kind != "clock" and not self.clock.admits(t) and suffix not in self._other_clock:
-            self.counters.inc("dropped_future")
-            self.warn(f"future:{suffix}", f"dropped {suffix} stamped t={t:.3f}, {t - self.clock.now():.3f} s ahead of the clock")
-            return
-        try:
-            out = fn(msg)
-        except Exception:
-            self.counters.inc("errors")
-            self.warn(f"err:{suffix}", f"handler for {suffix} failed:\n{traceback.format_exc()}")
-            return
-        self._publish_result(fn, out)
-        if kind != "clock":
-            self.counters.served(suffix, time.perf_counter() - start)
-
-    def _publish_result(self, fn: Callable, out: Any) -> None:
-        target = getattr(fn, "_zenav_pub", None)
-        if target is not None and out is not None:
-            self.publish(target, out)
-
-    def _dispatch_query(self, fn: Callable, exact: str | None, typ: type, q: Query, arrival: int) -> None:
-        self.counters.inc("queries")
-        if exact is not None and q.key != exact:
-            self.counters.inc("wildcard_refused")
-            self.warn("wildcard", f"refused a query on {q.key}: it acts, so only {exact} is served")
-            reply_error(q, "invalid_argument", f"{q.key}: this query acts; ask it on its exact key {exact}")
-            return
-        refused = format_refusal(q.params.get(FORMAT_PARAM) if q.params_size else None)
-        if refused is not None:
-            self.counters.inc("bad_input")
-            reply_error(q, "invalid_argument", refused)
-            return
-        try:
-            params = {k: v for k, v in q.params.items() if not k.startswith("_")} if q.params_size else {}
-            req: Any = codec.decode(q.payload, typ) if q.payload else codec.from_params(params, typ)
-        except codec.BadInput as e:
-            self.counters.inc("bad_input")
-            self.warn(f"badq:{fn.__name__}", f"bad query on {q.key}: {e}")
-            reply_error(q, "invalid_argument", clip(str(e)))
-            return
-        self._query_arrival = arrival
-        try:
-            rep = fn(req, q)
-        except QueryError as e:
-            if e.code == "invalid_argument":
-                self.counters.inc("bad_input")
-            reply_error(q, e.code, e.message)
-            return
-        except Exception as e:
-            self.counters.inc("errors")
-            self.warn(f"query:{fn.__name__}", f"query {q.key} failed:\n{traceback.format_exc()}", logging.ERROR)
-            reply_error(q, "internal", clip(f"{type(e).__name__}: {e}"))
-            return
-        finally:
-            self._query_arrival = 0
-        if rep is not None:
-            reply_ok(q, rep)
-
     def _run_timers(self) -> float | None:
         """Run due timers and calls (call_at); return wall seconds until the next one (None: unknown)."""
         if not self.clock.ready:
             return None
         left = self._timers.run(self.clock.now(), self._fire, lambda: self.counters.inc("timer_overruns"))
         return None if left is None else self.clock.wall_delay(left)
-
-    def _fire(self, fn: Callable[[float], Any], now: float) -> None:
-        """Run a timer or a call at `now`, publishing what it returns (@publish); a failure is logged and counted."""
-        try:
-            self._publish_result(fn, fn(now))
-        except Exception:
-            self.counters.inc("errors")
-            self.warn(f"timer:{fn.__name__}", f"timer {fn.__name__} failed:\n{traceback.format_exc()}")
 
     def diag(self, now: float) -> m.Diag:
         """The diag message now (rates per second of stack-clock time since the last one)."""

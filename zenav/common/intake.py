@@ -1,0 +1,127 @@
+"""A service's intake: what the bus's threads bring (samples, queries, tokens, clock ticks), its size checked
+before anything is decoded, then served at once on that thread (`inline`) or queued for the worker."""
+
+from __future__ import annotations
+
+import functools
+import itertools
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from zenav.common import messages as m
+from zenav.common.bus import Query
+from zenav.common.config import Limits
+from zenav.common.diagnostics import Counters
+from zenav.common.inbox import Inbox
+from zenav.common.replies import reply_error
+
+
+class Intake:
+    """The bus callbacks of a Service (a part of it: the state is the service's)."""
+
+    name: str
+    limits: Limits
+    counters: Counters
+    inline: bool
+    blocking: bool
+    _inbox: Inbox
+    _busy: threading.Lock
+    _arrivals: itertools.count[int]
+    warn: Callable[..., None]
+    key: Callable[[str], str]
+    on_priority: Callable[[str, bool, int], None]
+    _serve: Callable[[tuple], None]
+    _on_clock: Callable[[m.Clock], None]
+    _other_instance: Callable[[str, bool], None]
+
+    def _put(self, item: tuple, size: int = 0, priority: bool = False) -> bool:
+        if self._inbox.put(item, size, priority):
+            return True
+        self.counters.inc("dropped_overflow")
+        return False
+
+    def _put_latest(self, item: tuple, size: int) -> None:
+        """Queue a sample of a `latest` input in place of its topic's one still queued (dropped, counted)."""
+        outcome = self._inbox.put_latest(item[2], item, size)
+        if outcome == "refused":
+            self.counters.inc("dropped_overflow")
+        elif outcome == "replaced":
+            self.counters.inc("dropped_superseded")
+            self.warn(f"superseded:{item[2]}", f"dropped a {item[2]} sample for a newer one: {self.name} is slower than its input")
+
+    def _take(self, item: tuple, size: int, put: Callable[[tuple, int], Any]) -> None:
+        """A sample from a bus thread: served on that thread if the service is idle and nothing
+        older is queued (no thread switch: `inline`), else queued for the worker by `put`
+        (`_put`, or `_put_latest` for a `latest` input: chosen once, at subscription)."""
+        if self.inline and not self.blocking and self._busy.acquire(blocking=False):
+            try:
+                if self._inbox.empty():
+                    self._serve(item)
+                    return
+                put(item, size)
+            finally:
+                self._busy.release()
+            return
+        put(item, size)
+
+    def _instance_enqueuer(self, mine: str) -> Callable[[str, bool], None]:
+        def enqueue(key: str, alive: bool) -> None:
+            if key != mine:
+                self._put(("live", functools.partial(self._other_instance, key.rsplit("/", 1)[-1]), key, None, alive), priority=True)
+
+        return enqueue
+
+    def _oversize(self, what: str, size: int, limit: int, name: str) -> str:
+        """Count and log an input refused for its size (in the bus callback: cheap)."""
+        self.counters.inc("oversize")
+        text = f"{what}: {size} bytes is over [limits] {name} = {limit}"
+        self.warn(f"oversize:{what}", f"dropped {text}")
+        return text
+
+    def _enqueue_clock(self, key: str, data: bytes) -> None:
+        if len(data) > self.limits.max_payload:
+            self._oversize("clock", len(data), self.limits.max_payload, "max_payload")
+            return
+        self._take(("clock", self._on_clock, "clock", m.Clock, data), len(data), self._put)
+
+    def _enqueuer(self, fn: Callable, suffix: str, typ: type, latest: bool = False) -> Callable[[str, bytes], None]:
+        limit, put = self.limits.max_payload, self._put_latest if latest else self._put
+
+        def enqueue(key: str, data: bytes) -> None:
+            if len(data) > limit:
+                self._oversize(suffix, len(data), limit, "max_payload")
+                return
+            self._take(("msg", fn, suffix, typ, data), len(data), put)
+
+        return enqueue
+
+    def _token_enqueuer(self, fn: Callable) -> Callable[[str, bool], None]:
+        def enqueue(key: str, alive: bool) -> None:
+            self._put(("live", fn, key, None, alive), priority=True)
+
+        return enqueue
+
+    def _query_enqueuer(self, fn: Callable, suffix: str, typ: type, priority: bool, acts: bool) -> Callable[[Query], None]:
+        lim, exact = self.limits, self.key(suffix) if acts else None
+
+        def enqueue(q: Query) -> None:
+            arrival = next(self._arrivals)
+            size, psize = len(q.payload), q.params_size
+            if size > lim.max_payload or psize > lim.max_params:
+                big = size > lim.max_payload
+                text = self._oversize(
+                    f"query {suffix} {'payload' if big else 'parameters'}",
+                    size if big else psize,
+                    lim.max_payload if big else lim.max_params,
+                    "max_payload" if big else "max_params",
+                )
+                reply_error(q, "invalid_argument", text, read_params=psize <= lim.max_params)
+                return
+            queued = self._put(("query", fn, exact, typ, (q, arrival)), size + psize, priority)
+            if priority and q.key == exact:
+                self.on_priority(suffix, queued, arrival)
+            if not queued:
+                reply_error(q, "unavailable", f"{self.name} is overloaded: input queue full")
+
+        return enqueue
