@@ -13,6 +13,7 @@ from zenav.common import codec
 from zenav.common.bus import Query
 from zenav.common.clock import Clock
 from zenav.common.diagnostics import Counters
+from zenav.common.intake import Input
 from zenav.common.replies import FORMAT_PARAM, QueryError, clip, format_refusal, reply_error, reply_ok
 
 
@@ -26,7 +27,7 @@ class Dispatch:
     warn: Callable[..., None]
     publish: Callable[[str, Any], None]
 
-    def _dispatch(self, item: tuple) -> None:
+    def _dispatch(self, item: Input) -> None:
         """Serve one input. Whatever fails (a handler, or sending what it returned or a reply) is counted (`errors`)
         and logged, and the next input is served: an exception raised here would end the worker, or reach the Zenoh
         thread that serves inline, where only Zenoh would report it."""
@@ -34,13 +35,13 @@ class Dispatch:
             self._handle(item)
         except Exception as e:
             self.counters.inc("errors")
-            what = f"{item[0]} {item[2] or getattr(item[1], '__name__', '')}"  # a query acting on no exact key: its handler
+            what = f"{item.kind} {item.suffix or getattr(item.fn, '__name__', '')}"  # a query acting on no exact key: its handler
             self.warn(f"serve:{what}", f"serving {what} failed: {type(e).__name__}: {clip(str(e))}", logging.ERROR)
 
-    def _handle(self, item: tuple) -> None:
+    def _handle(self, item: Input) -> None:
         kind, fn, suffix, typ, data = item
         if kind == "query":
-            self._dispatch_query(fn, suffix, typ, *data)
+            self._dispatch_query(fn, suffix or None, typ, *data)
             return
         if kind == "live":
             try:
@@ -56,7 +57,7 @@ class Dispatch:
         else:
             self.counters.inc("clock_ticks")  # taken like any message (the transport's cost), not input of the service's
         try:
-            msg = codec.decode(data, typ)
+            msg: Any = codec.decode(data, typ)
         except codec.BadInput as e:
             self.counters.inc("bad_input")
             self.warn(f"bad:{suffix}", f"dropped bad input on {suffix}: {e}")

@@ -7,7 +7,7 @@ import functools
 import itertools
 import threading
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 from zenav.common import messages as m
 from zenav.common.bus import Query
@@ -15,6 +15,16 @@ from zenav.common.config import Limits
 from zenav.common.diagnostics import Counters
 from zenav.common.inbox import Inbox
 from zenav.common.replies import reply_error
+
+
+class Input(NamedTuple):
+    """One input as queued for a service's worker."""
+
+    kind: str  # msg (a topic's sample), clock (the sim's clock), query, live (a liveliness token came or went)
+    fn: Callable[..., Any]  # its handler
+    suffix: str  # the topic's suffix; an acting query's exact key ("": any key); a token's key
+    typ: type  # what its payload decodes as (a token's change: bool, its alive)
+    data: Any  # the payload; a query's (Query, its arrival number); a token's alive (bool)
 
 
 class Intake:
@@ -31,26 +41,26 @@ class Intake:
     warn: Callable[..., None]
     key: Callable[[str], str]
     on_priority: Callable[[str, bool, int], None]
-    _serve: Callable[[tuple], None]
+    _serve: Callable[[Input], None]
     _on_clock: Callable[[m.Clock], None]
     _other_instance: Callable[[str, bool], None]
 
-    def _put(self, item: tuple, size: int = 0, priority: bool = False) -> bool:
+    def _put(self, item: Input, size: int = 0, priority: bool = False) -> bool:
         if self._inbox.put(item, size, priority):
             return True
         self.counters.inc("dropped_overflow")
         return False
 
-    def _put_latest(self, item: tuple, size: int) -> None:
+    def _put_latest(self, item: Input, size: int) -> None:
         """Queue a sample of a `latest` input in place of its topic's one still queued (dropped, counted)."""
-        outcome = self._inbox.put_latest(item[2], item, size)
+        outcome = self._inbox.put_latest(item.suffix, item, size)
         if outcome == "refused":
             self.counters.inc("dropped_overflow")
         elif outcome == "replaced":
             self.counters.inc("dropped_superseded")
-            self.warn(f"superseded:{item[2]}", f"dropped a {item[2]} sample for a newer one: {self.name} is slower than its input")
+            self.warn(f"superseded:{item.suffix}", f"dropped a {item.suffix} sample for a newer one: {self.name} is slower than its input")
 
-    def _take(self, item: tuple, size: int, put: Callable[[tuple, int], Any]) -> None:
+    def _take(self, item: Input, size: int, put: Callable[[Input, int], Any]) -> None:
         """A sample from a bus thread: served on that thread if the service is idle and nothing
         older is queued (no thread switch: `inline`), else queued for the worker by `put`
         (`_put`, or `_put_latest` for a `latest` input: chosen once, at subscription)."""
@@ -68,7 +78,7 @@ class Intake:
     def _instance_enqueuer(self, mine: str) -> Callable[[str, bool], None]:
         def enqueue(key: str, alive: bool) -> None:
             if key != mine:
-                self._put(("live", functools.partial(self._other_instance, key.rsplit("/", 1)[-1]), key, None, alive), priority=True)
+                self._put(Input("live", functools.partial(self._other_instance, key.rsplit("/", 1)[-1]), key, bool, alive), priority=True)
 
         return enqueue
 
@@ -83,7 +93,7 @@ class Intake:
         if len(data) > self.limits.max_payload:
             self._oversize("clock", len(data), self.limits.max_payload, "max_payload")
             return
-        self._take(("clock", self._on_clock, "clock", m.Clock, data), len(data), self._put)
+        self._take(Input("clock", self._on_clock, "clock", m.Clock, data), len(data), self._put)
 
     def _enqueuer(self, fn: Callable, suffix: str, typ: type, latest: bool = False) -> Callable[[str, bytes], None]:
         limit, put = self.limits.max_payload, self._put_latest if latest else self._put
@@ -92,13 +102,13 @@ class Intake:
             if len(data) > limit:
                 self._oversize(suffix, len(data), limit, "max_payload")
                 return
-            self._take(("msg", fn, suffix, typ, data), len(data), put)
+            self._take(Input("msg", fn, suffix, typ, data), len(data), put)
 
         return enqueue
 
     def _token_enqueuer(self, fn: Callable) -> Callable[[str, bool], None]:
         def enqueue(key: str, alive: bool) -> None:
-            self._put(("live", fn, key, None, alive), priority=True)
+            self._put(Input("live", fn, key, bool, alive), priority=True)
 
         return enqueue
 
@@ -118,7 +128,7 @@ class Intake:
                 )
                 reply_error(q, "invalid_argument", text, read_params=psize <= lim.max_params)
                 return
-            queued = self._put(("query", fn, exact, typ, (q, arrival)), size + psize, priority)
+            queued = self._put(Input("query", fn, exact or "", typ, (q, arrival)), size + psize, priority)
             if priority and q.key == exact:
                 self.on_priority(suffix, queued, arrival)
             if not queued:

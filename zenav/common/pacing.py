@@ -11,9 +11,10 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 from zenav.common.clock import Clock
+from zenav.common.intake import Input
 
 # [s] stack clock: a topic flows while its last sample was served less than this and a tick interval ago
 # (and an input `after` it waits as long at most)
@@ -40,7 +41,7 @@ class Held(NamedTuple):
     came: float  # [s] wall time it came
     tick: float  # [s] the stack clock's tick it came at
     arrived: float  # [s] stack time it came
-    item: Any  # the input itself, served when released
+    item: Input  # served when released
 
 
 class Pacer:
@@ -57,7 +58,7 @@ class Pacer:
         self.held_for[suffix] = after
         self.paced[after] = Paced()
 
-    def hold(self, after: str, item: Any) -> bool:
+    def hold(self, after: str, item: Input) -> bool:
         """Hold an input for the gap after `after`'s next sample if that topic flows; False: serve it now."""
         paced = self.paced[after]
         now = self.clock.tick()
@@ -82,7 +83,7 @@ class Pacer:
     def waited(self) -> bool:
         """The sample the oldest held input waits for has been served."""
         oldest = self.held[0]
-        return self.paced[self.held_for[oldest.item[2]]].count >= oldest.waits_for
+        return self.paced[self.held_for[oldest.item.suffix]].count >= oldest.waits_for
 
     def overdue(self) -> bool:
         """The sample the oldest held input waits for has not come, and the stack clock has reached `_due`."""
@@ -112,7 +113,7 @@ class Pacer:
         if that sample has not come, when the stack clock reaches `_due` (looked at again then: a stalled sim
         clock does not get there) or, at the latest, HOLD_WALL after it came."""
         oldest = self.held[0]
-        paced = self.paced[self.held_for[oldest.item[2]]]
+        paced = self.paced[self.held_for[oldest.item.suffix]]
         last, gap = paced.last, paced.period
         wall = time.monotonic()
         if self.waited():

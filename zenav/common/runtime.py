@@ -96,7 +96,7 @@ from zenav.common.executor import Executor, background_thread
 from zenav.common.handlers import on_liveliness, publish, query, subscribe, timer
 from zenav.common.inbox import Inbox
 from zenav.common.instances import Duplicate, instance_id, running_for
-from zenav.common.intake import Intake
+from zenav.common.intake import Input, Intake
 from zenav.common.pacing import HOLD, HOLD_WALL, Pacer
 from zenav.common.replies import FORMAT_PARAM, LOG_CHARS, QueryError, clip, format_refusal, reply_error, reply_ok
 from zenav.common.timers import Timers
@@ -361,13 +361,13 @@ class Service(Intake, Dispatch):
 
     # ------------------------------------------------------------ internals
 
-    def _serve(self, item: tuple) -> None:
+    def _serve(self, item: Input) -> None:
         """Dispatch an item, or hold it for the worker (`after`).
 
         A held input is served after the sample of its topic that comes next (the worker
         serves it in the gap after that one) and before anything that comes after that
         sample: in a run replayed faster or slower, it lands between the same inputs."""
-        kind, suffix = item[0], item[2]
+        kind, suffix = item.kind, item.suffix
         pacer = self._pacer
         if pacer.held and (kind == "query" or pacer.waited() or pacer.overdue()):
             self._release()  # a query, or anything after the sample held input waited for, comes after it
