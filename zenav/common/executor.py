@@ -6,14 +6,22 @@ from __future__ import annotations
 import logging
 import os
 import threading
-from typing import TYPE_CHECKING
+from typing import Protocol
 
+from zenav.common.config import Limits
 from zenav.common.inbox import Inbox
 
-if TYPE_CHECKING:
-    from zenav.common.runtime import Service
-
 BACKGROUND_NICE = 10  # added to the niceness of a thread doing background work (as `nice` adds by default)
+
+
+class Served(Protocol):
+    """What the worker needs of a service (zenav.common.runtime.Service)."""
+
+    background: bool
+    limits: Limits
+    _inbox: Inbox
+
+    def turn(self, budget: int) -> float | None: ...
 
 
 def background_thread() -> None:
@@ -42,11 +50,11 @@ class Executor:
     IDLE = 0.1  # [s] wall, the longest wait without input or a timer due
 
     def __init__(self) -> None:
-        self.services: list[Service] = []
+        self.services: list[Served] = []
         self._wake = threading.Condition(threading.Lock())
         self._stop = threading.Event()
 
-    def add(self, svc: Service) -> None:
+    def add(self, svc: Served) -> None:
         """Take `svc` into this worker; before svc.start() (its input then queues here)."""
         svc._inbox = Inbox(svc.limits.queue_items, svc.limits.queue_bytes, ready=self._wake)
         self.services.append(svc)
