@@ -1,5 +1,15 @@
 """Serving one input: a sample decoded and handed to its handler, a query answered, a token's change told; what a
-handler returns published; whatever fails counted and logged, and the next input served."""
+handler returns published; whatever fails counted and logged, and the next input served.
+
+A payload that does not decode is counted (`bad_input`), logged and dropped; a bad query gets an
+`invalid_argument` reply. A handler that raises is logged and counted (`errors`) and the service keeps going. A
+message stamped past the stack clock's horizon is counted (`dropped_future`), logged and dropped: one bad stamp
+must not make every later sample look stale (but for an input subscribed `other_clock`: another robot's sim stamps
+its body on its own clock, which may be far ahead of this one's).
+
+A query that acts (the default; read-only ones declare `acts=False`) runs only when asked on its exact key: a
+wildcard get (`zenav/r1/**`) is answered `invalid_argument` naming the key and counted (`wildcard_refused`).
+"""
 
 from __future__ import annotations
 

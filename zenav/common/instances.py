@@ -1,4 +1,8 @@
-"""One instance per service and robot: the ids that name instances, and the refusal of a second one."""
+"""One instance per service and robot: the ids that name instances, and the refusal of a second one.
+
+`Service.start` refuses (`Duplicate`) when the service's token is already declared, and each instance holds
+`instance/<service>/<id>`, so two that started together see each other: diag shows `error` while another runs.
+"""
 
 from __future__ import annotations
 

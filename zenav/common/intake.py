@@ -1,5 +1,22 @@
-"""A service's intake: what the bus's threads bring (samples, queries, tokens, clock ticks), its size checked
-before anything is decoded, then served at once on that thread (`inline`) or queued for the worker."""
+"""A service's intake: what the bus's threads bring (samples, queries, tokens, clock ticks), its size checked before
+anything is decoded, then served at once on that thread (`inline`) or queued for the worker.
+
+Queries declared `priority` (and liveliness events) go in a lane the worker empties before anything else, so a
+stop is never queued behind other input; on Zenoh they are served on a session of their own (bus.ZenohBus), so a
+stop is not behind other input on the wire either. Before the worker gets to it, such a query (on its exact key)
+runs the service's `on_priority` hook at once on the bus's thread: the navigator commands zero there, without
+waiting for the input the worker has in hand. Every query is numbered as it arrives, in the bus callback
+(`query_arrival`): the order in which queries reached the service, which a priority query's overtaking does not
+change (the navigator voids the goals that arrived before a stop). The queue is bounded in items and bytes
+([limits]): a full one drops new input (`dropped_overflow`). An input declared `latest`
+(`@subscribe("camera/frame", latest=True)`, as ROS 2's keep-last depth 1) holds one place in the queue at most: a
+sample that comes while its topic's previous one is still queued takes that one's place, and the older is dropped,
+counted (`dropped_superseded`) and logged. A service slower than such an input serves its newest sample each time,
+rather than falling further behind with every one.
+
+Sizes are checked in the bus callback, before anything is decoded: a payload over [limits] max_payload or selector
+parameters over max_params are counted (`oversize`), logged and dropped (a query is answered `invalid_argument`).
+"""
 
 from __future__ import annotations
 

@@ -1,10 +1,14 @@
-"""Input held for a periodic topic (`@subscribe(..., after=topic)`): served in the gap after that topic's next sample.
+"""Input held for a periodic topic (`@subscribe(..., after=topic)`).
 
-While the topic flows (its last sample served less than HOLD and a clock tick interval ago), an input declared
-`after` it is held and served in the middle of the gap after the topic's next sample; if that sample does not
-come, once the stack clock is that far past the input's arrival (or HOLD_WALL of wall time has passed with the
-clock still too). Judged on the clock's ticks, so a replayed run gives the same order at any speed
-(zenav.common.runtime's docstring tells the whole rule)."""
+An input declared `after` a periodic topic (`@subscribe("vps/pose", after="odom")`) is held while that topic flows
+(its last sample served less than HOLD and a clock tick interval ago) and served by the worker in the middle of
+the gap after that topic's next sample: work that may take milliseconds (a late fix's replay) then runs once that
+sample's chain has gone on and before the following one comes, not in the way of either; and always before any
+input after that sample. If that sample does not come, it is served once the stack clock is that far past its
+arrival (or HOLD_WALL of wall time has passed with the clock still too: a paused sim). Both are judged on the
+clock's ticks (`Clock.tick`), never extrapolated from the wall clock, so a replayed run gives the same results at
+any speed, however a busy host delays the replay. A query is served only after what is held.
+"""
 
 from __future__ import annotations
 

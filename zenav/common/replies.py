@@ -1,4 +1,12 @@
-"""Query replies: msgpack or JSON (`_format=json`), the contract's error map, and clipped log text."""
+"""Query replies: msgpack or JSON (`_format=json`), the contract's error map, and clipped log text.
+
+Replies are msgpack, or JSON text (Zenoh encoding application/json) when the query asks with the selector
+parameter `_format=json` (browsers and curl through Zenoh's REST plugin). Parameters named `_...` are Zenoh's
+(`_format`, the REST plugin's `_raw`, `_time`), never request fields.
+
+Log lines that may carry what a sender sent (decode errors, tracebacks, keys) are cut to LOG_CHARS characters a
+line (`clip`).
+"""
 
 from __future__ import annotations
 

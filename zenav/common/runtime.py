@@ -22,58 +22,13 @@ sample that finds the service idle and nothing queued is served at once on the b
 thread that brought it (`inline`, what the deployments set: no thread
 switch; never for a `blocking` service); anything else is queued for the service's
 worker (services composed in one process share one worker, `Executor`, and a blocking
-one has its own), and queries always are. An input declared `after` a periodic topic
-(`@subscribe("vps/pose", after="odom")`) is held while that topic flows (its last
-sample served less than HOLD and a clock tick interval ago) and served by the worker in the middle of the gap
-after that topic's next sample: work that may take milliseconds (a late fix's replay)
-then runs once that sample's chain has gone on and before the following one comes, not
-in the way of either; and always before any input after that sample. If that sample
-does not come, it is served once the stack clock is that far past its arrival (or HOLD_WALL
-of wall time has passed with the clock still too: a paused sim). Both are judged on the
-clock's ticks (`Clock.tick`), never extrapolated from the wall clock, so a replayed run
-gives the same results at any speed, however a busy host delays the replay. A query
-is served only after what is held. Queries declared
-`priority` (and liveliness events) go in a lane the worker empties before anything
-else, so a stop is never queued behind other input; on Zenoh they are served on a
-session of their own (bus.ZenohBus), so a stop is not behind other input on the wire
-either. Before the worker gets to it, such a query (on its exact key) runs the
-service's `on_priority` hook at once on the bus's thread: the navigator commands zero
-there, without waiting for the input the worker has in hand. Every query is numbered as it
-arrives, in the bus callback (`query_arrival`): the order in which queries reached the
-service, which a priority query's overtaking does not change (the navigator voids the goals
-that arrived before a stop). The queue is bounded in
-items and bytes ([limits]): a full one drops new input (`dropped_overflow`). An input
-declared `latest` (`@subscribe("camera/frame", latest=True)`, as ROS 2's keep-last
-depth 1) holds one place in the queue at most: a sample that comes while its topic's
-previous one is still queued takes that one's place, and the older is dropped, counted
-(`dropped_superseded`) and logged. A service slower than such an input serves its
-newest sample each time, rather than falling further behind with every one.
+one has its own), and queries always are.
 
-Sizes are checked in the bus callback, before anything is decoded: a payload over
-[limits] max_payload or selector parameters over max_params are counted (`oversize`),
-logged and dropped (a query is answered `invalid_argument`). A payload that does not
-decode is counted (`bad_input`), logged and dropped; a bad query gets an
-`invalid_argument` reply. A handler that raises is logged and counted (`errors`) and
-the service keeps going. A message stamped past the stack clock's horizon is counted
-(`dropped_future`), logged and dropped: one bad stamp must not make every later
-sample look stale (but for an input subscribed `other_clock`: another robot's sim stamps
-its body on its own clock, which may be far ahead of this one's).
-
-A query that acts (the default; read-only ones declare `acts=False`) runs only when
-asked on its exact key: a wildcard get (`zenav/r1/**`) is answered `invalid_argument`
-naming the key and counted (`wildcard_refused`).
-
-One instance per service and robot: `start` refuses (`Duplicate`) when the service's
-token is already declared, and each instance holds `instance/<service>/<id>`, so two
-that started together see each other: diag shows `error` while another runs.
-
-Replies are msgpack, or JSON text (Zenoh encoding application/json) when the query
-asks with the selector parameter `_format=json` (browsers and curl through Zenoh's
-REST plugin). Parameters named `_...` are Zenoh's (`_format`, the REST plugin's `_raw`,
-`_time`), never request fields.
-
-Log lines that may carry what a sender sent (decode errors, tracebacks, keys) are
-cut to LOG_CHARS characters a line (`clip`).
+Its parts, each a module of zenav.common: `handlers` (the decorators), `intake` (the bus callbacks: sizes,
+the queue, the priority lane, `latest`), `pacing` (input held `after` a periodic topic), `dispatch` (serving
+one input: decoding, stamps, handlers, replies), `timers` (timers and `call_at`), `diagnostics` (diag),
+`instances` (one instance per service and robot), `replies` (reply formats and errors) and `executor` (the
+worker several services of one process share).
 """
 
 from __future__ import annotations
