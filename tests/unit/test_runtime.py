@@ -261,7 +261,7 @@ def test_clock_restart_reschedules_timers_and_calls_the_hook():
     assert s.counters.values["clock_resets"] == 1
     restarted = published(bus, "diag/motor")[diags:]  # at once: the service is heard from again
     assert len(restarted) == 1 and restarted[0].t < 1.0 and restarted[0].counters["clock_resets"] == 1
-    assert all(tm.due is not None and tm.due < 2.0 for tm in s._timers)  # not waiting for t = 500
+    assert all(tm.due is not None and tm.due < 2.0 for tm in s._timers.timers)  # not waiting for t = 500
     s.close()
 
 
@@ -564,7 +564,7 @@ class Held(Recorder):
 def held(monkeypatch):
     """(service served inline, bus, at): `at(t)` sets the manual stack clock and the runtime's wall clock to 100 + t."""
     wall = [100.0]
-    monkeypatch.setattr(runtime.time, "monotonic", lambda: wall[0])
+    monkeypatch.setattr(time, "monotonic", lambda: wall[0])
     bus, clock = MemoryBus(), ManualClock(0.0)
     s = Held(Settings.load(None), bus, clock)
     s.start()
@@ -636,7 +636,7 @@ def test_held_input_is_served_before_a_query_and_not_held_once_the_topic_stops(h
 def held_sim(monkeypatch):
     """(service on a sim clock, served inline, bus, wall): the monotonic clock is wall[0]."""
     wall = [100.0]
-    monkeypatch.setattr(runtime.time, "monotonic", lambda: wall[0])
+    monkeypatch.setattr(time, "monotonic", lambda: wall[0])
     bus = MemoryBus()
     s = Held(Settings.load(None), bus, SimClock())
     s.start()

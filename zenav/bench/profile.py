@@ -34,6 +34,7 @@ from zenav.common import messages as m
 from zenav.common.bus import MemoryBus
 from zenav.common.clock import ManualClock
 from zenav.common.config import Settings
+from zenav.common.intake import Input
 from zenav.common.roles import ROBOT_SERVICES
 from zenav.common.runtime import Service
 from zenav.common.scenarios import SQUARE
@@ -166,12 +167,12 @@ def _time_inputs(svc: Service, into: dict[str, tuple[int, float]]) -> None:
     """From now on, add each input message's dispatch (thread CPU time) to `into` by its topic."""
     dispatch = svc._dispatch
 
-    def timed(item: tuple) -> None:
+    def timed(item: Input) -> None:
         t0 = time.thread_time()
         dispatch(item)
-        if item[0] == "msg":
-            n, cpu = into.get(item[2], (0, 0.0))
-            into[item[2]] = (n + 1, cpu + time.thread_time() - t0)
+        if item.kind == "msg":
+            n, cpu = into.get(item.suffix, (0, 0.0))
+            into[item.suffix] = (n + 1, cpu + time.thread_time() - t0)
 
     svc._dispatch = timed  # type: ignore[method-assign]
 

@@ -104,6 +104,12 @@ def run(plan: Plan, out: Path, command: str, say: Callable[[str], None] = lambda
 
 def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[str], None]) -> None:
     """Each section of the plan in turn, into `res`."""
+    _measure_live(plan, res, logs, note)
+    _measure_runs(plan, res, out, logs, note)
+
+
+def _measure_live(plan: Plan, res: Results, logs: Path, note: Callable[[str], None]) -> None:
+    """The sections measured on live stacks in real time (latency, cost, profile, fleet), into `res`."""
     if "latency" in plan.sections:
         _latency(plan, res, logs, note)
     if "cost" in plan.sections:
@@ -136,6 +142,11 @@ def _measure(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[st
         if plan.fleet_hosts:
             res.hosts = fleet.netns_available() or fleet.hosts(plan.fleet_hosts, log_dir=logs)
             note(f"fleet over {plan.fleet_hosts} hosts: {res.hosts}")
+
+
+def _measure_runs(plan: Plan, res: Results, out: Path, logs: Path, note: Callable[[str], None]) -> None:
+    """The sections measured on simulated runs and studies (speed, accuracy, navigation, settle, planning, camera),
+    into `res`."""
     res.rtf = plan.rtf
     runs = Runs(out, logs, res)
     if "speed" in plan.sections:

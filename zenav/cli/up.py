@@ -235,59 +235,15 @@ def frames_elsewhere(session: zenoh.Session, robot: str, wait: float = FIELD_LIS
 
 
 def run(args: argparse.Namespace) -> int:
-    profile = services.PROFILES[args.profile]
-    names = [n.strip() for n in args.services.split(",") if n.strip()] if args.services else list(profile.services)
-    unknown = set(names) - set(services.ALL)
-    if unknown:
-        print(f"zenav up: unknown service(s): {', '.join(sorted(unknown))} (the services: {', '.join(services.ALL)})", file=sys.stderr)
-        return 2
-    if args.demo and not profile.demo:
-        print(
-            f"zenav up: --demo drives the sim's square; on the {args.profile} profile drive with `zenav goto` or a program", file=sys.stderr
-        )
-        return 2
-    camera = extras.installed("cv2")  # the base install has no OpenCV: the profile's camera settings are left out
-    args.set = [*profile.sets(camera), *args.set]  # the profile's config, under the user's --set (children get both)
-    flag = {} if args.compose is None else {"deployment": {"compose": [n.strip() for n in args.compose.split(",") if n.strip()]}}
-    try:
-        settings = settings_from_args(args, **flag)  # fail fast here rather than in six children
-        for name in names:
-            cls = services.load(name)
-            if cls.config_type is not None:
-                settings.section(name, cls.config_type)
-        hang = hang_after(args.hang_after, settings) if args.hang_after > 0 else None
-    except ConfigError as e:  # a feature's missing package too (extras.MissingExtra): [sim] camera, the driver...
-        print(f"zenav up: {e}", file=sys.stderr)
-        return 2
-    if profile.camera and not camera:
-        print("zenav up: no OpenCV here (pip install 'zenav[camera]'): the VPS is the synthetic one, no camera", file=sys.stderr)
-    not_run = [n for n in settings.deployment.compose if n not in names] if args.compose is not None else []
-    if not_run:  # a config's compose applies to whichever of its services run; the flag names this run's
-        print(f"zenav up: --compose {', '.join(not_run)}: not started by this run (it starts {', '.join(names)})", file=sys.stderr)
-        return 2
-    if args.connect and args.router_connect:
-        print("zenav up: --router-connect links the router zenav up embeds; with --connect it embeds none", file=sys.stderr)
-        return 2
+    checked = _checked(args)
+    if isinstance(checked, int):
+        return checked
+    names, settings, hang = checked
     robot = settings.robot_id
     # --connect: join a router that runs elsewhere; otherwise embed one (linked to --router-connect's).
     endpoint = args.connect or args.listen
-    if not args.connect:
-        warn_if_open("zenav up", args.listen)
-    session = (
-        zenoh.open(zenoh_config("client", connect=args.connect))
-        if args.connect
-        else open_router(
-            args.listen, priority=settings.deployment.realtime, connect=args.router_connect, max_message=settings.limits.max_message()
-        )
-    )
-    if args.connect and "sim" in names and settings.section("sim", SimConfig).camera and frames_elsewhere(session, robot):
-        session.close()
-        print(
-            "zenav up: frames already come on zenav/field/camera/frame (another robot's sim renders the field's camera):"
-            f" {robot}'s sim would be a second camera on that key, on a clock of its own, and spoil every robot's"
-            " fixes. Run this robot with its own synthetic camera: --set sim.camera=false --set vps.source=synthetic",
-            file=sys.stderr,
-        )
+    session = _session(args, settings, names)
+    if session is None:
         return 2
     log_dir = args.log_dir or default_log_dir()
     events: list[str] = []
@@ -367,6 +323,70 @@ def run(args: argparse.Namespace) -> int:
         sup.close()
         bot.close()
     return status
+
+
+def _checked(args: argparse.Namespace) -> tuple[list[str], Settings, float | None] | int:
+    """The services to start, their settings and the time after which a silent one is hung, all checked before
+    anything starts; or the exit status (2) of a refusal, told on stderr."""
+    profile = services.PROFILES[args.profile]
+    names = [n.strip() for n in args.services.split(",") if n.strip()] if args.services else list(profile.services)
+    unknown = set(names) - set(services.ALL)
+    if unknown:
+        print(f"zenav up: unknown service(s): {', '.join(sorted(unknown))} (the services: {', '.join(services.ALL)})", file=sys.stderr)
+        return 2
+    if args.demo and not profile.demo:
+        print(
+            f"zenav up: --demo drives the sim's square; on the {args.profile} profile drive with `zenav goto` or a program", file=sys.stderr
+        )
+        return 2
+    camera = extras.installed("cv2")  # the base install has no OpenCV: the profile's camera settings are left out
+    args.set = [*profile.sets(camera), *args.set]  # the profile's config, under the user's --set (children get both)
+    flag = {} if args.compose is None else {"deployment": {"compose": [n.strip() for n in args.compose.split(",") if n.strip()]}}
+    try:
+        settings = settings_from_args(args, **flag)  # fail fast here rather than in six children
+        for name in names:
+            cls = services.load(name)
+            if cls.config_type is not None:
+                settings.section(name, cls.config_type)
+        hang = hang_after(args.hang_after, settings) if args.hang_after > 0 else None
+    except ConfigError as e:  # a feature's missing package too (extras.MissingExtra): [sim] camera, the driver...
+        print(f"zenav up: {e}", file=sys.stderr)
+        return 2
+    if profile.camera and not camera:
+        print("zenav up: no OpenCV here (pip install 'zenav[camera]'): the VPS is the synthetic one, no camera", file=sys.stderr)
+    not_run = [n for n in settings.deployment.compose if n not in names] if args.compose is not None else []
+    if not_run:  # a config's compose applies to whichever of its services run; the flag names this run's
+        print(f"zenav up: --compose {', '.join(not_run)}: not started by this run (it starts {', '.join(names)})", file=sys.stderr)
+        return 2
+    if args.connect and args.router_connect:
+        print("zenav up: --router-connect links the router zenav up embeds; with --connect it embeds none", file=sys.stderr)
+        return 2
+    return names, settings, hang
+
+
+def _session(args: argparse.Namespace, settings: Settings, names: list[str]) -> zenoh.Session | None:
+    """The session of `zenav up`: on the router it embeds, or (--connect) on one that runs elsewhere; None (told on
+    stderr) if this robot's sim would be a second camera on the field's frames."""
+    robot = settings.robot_id
+    if not args.connect:
+        warn_if_open("zenav up", args.listen)
+    session = (
+        zenoh.open(zenoh_config("client", connect=args.connect))
+        if args.connect
+        else open_router(
+            args.listen, priority=settings.deployment.realtime, connect=args.router_connect, max_message=settings.limits.max_message()
+        )
+    )
+    if args.connect and "sim" in names and settings.section("sim", SimConfig).camera and frames_elsewhere(session, robot):
+        session.close()
+        print(
+            "zenav up: frames already come on zenav/field/camera/frame (another robot's sim renders the field's camera):"
+            f" {robot}'s sim would be a second camera on that key, on a clock of its own, and spoil every robot's"
+            " fixes. Run this robot with its own synthetic camera: --set sim.camera=false --set vps.source=synthetic",
+            file=sys.stderr,
+        )
+        return None
+    return session
 
 
 def _beater(sup: Launcher, child: str) -> Callable[[m.Diag], None]:

@@ -22,256 +22,63 @@ sample that finds the service idle and nothing queued is served at once on the b
 thread that brought it (`inline`, what the deployments set: no thread
 switch; never for a `blocking` service); anything else is queued for the service's
 worker (services composed in one process share one worker, `Executor`, and a blocking
-one has its own), and queries always are. An input declared `after` a periodic topic
-(`@subscribe("vps/pose", after="odom")`) is held while that topic flows (its last
-sample served less than HOLD and a clock tick interval ago) and served by the worker in the middle of the gap
-after that topic's next sample: work that may take milliseconds (a late fix's replay)
-then runs once that sample's chain has gone on and before the following one comes, not
-in the way of either; and always before any input after that sample. If that sample
-does not come, it is served once the stack clock is that far past its arrival (or HOLD_WALL
-of wall time has passed with the clock still too: a paused sim). Both are judged on the
-clock's ticks (`Clock.tick`), never extrapolated from the wall clock, so a replayed run
-gives the same results at any speed, however a busy host delays the replay. A query
-is served only after what is held. Queries declared
-`priority` (and liveliness events) go in a lane the worker empties before anything
-else, so a stop is never queued behind other input; on Zenoh they are served on a
-session of their own (bus.ZenohBus), so a stop is not behind other input on the wire
-either. Before the worker gets to it, such a query (on its exact key) runs the
-service's `on_priority` hook at once on the bus's thread: the navigator commands zero
-there, without waiting for the input the worker has in hand. Every query is numbered as it
-arrives, in the bus callback (`query_arrival`): the order in which queries reached the
-service, which a priority query's overtaking does not change (the navigator voids the goals
-that arrived before a stop). The queue is bounded in
-items and bytes ([limits]): a full one drops new input (`dropped_overflow`). An input
-declared `latest` (`@subscribe("camera/frame", latest=True)`, as ROS 2's keep-last
-depth 1) holds one place in the queue at most: a sample that comes while its topic's
-previous one is still queued takes that one's place, and the older is dropped, counted
-(`dropped_superseded`) and logged. A service slower than such an input serves its
-newest sample each time, rather than falling further behind with every one.
+one has its own), and queries always are.
 
-Sizes are checked in the bus callback, before anything is decoded: a payload over
-[limits] max_payload or selector parameters over max_params are counted (`oversize`),
-logged and dropped (a query is answered `invalid_argument`). A payload that does not
-decode is counted (`bad_input`), logged and dropped; a bad query gets an
-`invalid_argument` reply. A handler that raises is logged and counted (`errors`) and
-the service keeps going. A message stamped past the stack clock's horizon is counted
-(`dropped_future`), logged and dropped: one bad stamp must not make every later
-sample look stale (but for an input subscribed `other_clock`: another robot's sim stamps
-its body on its own clock, which may be far ahead of this one's).
-
-A query that acts (the default; read-only ones declare `acts=False`) runs only when
-asked on its exact key: a wildcard get (`zenav/r1/**`) is answered `invalid_argument`
-naming the key and counted (`wildcard_refused`).
-
-One instance per service and robot: `start` refuses (`Duplicate`) when the service's
-token is already declared, and each instance holds `instance/<service>/<id>`, so two
-that started together see each other: diag shows `error` while another runs.
-
-Replies are msgpack, or JSON text (Zenoh encoding application/json) when the query
-asks with the selector parameter `_format=json` (browsers and curl through Zenoh's
-REST plugin). Parameters named `_...` are Zenoh's (`_format`, the REST plugin's `_raw`,
-`_time`), never request fields.
-
-Log lines that may carry what a sender sent (decode errors, tracebacks, keys) are
-cut to LOG_CHARS characters a line (`clip`).
+Its parts, each a module of zenav.common: `handlers` (the decorators), `intake` (the bus callbacks: sizes,
+the queue, the priority lane, `latest`), `pacing` (input held `after` a periodic topic), `dispatch` (serving
+one input: decoding, stamps, handlers, replies), `timers` (timers and `call_at`), `diagnostics` (diag),
+`instances` (one instance per service and robot), `replies` (reply formats and errors) and `executor` (the
+worker several services of one process share).
 """
 
 from __future__ import annotations
 
-import functools
-import heapq
 import itertools
 import logging
-import math
-import os
-import re
-import socket
 import threading
 import time
-import traceback
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any
-
-import msgspec
 
 from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common.bus import JSON, MSGPACK, Bus, Handle, Query, undeclare_all
+from zenav.common.bus import Bus, Handle, undeclare_all
 from zenav.common.clock import FOREIGN, REFUSED, RESTARTED, Clock, SimClock, WallClock
 from zenav.common.config import Settings
+from zenav.common.diagnostics import WARN_LINES, Counters, CpuMeter, WarnLimit, shape
+from zenav.common.dispatch import Dispatch
+from zenav.common.executor import Executor, background_thread
+from zenav.common.handlers import on_liveliness, publish, query, subscribe, timer
 from zenav.common.inbox import Inbox
+from zenav.common.instances import Duplicate, instance_id, running_for
+from zenav.common.intake import Input, Intake
+from zenav.common.pacing import HOLD, HOLD_WALL, Pacer
+from zenav.common.replies import FORMAT_PARAM, LOG_CHARS, QueryError, clip, format_refusal, reply_error, reply_ok
+from zenav.common.timers import Timers
 
-LOG_CHARS = 200  # a log line (and an internal error reply) is cut to this many characters
-# [s] stack clock: a topic flows while its last sample was served less than this and a tick interval ago
-# (and an input `after` it waits as long at most)
-HOLD = 0.05
-HOLD_WALL = 1.0  # [s] wall: how long it waits at most when the stack clock does not move either (a sim paused, a replay at its end)
-HOLD_ITEMS = 64  # inputs held at once at most (more are served at once)
-GAP_GAIN = 0.2  # weight of each new gap in a topic's period (smoothed: one late sample does not move it far)
-FORMAT_PARAM = "_format"  # selector parameter choosing the reply format: msgpack (default) or json
-FORMATS = {"msgpack": MSGPACK, "json": JSON}
-_FIGURES = re.compile(r"\d+(\.\d+)?")  # the figures of a status reason
-BACKGROUND_NICE = 10  # added to the niceness of a thread doing background work (as `nice` adds by default)
-
-
-def clip(text: str, limit: int = LOG_CHARS) -> str:
-    """`text` with each line cut to `limit` characters (a payload's repr must not flood the log)."""
-    return "\n".join(
-        line if len(line) <= limit else f"{line[:limit]}... ({len(line) - limit} more characters)" for line in text.split("\n")
-    )
-
-
-class Duplicate(Exception):
-    """Another instance of the service already runs for this robot."""
-
-
-class QueryError(Exception):
-    """Raised by a query handler to answer with an error reply."""
-
-    def __init__(self, code: str, message: str) -> None:
-        super().__init__(message)
-        self.code, self.message = code, message
+__all__ = [  # the names services, tools and tests import from here
+    "FORMAT_PARAM",
+    "HOLD",
+    "HOLD_WALL",
+    "LOG_CHARS",
+    "Duplicate",
+    "Executor",
+    "QueryError",
+    "Service",
+    "background_thread",
+    "clip",
+    "format_refusal",
+    "on_liveliness",
+    "publish",
+    "query",
+    "reply_error",
+    "reply_ok",
+    "subscribe",
+    "timer",
+]
 
 
-def background_thread() -> None:
-    """Lower the calling thread's priority by BACKGROUND_NICE (Linux keeps niceness per thread; threads it
-    starts later take it): work off the control loop's path, such as a camera's detector, then yields the
-    cores to it on a computer they share. Lowering a priority needs no privilege."""
-    tid = threading.get_native_id()
-    try:
-        os.setpriority(os.PRIO_PROCESS, tid, min(os.getpriority(os.PRIO_PROCESS, tid) + BACKGROUND_NICE, 19))
-    except OSError as e:  # not Linux, or a sandbox that forbids it: the work runs at the priority it has
-        logging.getLogger("zenav").warning("could not lower a background thread's priority: %s", e)
-
-
-def format_refusal(fmt: str | None) -> str | None:
-    """Why a query's reply format (its `_format` parameter, None: not given) cannot be served; None if it can."""
-    if fmt is None or fmt in FORMATS:
-        return None
-    return f"{FORMAT_PARAM}={clip(fmt, 40)}: expected one of {', '.join(FORMATS)}"
-
-
-def reply_format(q: Query) -> str:
-    """The encoding a query asked its replies in (`_format=json`: JSON; otherwise msgpack)."""
-    if not q.params_size:
-        return MSGPACK
-    return FORMATS.get(q.params.get(FORMAT_PARAM, "msgpack"), MSGPACK)
-
-
-def _encode(msg: Any, encoding: str) -> bytes:
-    return msgspec.json.encode(msg) if encoding == JSON else codec.encode(msg)
-
-
-def reply_error(q: Query, code: str, message: str, *, read_params: bool = True) -> None:
-    """Answer a query with the contract's error map, and end it.
-
-    `read_params=False`: msgpack without parsing the selector parameters (refused as oversize)."""
-    encoding = reply_format(q) if read_params else MSGPACK
-    q.reply_err(_encode(m.ErrorReply(error=code, message=message), encoding), encoding)
-    q.finish()
-
-
-def reply_ok(q: Query, reply: m.Reply) -> None:
-    """Answer a query with a reply message, and end it."""
-    encoding = reply_format(q)
-    q.reply(_encode(reply, encoding), encoding)
-    q.finish()
-
-
-# ----------------------------------------------------------------- decorators
-def subscribe(suffix: str, typ: type | None = None, *, after: str | None = None, latest: bool = False) -> Callable:
-    """Run the method for every message on `zenav/<robot>/<suffix>`, decoded as `typ`.
-
-    `after`: a periodic topic this service subscribes to; while it flows, each message is
-    served in the gap after its next sample (the module's docstring). `latest`: only the
-    newest message is worth serving (the module's docstring)."""
-
-    def deco(fn: Any) -> Any:
-        fn._zenav_sub = (suffix, typ or keys.TOPICS[suffix], after, latest)
-        return fn
-
-    return deco
-
-
-def publish(suffix: str) -> Callable:
-    """Publish the method's return value (unless None) on `suffix`."""
-
-    def deco(fn: Any) -> Any:
-        fn._zenav_pub = suffix
-        return fn
-
-    return deco
-
-
-def timer(period: float | str) -> Callable:
-    """Run the method every `period` seconds of the service clock.
-
-    `period` is seconds, or the name of an attribute of the service holding them
-    (so that config can set it: `@timer("tick_period")`).
-    """
-
-    def deco(fn: Any) -> Any:
-        fn._zenav_timer = period
-        return fn
-
-    return deco
-
-
-def query(suffix: str, typ: type | None = None, *, priority: bool = False, acts: bool = True) -> Callable:
-    """Serve queries on `suffix`; the method returns a reply, or None to reply later.
-
-    `priority`: taken before any other queued input, and served on a link of its own. `acts=False`: read-only, so a
-    wildcard query may reach it; an acting query runs only on its exact key.
-    """
-
-    def deco(fn: Any) -> Any:
-        fn._zenav_query = (suffix, typ or keys.QUERIES[suffix][0], priority, acts)
-        return fn
-
-    return deco
-
-
-def on_liveliness(service: str) -> Callable:
-    """Run the method with `alive: bool` when `service`'s liveliness token appears or goes.
-
-    A process that dies loses its token as soon as its socket closes: faster than any
-    message timeout, so safety reactions (stop the wheels) hang on it.
-    """
-
-    def deco(fn: Any) -> Any:
-        fn._zenav_liveliness = service
-        return fn
-
-    return deco
-
-
-@dataclass
-class _Timer:
-    period: float
-    fn: Callable[[float], Any]
-    due: float | None = None
-
-
-@dataclass
-class Counters:
-    """Counters and per-topic message counts, published in diag."""
-
-    values: dict[str, int] = field(
-        default_factory=lambda: dict.fromkeys(
-            ("msgs_in", "msgs_out", "bad_input", "dropped_stale", "dropped_future", "oversize", "errors"), 0
-        )
-    )
-    window: dict[str, int] = field(default_factory=dict)  # topic -> messages since the last diag
-
-    def inc(self, name: str, n: int = 1) -> None:
-        self.values[name] = self.values.get(name, 0) + n
-
-    def seen(self, topic: str) -> None:
-        self.window[topic] = self.window.get(topic, 0) + 1
-
-
-class Service:
+class Service(Intake, Dispatch):
     """Base of every zenav service. Subclasses set `name` and declare handlers."""
 
     name = "service"
@@ -296,33 +103,25 @@ class Service:
         self.status, self.status_message = "ok", ""
         self.limits = settings.limits
         self._inbox = Inbox(self.limits.queue_items, self.limits.queue_bytes)
-        self._timers: list[_Timer] = []
-        self._next_due = -math.inf  # [s] stack time of the earliest timer or call due (before it, none runs)
-        self._calls: list[tuple[float, int, Callable[[float], Any]]] = []  # heap of (stack time, order, fn): call_at
-        self._call_order = itertools.count()
+        self._timers = Timers()  # @timer methods, diag, and call_at
         self._handles: list = []
         self._token: Handle | None = None
         self._started_wall = time.monotonic()
-        self._cpu_mark = (self._started_wall, time.process_time())  # (wall, process CPU) [s] at the last diag
+        self._cpu = CpuMeter(self._started_wall)
         self._last_diag_t: float | None = None  # stack-clock time of the last diag
         self._stop = threading.Event()
         self._keys: dict[str, str] = {}  # suffix -> full key (publishing is a hot path)
-        self._warned: dict[str, list[float]] = {}  # warning kind -> [count, last wall time]
-        self.instance = _instance_id()  # this process's (and object's) id in instance/<service>/<id>
+        self._warned = WarnLimit()
+        self.instance = instance_id()  # this process's (and object's) id in instance/<service>/<id>
         self._others: set[str] = set()  # instance ids of other instances of this service seen alive
         self._started = False
         self._busy = threading.Lock()  # held while this service's code runs (worker, or a bus thread serving inline)
         self.inline = False  # serve a sample on the bus's thread when nothing is queued (set by the deployments; never if blocking)
-        self._held_for: dict[str, str] = {}  # suffix -> the topic its input is held for (@subscribe after=)
-        # topic held for -> [wall time its last sample was served, its period (wall), samples served, the clock's tick then]
-        self._paced: dict[str, list] = {}
-        # (sample it waits for, wall time, tick and stack time it came, item), oldest first
-        self._held: list[tuple[int, float, float, float, tuple]] = []
+        self._pacer = Pacer(clock)  # input held for a periodic topic (@subscribe after=)
         self._arrived: float | None = None  # stack time a held input being served arrived
         self._arrivals = itertools.count(1)  # numbers the queries in the order they reach this service (bus callback)
         self._query_arrival = 0  # the number of the query being served (0: none)
         self._other_clock: set[str] = set()  # suffixes stamped on another stack's clock: not held to this one's horizon
-        self._serve_time: dict[str, list] = {}  # suffix -> [wall seconds serving its messages, messages] since the last diag
 
     # ------------------------------------------------------------ helpers
     def key(self, suffix: str) -> str:
@@ -351,9 +150,7 @@ class Service:
         """Run `fn(now)` once, as a timer, when the stack clock reaches `t` (at once if it has): work
         due at a time known in advance, without a timer waking the service to look for it. Call it
         from a handler; `fn` may carry @publish. A clock reset (the sim restarted) forgets it."""
-        heapq.heappush(self._calls, (t, next(self._call_order), fn))
-        if t < self._next_due or self._next_due == -math.inf:
-            self._next_due = t
+        if self._timers.call_at(t, fn):
             self._inbox.poke()  # the worker may be waiting for a later timer
 
     def count(self, name: str, n: int = 1) -> None:
@@ -363,20 +160,17 @@ class Service:
     def set_status(self, status: str, message: str = "") -> None:
         """Set the diag status (ok, degraded, error) and its reason; logs changes (not a reason's figures changing:
         "no fix for 1.5 s", then "for 2.0 s" is one line)."""
-        if (status, _shape(message)) != (self.status, _shape(self.status_message)):
+        if (status, shape(message)) != (self.status, shape(self.status_message)):
             level = logging.INFO if status == "ok" else logging.WARNING
             self.log.log(level, "status %s%s", status, clip(f": {message}") if message else "")
         self.status, self.status_message = status, message
 
     def warn(self, kind: str, text: str, level: int = logging.WARNING) -> None:
         """Log a warning (lines clipped), at most a few lines a second per kind (the counters keep the rest)."""
-        now = time.monotonic()
-        seen = self._warned.setdefault(kind, [0, 0.0])
-        seen[0] += 1
-        if seen[0] <= 5 or now - seen[1] >= 5.0:
-            suffix = f" ({seen[0]} so far)" if seen[0] > 5 else ""
+        seen = self._warned.admit(kind)
+        if seen is not None:
+            suffix = f" ({seen} so far)" if seen > WARN_LINES else ""
             self.log.log(level, "%s%s", clip(text), suffix)
-            seen[1] = now
 
     # ------------------------------------------------------------ lifecycle
     def start(self) -> None:
@@ -401,8 +195,7 @@ class Service:
             if hasattr(fn, "_zenav_sub"):
                 suffix, typ, after, latest = fn._zenav_sub
                 if after is not None:
-                    self._held_for[suffix] = after
-                    self._paced[after] = [-math.inf, 0.0, 0, -math.inf]
+                    self._pacer.pace(suffix, after)
                 self.subscribe(suffix, typ, bound, latest=latest)
             if hasattr(fn, "_zenav_query"):
                 suffix, typ, priority, acts = fn._zenav_query
@@ -413,8 +206,8 @@ class Service:
             if hasattr(fn, "_zenav_timer"):
                 period = fn._zenav_timer
                 period = float(getattr(self, period) if isinstance(period, str) else period)
-                self._timers.append(_Timer(period, bound))
-        self._timers.append(_Timer(self.diag_period, self._publish_diag))
+                self._timers.every(period, bound)
+        self._timers.every(self.diag_period, self._publish_diag)
         self.on_start()
         self._token = self.bus.token(keys.alive(self.robot, self.name))
         self._handles.append(self.bus.token(mine))
@@ -497,8 +290,8 @@ class Service:
                     break
                 if item is not None:
                     self._serve(item)
-            if self._held:
-                wait = self._held_wait()
+            if self._pacer.held:
+                wait = self._pacer.wait()
                 if wait <= 0.0:
                     self._release()
                 else:
@@ -522,114 +315,37 @@ class Service:
         return n
 
     # ------------------------------------------------------------ internals
-    def _put(self, item: tuple, size: int = 0, priority: bool = False) -> bool:
-        if self._inbox.put(item, size, priority):
-            return True
-        self.counters.inc("dropped_overflow")
-        return False
 
-    def _put_latest(self, item: tuple, size: int) -> None:
-        """Queue a sample of a `latest` input in place of its topic's one still queued (dropped, counted)."""
-        outcome = self._inbox.put_latest(item[2], item, size)
-        if outcome == "refused":
-            self.counters.inc("dropped_overflow")
-        elif outcome == "replaced":
-            self.counters.inc("dropped_superseded")
-            self.warn(f"superseded:{item[2]}", f"dropped a {item[2]} sample for a newer one: {self.name} is slower than its input")
-
-    def _take(self, item: tuple, size: int, put: Callable[[tuple, int], Any]) -> None:
-        """A sample from a bus thread: served on that thread if the service is idle and nothing
-        older is queued (no thread switch: `inline`), else queued for the worker by `put`
-        (`_put`, or `_put_latest` for a `latest` input: chosen once, at subscription)."""
-        if self.inline and not self.blocking and self._busy.acquire(blocking=False):
-            try:
-                if self._inbox.empty():
-                    self._serve(item)
-                    return
-                put(item, size)
-            finally:
-                self._busy.release()
-            return
-        put(item, size)
-
-    def _serve(self, item: tuple) -> None:
+    def _serve(self, item: Input) -> None:
         """Dispatch an item, or hold it for the worker (`after`).
 
         A held input is served after the sample of its topic that comes next (the worker
         serves it in the gap after that one) and before anything that comes after that
         sample: in a run replayed faster or slower, it lands between the same inputs."""
-        kind, suffix = item[0], item[2]
-        if self._held and (kind == "query" or self._waited() or self._overdue()):
+        kind, suffix = item.kind, item.suffix
+        pacer = self._pacer
+        if pacer.held and (kind == "query" or pacer.waited() or pacer.overdue()):
             self._release()  # a query, or anything after the sample held input waited for, comes after it
         if kind != "msg":
             self._dispatch(item)
             return
-        after = self._held_for.get(suffix)
+        after = pacer.held_for.get(suffix)
         if after is not None:
-            count, tick = self._paced[after][2:]
-            now = self.clock.tick()
-            if len(self._held) < HOLD_ITEMS and now < tick + self._hold_span():  # it flows
-                self._held.append((count + 1, time.monotonic(), now, self.clock.now(), item))
+            if pacer.hold(after, item):  # it flows
                 self._inbox.poke()  # the worker waits for it
                 return
-            if self._held:
+            if pacer.held:
                 self._release()  # in arrival order
         self._dispatch(item)
-        paced = self._paced.get(suffix)
-        if paced is not None:
-            self._count_sample(paced)
-            if self._held and self._waited():
-                self._inbox.poke()  # its gap begins
-
-    def _waited(self) -> bool:
-        """The sample the oldest held input waits for has been served."""
-        waits_for, _, _, _, item = self._held[0]
-        return self._paced[self._held_for[item[2]]][2] >= waits_for
-
-    def _overdue(self) -> bool:
-        """The sample the oldest held input waits for has not come, and the stack clock has reached `_due`."""
-        return self.clock.tick() >= self._due()
-
-    def _due(self) -> float:
-        """The tick at which the oldest held input stops waiting for the sample: `_hold_span` past the tick it came at."""
-        return self._held[0][2] + self._hold_span()
-
-    def _hold_span(self) -> float:
-        """[s] of stack clock a topic flows after its last sample, and a held input waits at most: HOLD plus one
-        tick interval (the sim's clock may tick slower than the topic: its next sample comes after the next tick)."""
-        return HOLD + self.clock.resolution
-
-    def _count_sample(self, paced: list) -> None:
-        """A sample of a topic input is held for was served: its time, and the topic's period."""
-        wall = time.monotonic()
-        gap = wall - paced[0]
-        if gap < HOLD:  # a longer one is a pause, not the topic's period (wall: it only times the gap's middle)
-            paced[1] = gap if paced[1] == 0.0 else paced[1] + GAP_GAIN * (gap - paced[1])
-        paced[0] = wall
-        paced[2] += 1
-        paced[3] = self.clock.tick()
-
-    def _held_wait(self) -> float:
-        """Wall seconds until the oldest held input is due: the middle of the gap after the sample it waits for;
-        if that sample has not come, when the stack clock reaches `_due` (looked at again then: a stalled sim
-        clock does not get there) or, at the latest, HOLD_WALL after it came."""
-        _, came, _, _, item = self._held[0]
-        last, gap = self._paced[self._held_for[item[2]]][:2]
-        wall = time.monotonic()
-        if self._waited():
-            return last + gap / 2.0 - wall
-        if self._overdue():
-            return 0.0
-        until = self.clock.wall_delay(self._due() - self.clock.tick())
-        return min(HOLD if until is None else until, came + HOLD_WALL - wall)
+        if pacer.served(suffix):
+            self._inbox.poke()  # its gap begins
 
     def _release(self) -> None:
         """Serve every held input, oldest first, as of its arrival."""
-        held, self._held = self._held, []
-        for _, _, _, arrived, item in held:
-            self._arrived = arrived
+        for held in self._pacer.take():
+            self._arrived = held.arrived
             try:
-                self._dispatch(item)
+                self._dispatch(held.item)
             finally:
                 self._arrived = None
 
@@ -641,38 +357,13 @@ class Service:
 
     def running_for(self, robot: str) -> str | None:
         """The ids of the instances of this service that run for `robot` (its tokens), comma-separated; None: none."""
-        found = self.bus.tokens(keys.key(robot, f"instance/{self.name}/*"))
-        if found:
-            return ", ".join(sorted(k.rsplit("/", 1)[-1] for k in found))
-        if self.bus.tokens(keys.alive(robot, self.name)):  # one that holds no instance token
-            return f"instance unknown: alive/{self.name} is held"
-        return None
-
-    def _instance_enqueuer(self, mine: str) -> Callable[[str, bool], None]:
-        def enqueue(key: str, alive: bool) -> None:
-            if key != mine:
-                self._put(("live", functools.partial(self._other_instance, key.rsplit("/", 1)[-1]), key, None, alive), priority=True)
-
-        return enqueue
+        return running_for(self.bus, robot, self.name)
 
     def _other_instance(self, other: str, alive: bool) -> None:
         """Another instance of this service came or went (diag shows error while one runs)."""
         (self._others.add if alive else self._others.discard)(other)
         if alive:
             self.log.error("another %s runs for robot %s: instance %s (this is %s)", self.name, self.robot, other, self.instance)
-
-    def _oversize(self, what: str, size: int, limit: int, name: str) -> str:
-        """Count and log an input refused for its size (in the bus callback: cheap)."""
-        self.counters.inc("oversize")
-        text = f"{what}: {size} bytes is over [limits] {name} = {limit}"
-        self.warn(f"oversize:{what}", f"dropped {text}")
-        return text
-
-    def _enqueue_clock(self, key: str, data: bytes) -> None:
-        if len(data) > self.limits.max_payload:
-            self._oversize("clock", len(data), self.limits.max_payload, "max_payload")
-            return
-        self._take(("clock", self._on_clock, "clock", m.Clock, data), len(data), self._put)
 
     def _on_clock(self, msg: m.Clock) -> None:
         clock = self.clock
@@ -687,203 +378,27 @@ class Service:
         elif outcome == RESTARTED:
             self.log.warning("stack clock at %.2f s from sim instance %s (sim restarted): state reset", msg.t, msg.instance or "-")
             self.count("clock_resets")
-            for tm in self._timers:
-                tm.due = None
-            self._calls.clear()
-            self._next_due = -math.inf
+            self._timers.reset()
             self.on_clock_reset()
             # At once, not a diag period of the new time later: a supervisor that heard nothing
             # while the sim was down (no clock, no timers) must not take the service for hung.
             self._last_diag_t = None
             self._publish_diag(self.clock.now())
 
-    def _enqueuer(self, fn: Callable, suffix: str, typ: type, latest: bool = False) -> Callable[[str, bytes], None]:
-        limit, put = self.limits.max_payload, self._put_latest if latest else self._put
-
-        def enqueue(key: str, data: bytes) -> None:
-            if len(data) > limit:
-                self._oversize(suffix, len(data), limit, "max_payload")
-                return
-            self._take(("msg", fn, suffix, typ, data), len(data), put)
-
-        return enqueue
-
-    def _token_enqueuer(self, fn: Callable) -> Callable[[str, bool], None]:
-        def enqueue(key: str, alive: bool) -> None:
-            self._put(("live", fn, key, None, alive), priority=True)
-
-        return enqueue
-
-    def _query_enqueuer(self, fn: Callable, suffix: str, typ: type, priority: bool, acts: bool) -> Callable[[Query], None]:
-        lim, exact = self.limits, self.key(suffix) if acts else None
-
-        def enqueue(q: Query) -> None:
-            arrival = next(self._arrivals)
-            size, psize = len(q.payload), q.params_size
-            if size > lim.max_payload or psize > lim.max_params:
-                big = size > lim.max_payload
-                text = self._oversize(
-                    f"query {suffix} {'payload' if big else 'parameters'}",
-                    size if big else psize,
-                    lim.max_payload if big else lim.max_params,
-                    "max_payload" if big else "max_params",
-                )
-                reply_error(q, "invalid_argument", text, read_params=psize <= lim.max_params)
-                return
-            queued = self._put(("query", fn, exact, typ, (q, arrival)), size + psize, priority)
-            if priority and q.key == exact:
-                self.on_priority(suffix, queued, arrival)
-            if not queued:
-                reply_error(q, "unavailable", f"{self.name} is overloaded: input queue full")
-
-        return enqueue
-
-    def _dispatch(self, item: tuple) -> None:
-        """Serve one input. Whatever fails (a handler, or sending what it returned or a reply) is counted (`errors`)
-        and logged, and the next input is served: an exception raised here would end the worker, or reach the Zenoh
-        thread that serves inline, where only Zenoh would report it."""
-        try:
-            self._handle(item)
-        except Exception as e:
-            self.counters.inc("errors")
-            what = f"{item[0]} {item[2] or getattr(item[1], '__name__', '')}"  # a query acting on no exact key: its handler
-            self.warn(f"serve:{what}", f"serving {what} failed: {type(e).__name__}: {clip(str(e))}", logging.ERROR)
-
-    def _handle(self, item: tuple) -> None:
-        kind, fn, suffix, typ, data = item
-        if kind == "query":
-            self._dispatch_query(fn, suffix, typ, *data)
-            return
-        if kind == "live":
-            try:
-                self._publish_result(fn, fn(data))
-            except Exception:
-                self.counters.inc("errors")
-                self.warn(f"live:{fn.__name__}", f"liveliness handler {fn.__name__} failed:\n{traceback.format_exc()}")
-            return
-        start = time.perf_counter()
-        if kind != "clock":
-            self.counters.inc("msgs_in")
-            self.counters.seen(suffix)
-        else:
-            self.counters.inc("clock_ticks")  # taken like any message (the transport's cost), not input of the service's
-        try:
-            msg = codec.decode(data, typ)
-        except codec.BadInput as e:
-            self.counters.inc("bad_input")
-            self.warn(f"bad:{suffix}", f"dropped bad input on {suffix}: {e}")
-            return
-        t = getattr(msg, "t", None)
-        if t is not None and kind != "clock" and not self.clock.admits(t) and suffix not in self._other_clock:
-            self.counters.inc("dropped_future")
-            self.warn(f"future:{suffix}", f"dropped {suffix} stamped t={t:.3f}, {t - self.clock.now():.3f} s ahead of the clock")
-            return
-        try:
-            out = fn(msg)
-        except Exception:
-            self.counters.inc("errors")
-            self.warn(f"err:{suffix}", f"handler for {suffix} failed:\n{traceback.format_exc()}")
-            return
-        self._publish_result(fn, out)
-        if kind != "clock":
-            spent = self._serve_time.get(suffix)
-            if spent is None:
-                spent = self._serve_time[suffix] = [0.0, 0]
-            spent[0] += time.perf_counter() - start
-            spent[1] += 1
-
-    def _publish_result(self, fn: Callable, out: Any) -> None:
-        target = getattr(fn, "_zenav_pub", None)
-        if target is not None and out is not None:
-            self.publish(target, out)
-
-    def _dispatch_query(self, fn: Callable, exact: str | None, typ: type, q: Query, arrival: int) -> None:
-        self.counters.inc("queries")
-        if exact is not None and q.key != exact:
-            self.counters.inc("wildcard_refused")
-            self.warn("wildcard", f"refused a query on {q.key}: it acts, so only {exact} is served")
-            reply_error(q, "invalid_argument", f"{q.key}: this query acts; ask it on its exact key {exact}")
-            return
-        refused = format_refusal(q.params.get(FORMAT_PARAM) if q.params_size else None)
-        if refused is not None:
-            self.counters.inc("bad_input")
-            reply_error(q, "invalid_argument", refused)
-            return
-        try:
-            params = {k: v for k, v in q.params.items() if not k.startswith("_")} if q.params_size else {}
-            req: Any = codec.decode(q.payload, typ) if q.payload else codec.from_params(params, typ)
-        except codec.BadInput as e:
-            self.counters.inc("bad_input")
-            self.warn(f"badq:{fn.__name__}", f"bad query on {q.key}: {e}")
-            reply_error(q, "invalid_argument", clip(str(e)))
-            return
-        self._query_arrival = arrival
-        try:
-            rep = fn(req, q)
-        except QueryError as e:
-            if e.code == "invalid_argument":
-                self.counters.inc("bad_input")
-            reply_error(q, e.code, e.message)
-            return
-        except Exception as e:
-            self.counters.inc("errors")
-            self.warn(f"query:{fn.__name__}", f"query {q.key} failed:\n{traceback.format_exc()}", logging.ERROR)
-            reply_error(q, "internal", clip(f"{type(e).__name__}: {e}"))
-            return
-        finally:
-            self._query_arrival = 0
-        if rep is not None:
-            reply_ok(q, rep)
-
     def _run_timers(self) -> float | None:
         """Run due timers and calls (call_at); return wall seconds until the next one (None: unknown)."""
         if not self.clock.ready:
             return None
-        now = self.clock.now()
-        if now < self._next_due:  # the common case, once per input: nothing due yet
-            return self.clock.wall_delay(self._next_due - now)
-        nearest = None
-        for tm in self._timers:
-            if tm.due is None:
-                tm.due = now + tm.period
-            if now >= tm.due:
-                self._fire(tm.fn, now)
-                tm.due += tm.period
-                if tm.due <= now:  # fell behind: skip the missed runs rather than burst
-                    self.counters.inc("timer_overruns")
-                    tm.due = now + tm.period
-            left = tm.due - now
-            nearest = left if nearest is None else min(nearest, left)
-        due = []
-        while self._calls and self._calls[0][0] <= now:
-            due.append(heapq.heappop(self._calls)[2])
-        for fn in due:  # after taking them: a call made by one of them waits for the next look
-            self._fire(fn, now)
-        if self._calls:
-            left = max(self._calls[0][0] - now, 0.0)
-            nearest = left if nearest is None else min(nearest, left)
-        self._next_due = -math.inf if nearest is None else now + nearest
-        return None if nearest is None else self.clock.wall_delay(nearest)
-
-    def _fire(self, fn: Callable[[float], Any], now: float) -> None:
-        """Run a timer or a call at `now`, publishing what it returns (@publish); a failure is logged and counted."""
-        try:
-            self._publish_result(fn, fn(now))
-        except Exception:
-            self.counters.inc("errors")
-            self.warn(f"timer:{fn.__name__}", f"timer {fn.__name__} failed:\n{traceback.format_exc()}")
+        left = self._timers.run(self.clock.now(), self._fire, lambda: self.counters.inc("timer_overruns"))
+        return None if left is None else self.clock.wall_delay(left)
 
     def diag(self, now: float) -> m.Diag:
         """The diag message now (rates per second of stack-clock time since the last one)."""
         span = max(now - self._last_diag_t, 1e-3) if self._last_diag_t is not None else self.diag_period
         self._last_diag_t = now
-        rates = {k: round(v / span, 2) for k, v in self.counters.window.items()}
-        wall, cpu = time.monotonic(), time.process_time()
-        busy = (cpu - self._cpu_mark[1]) / max(wall - self._cpu_mark[0], 1e-3)
-        self._cpu_mark = (wall, cpu)
-        self.counters.window = {}
-        serve = {k: round(spent / n * 1e6, 1) for k, (spent, n) in self._serve_time.items()}
-        self._serve_time = {}
+        rates = self.counters.take_rates(span)
+        busy = self._cpu.busy()
+        serve = self.counters.take_serve()
         status, message = self.status, self.status_message
         if self._others:
             status = "error"
@@ -896,66 +411,10 @@ class Service:
             rates=rates,
             status=status,
             message=message,
-            queue=self._inbox.qsize() + len(self._held),
+            queue=self._inbox.qsize() + len(self._pacer.held),
             cpu=round(busy, 4),
             serve=serve,
         )
 
     def _publish_diag(self, now: float) -> None:
         self.publish(f"diag/{self.name}", self.diag(now))
-
-
-class Executor:
-    """One worker thread for several services of one process (a composed deployment, as
-    ROS 2's component containers run on one executor).
-
-    The services' inboxes share one condition: input from outside wakes the worker once,
-    and a message one service publishes to another in the process is taken on the same
-    thread in the next round, without a thread switch (or at once on the bus's thread that
-    brought it, when that service is idle: `Service.inline`). Each round gives every service a
-    turn of up to ROUND items (priority lane first) and its due timers, in the order given.
-    """
-
-    ROUND = 64  # items one service dispatches before the next gets its turn
-    IDLE = 0.1  # [s] wall, the longest wait without input or a timer due
-
-    def __init__(self) -> None:
-        self.services: list[Service] = []
-        self._wake = threading.Condition(threading.Lock())
-        self._stop = threading.Event()
-
-    def add(self, svc: Service) -> None:
-        """Take `svc` into this worker; before svc.start() (its input then queues here)."""
-        svc._inbox = Inbox(svc.limits.queue_items, svc.limits.queue_bytes, ready=self._wake)
-        self.services.append(svc)
-
-    def run(self) -> None:
-        """Serve the services until stop() (on this thread, lowered first if they are all `background`)."""
-        if self.services and all(svc.background for svc in self.services):
-            background_thread()
-        while not self._stop.is_set():
-            delay: float | None = None
-            for svc in self.services:
-                d = svc.turn(self.ROUND)
-                if d is not None:
-                    delay = d if delay is None else min(delay, d)
-            with self._wake:
-                if not self._stop.is_set() and all([svc._inbox.idle() for svc in self.services]):  # every poke taken
-                    self._wake.wait(self.IDLE if delay is None else min(delay, self.IDLE))
-
-    def stop(self) -> None:
-        """End run() after the current turn (any thread)."""
-        self._stop.set()
-        with self._wake:
-            self._wake.notify()
-
-
-def _instance_id() -> str:
-    """host-pid-random: names one service object (several may share a process in tests)."""
-    host = "".join(c if c.isalnum() or c in "-_." else "_" for c in socket.gethostname())[:40] or "host"
-    return f"{host}-{os.getpid()}-{os.urandom(3).hex()}"
-
-
-def _shape(text: str) -> str:
-    """A status reason with its figures blanked: what it says, not how much."""
-    return _FIGURES.sub("#", text)

@@ -17,7 +17,8 @@ from dataclasses import replace
 from zenav.common.config import Field
 from zenav.services.navigator import exits
 from zenav.services.navigator.controllers import PoseSample, Wheelbase
-from zenav.services.navigator.goals import FOLLOWING_PATH, MOVING_TO_POINT, MOVING_TO_POSE, End, Goal, GoalMachine, _Run, behind, path_rest
+from zenav.services.navigator.goal import FOLLOWING_PATH, MOVING_TO_POINT, MOVING_TO_POSE, End, Goal, Run, behind, path_rest
+from zenav.services.navigator.goals import GoalMachine
 from zenav.services.navigator.params import Params
 from zenav.services.navigator.traffic import Decision, Other, Traffic
 
@@ -84,11 +85,11 @@ class TrafficMachine(GoalMachine):
         return (0.0, 0.0), None
 
     @staticmethod
-    def _steered(run: _Run) -> bool:
+    def _steered(run: Run) -> bool:
         """Whether the run drives between points now (not turning at its end, facing, settling or chained)."""
         return run.goal.state in STEERED and run.settle_from is None and not run.turning and not run.facing and run.exit is None
 
-    def _pause(self, run: _Run, pose: PoseSample) -> None:
+    def _pause(self, run: Run, pose: PoseSample) -> None:
         """Stand still on this pose: zero commanded, the progress check restarted, a fresh controller for later."""
         self._lag(pose.t)
         self.pose = pose
@@ -96,7 +97,7 @@ class TrafficMachine(GoalMachine):
         run.best, run.locked = None, False
         self._aim(run, behind(pose) if run.sign < 0.0 else pose)
 
-    def _reroute(self, run: _Run, pose: PoseSample, decision: Decision) -> None:
+    def _reroute(self, run: Run, pose: PoseSample, decision: Decision) -> None:
         """The way's next points up to `rejoin` replaced by the detour."""
         assert decision.detour is not None
         self.detours += 1
