@@ -126,6 +126,7 @@ def test_every_contract_key_is_registered():
         "nav/follow_path",
         "nav/stop",
         "nav/status",
+        "time/sync",
         "localizer/pose",
         "localizer/set_pose",
         "sim/reset",

@@ -15,7 +15,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -95,6 +95,27 @@ def _diags(client: Client) -> dict[str, Latest]:
     return {svc: client.latest(f"diag/{svc}") for svc in NAMES}
 
 
+def _stack_args(robots: int, rate: float, rtf: float, scenario: str, zenoh_mode: str, realtime: int) -> list[str]:
+    """`zenav up`'s options for the measured stack."""
+    args = ["--scenario", scenario, "--set", f"sim.rtf={rtf}", "--set", f"scenario.sensor_rate_hz={rate}", "--zenoh-mode", zenoh_mode]
+    args += ["--set", f"deployment.realtime={realtime}"]
+    if robots > 1:  # they drive one square from one start: through one another (one robot's body is measured)
+        args += ["--set", "sim.body_radius=0"]
+    return args
+
+
+def _stop_driving(stop: threading.Event, bots: Iterable[Robot], drivers: Iterable[threading.Thread]) -> None:
+    """End the robots' goals and their drivers."""
+    stop.set()
+    for b in bots:
+        try:
+            b.stop()  # ends the running goal at once, and with it the driver
+        except ZenavError:
+            pass  # a navigator too loaded to answer: its goal ends when the stack stops
+    for d in drivers:
+        d.join(timeout=10.0)
+
+
 def run(
     robots: int,
     rate: float,
@@ -119,10 +140,7 @@ def run(
     the services as separate processes, the bare five-hop chain (bench/chain.py), which then sets the window's length.
     """
     ids = tuple(f"r{i + 1}" for i in range(robots))
-    args = ["--scenario", scenario, "--set", f"sim.rtf={rtf}", "--set", f"scenario.sensor_rate_hz={rate}", "--zenoh-mode", zenoh_mode]
-    args += ["--set", f"deployment.realtime={realtime}"]
-    if robots > 1:  # they drive one square from one start: through one another (one robot's body is measured)
-        args += ["--set", "sim.body_radius=0"]
+    args = _stack_args(robots, rate, rtf, scenario, zenoh_mode, realtime)
     stack = ProcStack(ids, NAMES, log_dir, args, compose=compose, realtime=realtime).start()
     bus = None
     stop = threading.Event()
@@ -161,14 +179,7 @@ def run(
         w1, sim1 = time.monotonic(), {r: c.msg.t for r, c in clocks.items()}
         stack.check()
         after = {r: {s: _diag_after(d, sim1[r]) for s, d in ds.items()} for r, ds in diags.items()}
-        stop.set()
-        for b in bots.values():
-            try:
-                b.stop()  # ends the running goal at once, and with it the driver
-            except ZenavError:
-                pass  # a navigator too loaded to answer: its goal ends when the stack stops
-        for d in drivers:
-            d.join(timeout=10.0)
+        _stop_driving(stop, bots.values(), drivers)
     finally:
         stop.set()
         observer.close()
