@@ -62,7 +62,7 @@ def test_config_obstacles_are_checked_against_the_field_and_each_other():
 @pytest.mark.parametrize("name", ["table", "arena"])
 def test_the_shipped_field_files_load(name):
     area = Settings.load(None, field={"file": name}).field
-    assert len(area.shapes()) >= 5 and len(area.tags) == 4
+    assert len(area.shapes()) >= 5 and len(area.tags) >= 4
     assert area.x_min < 0.0 < area.x_max  # the robot's default start (0, 0) is on it
 
 

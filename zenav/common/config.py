@@ -26,7 +26,7 @@ else:  # Python 3.10
 import msgspec
 from msgspec import Meta, Struct
 
-from zenav.common import codec, geometry
+from zenav.common import codec, fieldtags, geometry
 from zenav.common import field as fieldmod
 from zenav.common import messages as m
 from zenav.common.keys import DEFAULT_CONNECT, SERVICES
@@ -127,6 +127,10 @@ class FieldTag(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
         """(W, X, Y, Z) of the rotation, as WPILib's AprilTagFieldLayout writes it."""
         return geometry.quaternion(self.yaw, self.pitch, self.roll)
 
+    def corners(self) -> Any:
+        """4 x 3 [m] map points of its black square, top-left first as seen facing it (fieldtags.corners)."""
+        return fieldtags.corners(self.size, self.x, self.y, self.z, self.yaw, self.pitch, self.roll)
+
 
 FIELD_FILE_KEYS = ("x_min", "x_max", "y_min", "y_max", "obstacles", "tags")  # what a [field] file describes
 
@@ -143,6 +147,8 @@ class Field(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     margin: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.05  # [m] kept clear beyond the robot's footprint ([robot] radius)
     obstacles: tuple[Obstacle, ...] = ()
     tags: tuple[FieldTag, ...] = ()
+    tags_file: str = ""  # a WPILib AprilTagFieldLayout JSON whose tags join `tags`; read when the config is loaded
+    tag_size: Annotated[float, Meta(gt=0.0, le=10.0)] | None = None  # [m] edge of tags_file's tags (the layout has none)
 
     def __post_init__(self) -> None:
         if not (self.x_min < self.x_max and self.y_min < self.y_max):
@@ -210,6 +216,18 @@ def field_file(path: str, base: str | None) -> dict[str, Any]:
     if unknown:
         raise ConfigError(f"config [field] file {path}: unknown key `{unknown[0]}` (a field file has {', '.join(FIELD_FILE_KEYS)})")
     return raw
+
+
+def _layout_tags(path: str, size: Any, base: str | None) -> list[dict[str, float]]:
+    """The tags of [field] tags_file, a WPILib AprilTagFieldLayout JSON (relative: to the config file's directory)."""
+    full = os.path.join(os.path.dirname(base), path) if base and not os.path.isabs(path) else path
+    try:
+        with open(full, encoding="utf-8") as f:
+            raw = json.load(f)
+        return fieldtags.wpilib_tags(raw, None if size is None else float(size), f"config [field] tags_file {path}")
+    except (OSError, ValueError) as e:
+        text = str(e) if isinstance(e, fieldtags.LayoutError) else f"config [field] tags_file {path}: {e}"
+        raise ConfigError(text) from None
 
 
 @functools.cache
@@ -297,6 +315,8 @@ class Settings:
             if both:
                 raise ConfigError(f"config [field]: `{both[0]}` is set both here and in its file {area['file']}: keep one")
             area = {**area, **described}
+        if area.get("tags_file"):
+            area = {**area, "tags": [*area.get("tags", []), *_layout_tags(str(area["tags_file"]), area.get("tag_size"), path)]}
         bounds = _convert(area, Field, "field")
         if robot.ticks_per_rev is None:  # the encoders are known: take the scenario's
             robot = msgspec.structs.replace(robot, ticks_per_rev=scen.ticks_per_rev)
