@@ -11,10 +11,17 @@ from zenav import services
 from zenav.common.app import parse_sets
 from zenav.common.config import Camera, ConfigError, Deployment, Robot, Settings
 from zenav.common.keys import SERVICES
+from zenav.common.onboardcam import OnboardCamera
 from zenav.common.scenarios import PRESETS, Scenario
 
 DEFAULT_TOML = Path(__file__).resolve().parents[2] / "zenav" / "data" / "default.toml"
-SECTION_TYPES = {"deployment": Deployment, "robot": Robot, "camera": Camera, **{n: services.load(n).config_type for n in SERVICES}}
+SECTION_TYPES = {
+    "deployment": Deployment,
+    "robot": Robot,
+    "camera": Camera,
+    "onboard_camera": OnboardCamera,
+    **{n: services.load(n).config_type for n in SERVICES},
+}
 
 
 def documented_keys(text: str) -> dict[str, set[str]]:

@@ -132,6 +132,22 @@ class FieldTag(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
         return fieldtags.corners(self.size, self.x, self.y, self.z, self.yaw, self.pitch, self.roll)
 
 
+# The default field's tags: three on the wall of each of its edges, 0.25 m up, facing in (FRC's 0.1651 m tags).
+DEFAULT_TAGS = (
+    FieldTag(id=1, size=0.1651, x=3.0, y=0.0, z=0.25, yaw=3.1415927),
+    FieldTag(id=2, size=0.1651, x=3.0, y=1.0, z=0.25, yaw=3.1415927),
+    FieldTag(id=3, size=0.1651, x=3.0, y=2.0, z=0.25, yaw=3.1415927),
+    FieldTag(id=4, size=0.1651, x=0.0, y=3.0, z=0.25, yaw=-1.5707963),
+    FieldTag(id=5, size=0.1651, x=1.0, y=3.0, z=0.25, yaw=-1.5707963),
+    FieldTag(id=6, size=0.1651, x=2.0, y=3.0, z=0.25, yaw=-1.5707963),
+    FieldTag(id=7, size=0.1651, x=-1.0, y=0.0, z=0.25, yaw=0.0),
+    FieldTag(id=8, size=0.1651, x=-1.0, y=1.0, z=0.25, yaw=0.0),
+    FieldTag(id=9, size=0.1651, x=-1.0, y=2.0, z=0.25, yaw=0.0),
+    FieldTag(id=10, size=0.1651, x=0.0, y=-1.0, z=0.25, yaw=1.5707963),
+    FieldTag(id=11, size=0.1651, x=1.0, y=-1.0, z=0.25, yaw=1.5707963),
+    FieldTag(id=12, size=0.1651, x=2.0, y=-1.0, z=0.25, yaw=1.5707963),
+)
+
 FIELD_FILE_KEYS = ("x_min", "x_max", "y_min", "y_max", "obstacles", "tags")  # what a [field] file describes
 
 
@@ -146,7 +162,7 @@ class Field(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     file: str = ""  # a field file (TOML or JSON) with the bounds, obstacles and tags; read when the config is loaded
     margin: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.05  # [m] kept clear beyond the robot's footprint ([robot] radius)
     obstacles: tuple[Obstacle, ...] = ()
-    tags: tuple[FieldTag, ...] = ()
+    tags: tuple[FieldTag, ...] = DEFAULT_TAGS
     tags_file: str = ""  # a WPILib AprilTagFieldLayout JSON whose tags join `tags`; read when the config is loaded
     tag_size: Annotated[float, Meta(gt=0.0, le=10.0)] | None = None  # [m] edge of tags_file's tags (the layout has none)
 

@@ -27,6 +27,7 @@ TOPICS: dict[str, type[m.Topic]] = {
     "field": m.FieldMap,
     "motor/guard": m.GuardState,
     "localizer/fixes": m.Fix,
+    "camera/onboard/frame": m.CameraFrame,
     **{f"diag/{s}": m.Diag for s in SERVICES},
 }
 

@@ -95,7 +95,8 @@ class VpsPose(Topic, frozen=True, kw_only=True):
 
 
 class CameraFrame(Topic, frozen=True, kw_only=True):
-    """One frame of the overhead camera that serves the whole field (zenav/field/camera/frame)."""
+    """One frame of a camera: the overhead one that serves the whole field (zenav/field/camera/frame), or a robot's own
+    (camera/onboard/frame)."""
 
     t: Time  # capture time: the middle of the exposure
     seq: Annotated[int, Meta(ge=0)] = 0  # frame number of the source

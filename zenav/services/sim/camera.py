@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor, wait
+from typing import Protocol
 
 import numpy as np
 
@@ -20,6 +21,33 @@ from zenav.world.camera_errors import dropped, imperfect, jpeg, shake
 from zenav.world.render import Body, Renderer
 
 RNG_STREAM = 0x534841  # "SHA": the mount's shake and the frames lost
+
+
+class Cadence:
+    """Frame times at `rate_hz` on the sim's step grid."""
+
+    def __init__(self, rate_hz: float) -> None:
+        self.period = 1.0 / rate_hz  # [s]
+        self._next: float | None = None  # [s] time of the next frame
+
+    def due(self, t: float) -> bool:
+        """Whether a frame is taken at sim time t [s] (and then the next one is scheduled)."""
+        if self._next is None or not self._next - self.period <= t < self._next + self.period:
+            self._next = t  # first sample, a gap, or time went backwards (the sim restarted)
+        if t < self._next - 1e-6:
+            return False
+        self._next += self.period
+        return True
+
+
+class Frames(Protocol):
+    """A simulated camera: whether a frame is due at a time, and the frame of a truth sample (None: lost)."""
+
+    lost: int  # frames lost on the way
+
+    def due(self, t: float) -> bool: ...
+
+    def frame(self, truth: m.Truth) -> m.CameraFrame | None: ...
 
 
 class FieldCamera:
@@ -33,19 +61,9 @@ class FieldCamera:
         self.errors = imperfect(cfg, seed)
         self.renderer = Renderer(self.errors.true, seed, readout=self.errors.readout)
         self.rng = np.random.default_rng([seed, RNG_STREAM])
-        self.period = 1.0 / cfg.rate_hz  # [s]
-        self._next: float | None = None  # [s] time of the next frame
+        self.due = Cadence(cfg.rate_hz).due
         self.seq = 0
         self.lost = 0  # frames lost on the way (drop_rate)
-
-    def due(self, t: float) -> bool:
-        """Whether a frame is taken at sim time t [s] (and then the next one is scheduled)."""
-        if self._next is None or not self._next - self.period <= t < self._next + self.period:
-            self._next = t  # first sample, a gap, or time went backwards (the sim restarted)
-        if t < self._next - 1e-6:
-            return False
-        self._next += self.period
-        return True
 
     def frame(self, truth: m.Truth) -> m.CameraFrame | None:
         """The frame whose exposure is centred on truth.t, stamped on the camera host's clock; None: lost on the way."""
@@ -67,7 +85,7 @@ class FieldCamera:
 class Shutter:
     """Draws and sends frames on one worker thread, skipping a frame while the last is unfinished."""
 
-    def __init__(self, camera: FieldCamera, send: Callable[[m.CameraFrame], None]) -> None:
+    def __init__(self, camera: Frames, send: Callable[[m.CameraFrame], None]) -> None:
         self.camera, self.send = camera, send
         # Drawing at a lower priority than the physics and the control loop's services (a real camera draws its
         # frames on its own hardware): on a shared computer they get the cores first.

@@ -37,6 +37,7 @@ class SimConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     max_burst: Annotated[int, Meta(ge=1, le=10_000)] = 50  # [steps] most steps one tick catches up before resyncing
     encoder_start: m.Ticks = 0  # [ticks] count both encoders read at start (to exercise the int32 wrap)
     camera: bool = False  # render the overhead camera's frames ([camera]) on zenav/field/camera/frame
+    onboard_camera: bool = False  # render the robot's own camera's frames ([onboard_camera]) on camera/onboard/frame
     # [Hz] of sim time: clock ticks (at most one a step); at rtf 1 a tick at least every SimClock's 0.25 s of extrapolation
     clock_rate_hz: Annotated[float, Meta(ge=5.0, le=2000.0)] = 20.0
     # [m] the robot's footprint, a disc other simulated robots on the field keep out of (and it out of theirs); 0: none
@@ -50,6 +51,8 @@ class SimConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     def __post_init__(self) -> None:
         if self.camera:  # at start, in one line, rather than when the first frame is due
             extras.check("cv2", "the sim's camera ([sim] camera = true)")
+        if self.onboard_camera:
+            extras.check("cv2", "the sim's onboard camera ([sim] onboard_camera = true)")
         length, width = self.chassis()
         if (length > 0.0) != (width > 0.0):
             raise ValueError(
@@ -102,6 +105,12 @@ class Sim(Service):
             cam = settings.section("camera", Camera)
             hidden = partial(faults.vps_outage, self.scen)  # the scenario's VPS outage hides the robot from the camera
             self.shutter = Shutter(FieldCamera(cam, settings.deployment.seed, cam.robots.get(self.robot), hidden), self._send_frame)
+        self.onboard: Shutter | None = None
+        if c.onboard_camera:
+            from zenav.services.sim.camera import Shutter
+            from zenav.services.sim.onboard import OnboardFrames
+
+            self.onboard = Shutter(OnboardFrames(settings), self._send_onboard)
         self.count("overruns", 0)
         self.count("command_timeouts", 0)
         self.count("contacts", 0)
@@ -117,9 +126,14 @@ class Sim(Service):
         """Publish a frame on the field's key (on the shutter's thread)."""
         self.bus.publish(keys.field_key("camera/frame"), codec.encode(frame))
 
+    def _send_onboard(self, frame: m.CameraFrame) -> None:
+        """Publish a frame of the robot's own camera (on its shutter's thread)."""
+        self.bus.publish(self.key("camera/onboard/frame"), codec.encode(frame))
+
     def on_stop(self) -> None:
-        if self.shutter is not None:
-            self.shutter.close()
+        for shutter in (self.shutter, self.onboard):
+            if shutter is not None:
+                shutter.close()
 
     def on_start(self) -> None:
         self.base = self.clock.now()
@@ -238,29 +252,31 @@ class Sim(Service):
         if sensors.due(self.steps, self.scen.compass_rate_hz, self.rate):
             self.publish("sensors/compass", m.Compass(t=fx.stamp, heading=self.bot.compass()))
         if self.shutter is not None:
-            self.shoot(truth)
+            self.shoot(truth, self.shutter, "frames")
+        if self.onboard is not None:
+            self.shoot(truth, self.onboard, "onboard_frames")
 
-    def shoot(self, truth: m.Truth) -> None:
-        """A camera frame of this step, when one is due (drawn and sent on the shutter's thread)."""
-        assert self.shutter is not None
-        outcome = self.shutter.take(truth)
+    def shoot(self, truth: m.Truth, shutter: Shutter, what: str) -> None:
+        """A camera frame of this step, when one is due (drawn and sent on the shutter's thread); counted as `what`_*."""
+        outcome = shutter.take(truth)
         if outcome is not None:
-            self.count(f"frames_{outcome}")
-        lost = self.shutter.camera.lost - self.counters.values.get("frames_lost", 0)
+            self.count(f"{what}_{outcome}")
+        lost = shutter.camera.lost - self.counters.values.get(f"{what}_lost", 0)
         if lost > 0:  # the camera's drop_rate: lost on the way, as a real link loses frames
-            self.count("frames_lost", lost)
-        failed = self.shutter.failed - self.counters.values.get("frames_failed", 0)
+            self.count(f"{what}_lost", lost)
+        failed = shutter.failed - self.counters.values.get(f"{what}_failed", 0)
         if failed > 0:
-            self.count("frames_failed", failed)
-            self.warn("frame", f"camera frame failed: {self.shutter.error}")
+            self.count(f"{what}_failed", failed)
+            self.warn(what, f"camera frame failed: {shutter.error}")
 
     @timer("health_period")
     def check_health(self, now: float) -> None:
         """Error while camera frames fail; degraded for a while after the sim fell behind the clock."""
         if self._behind is not None and now - self._behind[0] > OVERRUN_HOLD:
             self._behind = None
-        if self.shutter is not None and self.shutter.error:
-            self.set_status("error", f"camera frames fail: {self.shutter.error}")
+        failing = [s for s in (self.shutter, self.onboard) if s is not None and s.error]
+        if failing:
+            self.set_status("error", f"camera frames fail: {failing[0].error}")
         elif self._behind is not None:
             self.set_status("degraded", self._behind[1])
         else:

@@ -1,4 +1,5 @@
-"""The VPS service: late fixes on `vps/pose`, from the world model's overhead camera (zenav.world.vps) or the field camera's frames."""
+"""The VPS service: late fixes on `vps/pose`, from the world model's overhead camera (zenav.world.vps), the field camera's
+frames, or the robot's own camera's frames."""
 
 from __future__ import annotations
 
@@ -21,11 +22,13 @@ from zenav.world.vps import Camera, Delivery, DeliveryQueue, make_rng
 
 if TYPE_CHECKING:  # the camera's modules need OpenCV: imported when the camera is on
     from zenav.services.vps.calibration import Calibration
+    from zenav.services.vps.onboard_reader import OnboardReader
     from zenav.services.vps.reader import Reader
 
 TIMING_WINDOW = 50  # frames whose median pipeline and detection times diag reports
 INPUT_SILENT = 1.0  # [s] truth or frames heard before and silent this long: status error (no fixes)
 TAG_UNSEEN = 1.0  # [s] frames coming but this robot's tag not located this long: status degraded
+ESTIMATE_SIGMA = 0.1  # [m] a pose whose position is less sure than this resolves no ambiguous tag
 STALE = 1.0  # [s] a frame or truth sample stamped further behind the stack clock is refused (its fix would come too late)
 
 
@@ -33,19 +36,22 @@ class VpsConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """The [vps] section (the synthetic camera's errors are the scenario's; the real one is [camera])."""
 
     stamp: Literal["capture", "none"] = "capture"  # a fix's t: its capture time, or (none) the time it is sent
-    source: Literal["synthetic", "camera"] = "synthetic"  # synthetic: sim/truth plus the scenario's errors; camera: tags in frames
+    # synthetic: sim/truth plus the scenario's errors; camera: robot tags in the overhead camera's frames; onboard: the
+    # [field] tags in the frames of the robot's own camera ([onboard_camera])
+    source: Literal["synthetic", "camera", "onboard"] = "synthetic"
     detector: Backend = "auto"  # the camera's tag detector: apriltag (pupil-apriltags), opencv, or auto (apriltag if installed)
 
     def __post_init__(self) -> None:
-        if self.source == "camera":  # at start, in one line, rather than when the first frame comes
-            extras.check("cv2", 'the camera VPS ([vps] source = "camera")')
+        if self.source != "synthetic":  # at start, in one line, rather than when the first frame comes
+            extras.check("cv2", f'the camera VPS ([vps] source = "{self.source}")')
             if self.detector == "apriltag":
                 extras.check("pupil_apriltags", 'the AprilTag detector ([vps] detector = "apriltag"; or "opencv")')
 
 
 class Vps(Service):
     """Publishes each fix after its latency: sampled from `sim/truth` at the scenario's VPS rate (synthetic),
-    or read from every frame on zenav/field/camera/frame for every robot in [camera] robots (camera)."""
+    read from every frame on zenav/field/camera/frame for every robot in [camera] robots (camera), or solved from
+    the [field] tags in the frames of the robot's own camera on camera/onboard/frame (onboard)."""
 
     name = "vps"
     config_type = VpsConfig
@@ -59,6 +65,8 @@ class Vps(Service):
         self._seen = 0.0  # [s] clock time this robot's tag was last located (camera)
         self.reader: Reader | None = None
         self.host: HostClock | None = None  # the camera host's clock and its sync to each robot's stack (camera)
+        self.onboard: OnboardReader | None = None
+        self.estimate: tuple[float, float, float] | None = None  # [m, m, rad] the localizer's newest pose, when sure enough
         if self.cfg.source == "camera":
             self.blocking = True  # a frame takes milliseconds to detect ...
             self.background = True  # ... and the control loop must not wait for a core meanwhile
@@ -72,10 +80,20 @@ class Vps(Service):
             self.link_delay = cam.link_delay  # [s]
             self.queues = {robot: DeliveryQueue() for robot in cam.robots}
             self.host = HostClock(cam, self.clock, self.bus, self.settings.deployment.seed)
+        if self.cfg.source == "onboard":
+            self.blocking = self.background = True  # as the camera's: detection takes milliseconds
+            from zenav.services.vps.onboard_reader import OnboardReader
+
+            self.onboard = OnboardReader(self.settings, self.cfg.detector)
+            self.link_delay = self.onboard.cfg.link_delay
+        if self.cfg.source != "synthetic":
             self.timing: dict[str, deque[float]] = {k: deque(maxlen=TIMING_WINDOW) for k in ("pipeline_ms_p50", "detect_ms_p50")}
 
     def on_start(self) -> None:
-        if self.reader is None:
+        if self.onboard is not None:
+            self.subscribe("camera/onboard/frame", m.CameraFrame, self.on_onboard_frame, latest=True)
+            self.subscribe("pose", m.Pose, self.on_pose)
+        elif self.reader is None:
             self.subscribe("sim/truth", m.Truth, self.on_truth)
         else:
             self._claim_robots()
@@ -107,6 +125,7 @@ class Vps(Service):
             q.clear()
         if self.host is not None:
             self.host.forget()
+        self.estimate = None
 
     @timer(SYNC_PERIOD)
     def sync_clocks(self, now: float) -> None:
@@ -172,11 +191,43 @@ class Vps(Service):
             self._hold(s.robot, Delivery(now + self.host.link_delay(), msg.seq, placing.fix(s, max(t, 0.0), self.reader.cfg)))
             if s.robot == self.robot:
                 self._seen = now
-        self.timing["pipeline_ms_p50"].append((host_now - msg.t) * 1e3)  # exposure's middle to detection done, host clock
-        self.timing["detect_ms_p50"].append(got.detect_time * 1e3)
+        self._timing(host_now - msg.t, got.detect_time)  # exposure's middle to detection done, host clock
+        self.reader.explore()  # the frame's periodic whole search, its fixes out
+
+    def on_pose(self, msg: m.Pose) -> None:
+        """The localizer's pose: what an ambiguous single tag is resolved against, while its position is sure enough."""
+        sure = msg.cov[0] + msg.cov[4] < ESTIMATE_SIGMA**2
+        self.estimate = (msg.x, msg.y, msg.theta) if sure else None
+
+    def on_onboard_frame(self, msg: m.CameraFrame) -> None:
+        """One frame of the robot's camera: the [field] tags in it become one fix, sent after the link delay."""
+        assert self.onboard is not None
+        behind = self._behind(msg.t)
+        try:
+            if behind is not None:
+                raise FrameError(f"stamped t={msg.t:.3f}, {behind:.3f} s behind the stack clock (more than {STALE:g} s)")
+            got = self.onboard.read(msg, self.estimate)
+        except FrameError as e:
+            self.count("frames_refused")
+            self.warn("frame", f"refused a camera frame: {e}")
+            return
+        self._heard = now = self.clock.now()
+        self.count("frames")
+        self.count("tags_unknown", got.unknown)
+        if got.refused:
+            self.count(f"fixes_refused_{got.refused}")
+            self.warn(f"refused_{got.refused}", f"no fix from this frame: {getattr(got.solved, 'detail', '')}")
+        if got.fix is not None:
+            self._hold(self.robot, Delivery(now + self.link_delay, msg.seq, got.fix))
+            self._seen = now
+        self._timing(now - msg.t, got.detect_time)  # exposure to detection done, stack clock
+
+    def _timing(self, pipeline: float, detect: float) -> None:
+        """Add one frame's times [s] to the medians diag reports."""
+        self.timing["pipeline_ms_p50"].append(pipeline * 1e3)
+        self.timing["detect_ms_p50"].append(detect * 1e3)
         for name, window in self.timing.items():
             self.counters.values[name] = round(statistics.median(window))
-        self.reader.explore()  # the frame's periodic whole search, its fixes out
 
     def _synced(self) -> None:
         """Take in the clock replies that came since the last look; count and log the refused ones."""
@@ -203,7 +254,7 @@ class Vps(Service):
         """Error while the input (truth or frames), heard before, is silent; degraded while frames come without this robot's tag."""
         if self._heard is None:
             return
-        what = "sim/truth sample" if self.reader is None else "camera frame"
+        what = "sim/truth sample" if self.cfg.source == "synthetic" else "camera frame"
         if now - self._heard > INPUT_SILENT:
             self.set_status("error", f"no {what} for {now - self._heard:.1f} s: no fixes")
         elif self.reader is not None and self.reader.cal is not None and now - self._seen > TAG_UNSEEN:

@@ -1,0 +1,205 @@
+"""The robot's pose from the field's tags a camera on it sees (PhotonVision's pipelines, on a robot that stays level).
+
+Pure. Every detected tag of the [field] layout gives four 3D-2D correspondences (its corners on the field, where
+the lens shows them). Several tags at once are solved jointly (MultiTag: SQPnP over all their corners); one tag by
+IPPE, which gives two poses, the tag's two-fold ambiguity. Each candidate becomes a robot pose on the floor (x, y,
+heading) and is refined there by Gauss-Newton on the corners' reprojection with the camera's mount on the robot
+held to the config: a wrong flip, which tilts the camera, then fits far worse than the right one. A one-tag fix is
+kept when the better candidate's reprojection error is at most `max_ambiguity` of the worse's; otherwise only the
+current estimate can tell them apart, and it must be clearly nearer one of them. The covariance is the
+least-squares one, corner_sigma^2 (J^T J)^-1: it grows with the tags' distance and shrinks with their number.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from zenav.common.config import FieldTag
+from zenav.common.fieldtags import rotation
+from zenav.common.geometry import wrap_angle
+from zenav.common.onboardcam import OnboardCamera
+from zenav.services.vps.detect import Tag
+from zenav.world.onboard import lens, mount, robot_to_camera
+
+ITERATIONS = 8  # Gauss-Newton steps of the floor refinement, at most
+STEP_DONE = 1e-7  # [m, rad] a step this small ends it
+SAME = (0.01, 0.01)  # [m, rad] two refined candidates this close are one pose (no ambiguity left)
+PRIOR_GATE = (0.3, 0.3)  # [m, rad] the estimate chooses a candidate only when it lies this near it ...
+PRIOR_MARGIN = 3.0  # ... and the other candidate is this many times farther
+MAX_TILT_OFF = 0.1  # [m] a PnP solution whose camera stands this far off its mounted height is no pose on the floor
+VAR_FLOOR = (1e-6, 1e-6, 1e-6)  # [m^2, m^2, rad^2] least variances (the model's own errors)
+
+
+@dataclass(frozen=True)
+class TagFix:
+    """The robot's pose from one frame's tags."""
+
+    x: float  # [m] map frame
+    y: float  # [m]
+    theta: float  # [rad]
+    cov: tuple[float, ...]  # 3x3 row-major: x, y [m^2], theta [rad^2]
+    tags: tuple[int, ...]  # ids solved over
+    distance: float  # [m] mean camera-to-tag distance
+    rms_px: float  # [px] corners' reprojection error
+    ambiguity: float = 0.0  # one tag: better candidate's error / worse's (0: several tags, or one pose left)
+    chosen_by_estimate: bool = False  # one ambiguous tag whose candidate the current estimate picked
+
+
+@dataclass(frozen=True)
+class Refused:
+    """Why a frame's tags gave no fix."""
+
+    reason: str  # ambiguous, too_far, off_floor, no_solution
+    detail: str
+
+
+def solve(
+    found: Sequence[Tag],
+    layout: Mapping[int, FieldTag],
+    cfg: OnboardCamera,
+    estimate: tuple[float, float, float] | None = None,  # [m, m, rad] the current pose estimate, if any
+) -> TagFix | Refused | None:
+    """The robot's pose from the layout's tags among `found`; None when none of them is in the layout."""
+    known = [t for t in found if t.id in layout]
+    if not known:
+        return None
+    world = np.concatenate([layout[t.id].corners() for t in known])
+    image = np.concatenate([t.corners for t in known]).astype(np.float64)
+    distance = _distance(known, layout, cfg, image)
+    if len(known) == 1 and distance > cfg.max_distance:
+        return Refused("too_far", f"one tag ({known[0].id}) {distance:.2f} m away, beyond max_distance {cfg.max_distance:g} m")
+    seeds = _candidates(known, layout, cfg, world, image)
+    if not seeds:
+        return Refused("no_solution", f"no PnP solution places the camera on its mount over tags {[t.id for t in known]}")
+    refined = sorted((_refine(cfg, world, image, s) for s in seeds), key=lambda r: r[1])
+    ids = tuple(t.id for t in known)
+    (best, err), rest = refined[0], refined[1:]
+    ambiguity = 0.0
+    chosen = False
+    if len(known) == 1 and rest and not _same(best, rest[0][0]):
+        other, err2 = rest[0]
+        ambiguity = err / max(err2, 1e-12)
+        if ambiguity > cfg.max_ambiguity:
+            pick = _by_estimate(best, other, estimate)
+            if pick is None:
+                why = "no estimate to choose by" if estimate is None else "the estimate is near neither, or near both"
+                return Refused("ambiguous", f"tag {ids[0]}: its two poses fit alike (ambiguity {ambiguity:.2f}); {why}")
+            if pick is other:
+                best, err = other, err2
+            chosen = True
+    cov = _covariance(cfg, world, best)
+    return TagFix(*best, cov, ids, distance, err, ambiguity, chosen)
+
+
+def _distance(known: Sequence[Tag], layout: Mapping[int, FieldTag], cfg: OnboardCamera, image: np.ndarray) -> float:
+    """[m] the mean camera-to-tag distance, from each tag's size in pixels (before any pose is solved)."""
+    f = math.sqrt(cfg.fx * cfg.fy)
+    out = []
+    for t in known:
+        side = float(np.mean(np.linalg.norm(np.roll(t.corners, -1, axis=0) - t.corners, axis=1)))
+        out.append(f * layout[t.id].size / max(side, 1e-6))
+    return float(np.mean(out))
+
+
+def _candidates(
+    known: Sequence[Tag], layout: Mapping[int, FieldTag], cfg: OnboardCamera, world: np.ndarray, image: np.ndarray
+) -> list[tuple[float, float, float]]:
+    """Robot poses on the floor from the 6-DoF PnP solutions: SQPnP over every corner, or IPPE's two for one tag."""
+    lo = lens(cfg)
+    poses: list[tuple[np.ndarray, np.ndarray]] = []  # (camera-to-map rotation, camera centre) [m]
+    if len(known) == 1:
+        tag = layout[known[0].id]
+        h = tag.size / 2.0
+        square = np.array([[-h, h, 0.0], [h, h, 0.0], [h, -h, 0.0], [-h, -h, 0.0]])
+        r_tag = rotation(tag.yaw, tag.pitch, tag.roll)
+        to_map = np.column_stack([r_tag[:, 1], r_tag[:, 2], r_tag[:, 0]])  # IPPE's square frame: right, up, out
+        n, rvecs, tvecs, _ = cv2.solvePnPGeneric(square, image, lo.K, lo.dist, flags=cv2.SOLVEPNP_IPPE_SQUARE)
+        for rv, tv in zip(rvecs[:n], tvecs[:n]):
+            r, _ = cv2.Rodrigues(rv)  # square frame -> camera
+            r_cam = to_map @ r.T  # camera -> map
+            poses.append((r_cam, np.array([tag.x, tag.y, tag.z]) - r_cam @ tv.ravel()))
+    else:
+        ok, rv, tv = cv2.solvePnP(world, image, lo.K, lo.dist, flags=cv2.SOLVEPNP_SQPNP)
+        if ok:
+            r, _ = cv2.Rodrigues(rv)  # map -> camera
+            poses.append((r.T, -r.T @ tv.ravel()))
+    r_rc, t_rc = robot_to_camera(cfg)
+    out = []
+    for r_cam, centre in poses:
+        if abs(centre[2] - cfg.z) > MAX_TILT_OFF:
+            continue
+        body = r_cam @ r_rc.T  # robot -> map, tilted by the solution's errors
+        theta = math.atan2(body[1, 0], body[0, 0])
+        off = rotation(theta) @ t_rc
+        out.append((float(centre[0] - off[0]), float(centre[1] - off[1]), theta))
+    return out
+
+
+def _project(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """(2N,) [px] where the camera of a robot at pose (x, y, theta) shows the points `world`."""
+    cam = mount(cfg, float(pose[0]), float(pose[1]), float(pose[2]))
+    rvec, _ = cv2.Rodrigues(cam.R)
+    lo = lens(cfg)
+    out, _ = cv2.projectPoints(world.reshape(-1, 1, 3), rvec, -cam.R @ cam.C, lo.K, lo.dist)
+    return out.reshape(-1)
+
+
+def _jacobian(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """(2N x 3) [px per m, px per rad] of the projection, by central differences."""
+    cols = []
+    for i, step in enumerate((1e-5, 1e-5, 1e-6)):
+        d = np.zeros(3)
+        d[i] = step
+        cols.append((_project(cfg, world, pose + d) - _project(cfg, world, pose - d)) / (2.0 * step))
+    return np.column_stack(cols)
+
+
+def _refine(
+    cfg: OnboardCamera, world: np.ndarray, image: np.ndarray, seed: tuple[float, float, float]
+) -> tuple[tuple[float, float, float], float]:
+    """The floor pose nearest `seed` that best reprojects the corners (Gauss-Newton), and its rms error [px]."""
+    pose = np.array(seed, dtype=np.float64)
+    target = image.reshape(-1)
+    for _ in range(ITERATIONS):
+        r = _project(cfg, world, pose) - target
+        j = _jacobian(cfg, world, pose)
+        step, *_ = np.linalg.lstsq(j, -r, rcond=None)
+        pose = pose + step
+        if np.max(np.abs(step)) < STEP_DONE:
+            break
+    rms = float(np.sqrt(np.mean((_project(cfg, world, pose) - target) ** 2)))
+    return (float(pose[0]), float(pose[1]), wrap_angle(float(pose[2]))), rms
+
+
+def _covariance(cfg: OnboardCamera, world: np.ndarray, pose: tuple[float, float, float]) -> tuple[float, ...]:
+    """corner_sigma^2 (J^T J)^-1, 3x3 row-major, with the least variances added."""
+    j = _jacobian(cfg, world, np.array(pose))
+    try:
+        cov = np.linalg.inv(j.T @ j) * cfg.corner_sigma**2
+    except np.linalg.LinAlgError:
+        cov = np.diag([1.0, 1.0, 1.0])
+    cov = cov + np.diag(VAR_FLOOR)
+    return tuple(float(v) for v in cov.ravel())
+
+
+def _same(a: Sequence[float], b: Sequence[float]) -> bool:
+    return math.hypot(a[0] - b[0], a[1] - b[1]) < SAME[0] and abs(wrap_angle(a[2] - b[2])) < SAME[1]
+
+
+def _gap(a: Sequence[float], b: Sequence[float]) -> float:
+    """How far pose a is from b, in units of PRIOR_GATE (<= 1: within the gate)."""
+    return max(math.hypot(a[0] - b[0], a[1] - b[1]) / PRIOR_GATE[0], abs(wrap_angle(a[2] - b[2])) / PRIOR_GATE[1])
+
+
+def _by_estimate(a: tuple[float, float, float], b: tuple[float, float, float], estimate: tuple[float, float, float] | None):
+    """The candidate the estimate clearly points to (within its gate, the other PRIOR_MARGIN times farther), else None."""
+    if estimate is None:
+        return None
+    ga, gb = _gap(a, estimate), _gap(b, estimate)
+    near, far, pick = (ga, gb, a) if ga <= gb else (gb, ga, b)
+    return pick if near <= 1.0 and far >= PRIOR_MARGIN * max(near, 1e-9) else None
