@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import statistics
 from collections import deque
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import msgspec
-from msgspec import Struct
+from msgspec import Meta, Struct
 
 from zenav.common import codec, extras, keys
 from zenav.common import messages as m
@@ -40,6 +40,9 @@ class VpsConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     # [field] tags in the frames of the robot's own camera ([onboard_camera])
     source: Literal["synthetic", "camera", "onboard"] = "synthetic"
     detector: Backend = "auto"  # the camera's tag detector: apriltag (pupil-apriltags), opencv, or auto (apriltag if installed)
+    # "": the robot's vps; a name: one more camera's vps beside it, running as vps_<name> (its own alive, instance and diag
+    # keys), its fixes on the same vps/pose, each stamped at its capture: the localizer fuses them all
+    name: Annotated[str, Meta(pattern=r"^[a-z0-9_]{0,32}$")] = ""
 
     def __post_init__(self) -> None:
         if self.source != "synthetic":  # at start, in one line, rather than when the first frame comes
@@ -59,6 +62,8 @@ class Vps(Service):
 
     def __init__(self, *args) -> None:
         super().__init__(*args)
+        if self.cfg.name:
+            self.name = f"vps_{self.cfg.name}"  # a second camera's vps: its own presence, beside the robot's vps
         self.camera = Camera(self.settings.scenario, make_rng(self.settings.deployment.seed))
         self.queues: dict[str, DeliveryQueue] = {self.robot: DeliveryQueue()}
         self._heard: float | None = None  # [s] clock time the newest truth sample or frame came
