@@ -82,17 +82,17 @@ def test_the_covariance_grows_with_distance_and_shrinks_with_the_tag_count(rende
 
 
 def test_an_ambiguous_single_tag_is_refused_unless_the_estimate_picks_one_of_its_poses(renderer, detector):
-    pose = (1.0, 1.0, 0.0)
-    tag = [t for t in detector.detect(renderer.render(*pose)) if t.id == 1]
-    strict = OnboardCamera(noise=0.0, max_ambiguity=0.001)  # its two poses fit 30 times apart: ambiguous at this bar
-    alone = onboard.solve(tag, LAYOUT, strict)
+    pose = (0.5, 0.5, 0.2)  # tag 2, 2.6 m off, seen about as well from either side of its normal
+    tag = [t for t in detector.detect(renderer.render(*pose)) if t.id == 2]
+    alone = onboard.solve(tag, LAYOUT, CFG)
     assert isinstance(alone, onboard.Refused) and alone.reason == "ambiguous" and "no estimate" in alone.detail
-    picked = onboard.solve(tag, LAYOUT, strict, estimate=(1.05, 0.97, 0.05))
-    assert isinstance(picked, onboard.TagFix) and picked.chosen_by_estimate
-    assert math.hypot(picked.x - pose[0], picked.y - pose[1]) < 0.02
-    far = onboard.solve(tag, LAYOUT, strict, estimate=(2.0, 2.0, 2.0))
-    assert isinstance(far, onboard.Refused) and far.reason == "ambiguous"
-    assert isinstance(onboard.solve(tag, LAYOUT, OnboardCamera(noise=0.0)), onboard.TagFix)  # at the default bar: kept
+    picked = onboard.solve(tag, LAYOUT, CFG, estimate=(0.55, 0.47, 0.25))
+    assert isinstance(picked, onboard.TagFix) and picked.chosen_by_estimate and picked.ambiguity > CFG.max_ambiguity
+    assert math.hypot(picked.x - pose[0], picked.y - pose[1]) < 0.03
+    far = onboard.solve(tag, LAYOUT, CFG, estimate=(2.0, 2.0, 2.0))
+    assert isinstance(far, onboard.Refused) and far.reason == "ambiguous" and "near neither" in far.detail
+    lax = onboard.solve(tag, LAYOUT, OnboardCamera(noise=0.0, max_ambiguity=0.9))
+    assert isinstance(lax, onboard.TagFix) and not lax.chosen_by_estimate  # a looser bar keeps the better fit
 
 
 def test_a_single_tag_beyond_max_distance_and_unknown_tags_give_no_fix(renderer, detector):
@@ -101,3 +101,13 @@ def test_a_single_tag_beyond_max_distance_and_unknown_tags_give_no_fix(renderer,
     got = onboard.solve(one, LAYOUT, OnboardCamera(noise=0.0, max_distance=2.0))
     assert isinstance(got, onboard.Refused) and got.reason == "too_far"
     assert onboard.solve(one, {}, CFG) is None
+
+
+def test_the_bench_tables_fix_errors_by_tag_count_and_distance():
+    from zenav.bench.onboard import fix_errors
+
+    lines = fix_errors(12, seed=2)
+    rows = {line.split("|")[1].strip(): line.split("|")[2:-1] for line in lines if line.startswith("| ") and "fixes" not in line}
+    assert {"1 tag", "2 tags", "3+ tags", "0-1 m", "3-4.5 m"} <= set(rows)
+    assert sum(int(rows[k][0]) for k in ("1 tag", "2 tags", "3+ tags")) > 0
+    assert all(rows[k][-1].strip() == "0" for k in ("2 tags", "3+ tags"))  # no wrong fix from several tags

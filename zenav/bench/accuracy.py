@@ -47,7 +47,9 @@ class Spec:
     trial: str = "square"  # square: seed 003's, `laps` laps; path: seed 002's path, then the turn sweep
     laps: float = 3.0  # square laps (a fraction: that many of its four goals)
     harness: str = "processes"  # processes, or in-process (one Zenoh session per service, one interpreter)
-    vps: str = "synthetic"  # synthetic: the truth plus the scenario's VPS errors; camera: the sim's frames, tags detected
+    # synthetic: the truth plus the scenario's VPS errors; camera: the sim's overhead frames, tags detected; onboard: the
+    # robot's own camera's frames, the field's tags detected; camera+onboard: both cameras, each its own vps (in-process)
+    vps: str = "synthetic"
 
     def navigator(self) -> dict:
         """The navigator's settings. Only the EKF modes carry a covariance the navigator's uncertainty
@@ -58,26 +60,27 @@ class Spec:
         ungated = {} if gated else {"max_position_sigma": math.inf, "max_heading_sigma": math.inf}
         return {"controller": self.controller, **ungated}
 
-    def settings(self, rtf: float) -> Settings:
+    def settings(self, rtf: float, vps: dict | None = None) -> Settings:
         return Settings.load(
             None,
             deployment={"scenario": self.scenario, "seed": self.seed},
             sim={"rtf": rtf, **self._camera()},
-            vps={"source": self.vps},
+            vps=vps or {"source": self.vps.split("+")[0]},
             localizer={"mode": self.mode},
             navigator=self.navigator(),
         )
 
     def _camera(self) -> dict:
-        """The sim's settings for the camera VPS (it renders the frames)."""
-        return {"camera": True} if self.vps == "camera" else {}
+        """The sim's settings for the camera VPS (it renders the frames; the onboard camera's whenever the vps reads them)."""
+        cams = self.vps.split("+")
+        return {"camera": True, **({"onboard_camera": True} if "onboard" in cams else {})} if "camera" in cams else {}
 
     def args(self, rtf: float) -> list[str]:
         """The same settings as service command-line options."""
         sets = {
             "sim.rtf": rtf,
             **{f"sim.{k}": str(v).lower() for k, v in self._camera().items()},
-            "vps.source": self.vps,
+            "vps.source": self.vps.split("+")[0],
             "localizer.mode": self.mode,
             **{f"navigator.{k}": v for k, v in self.navigator().items()},
         }
@@ -129,10 +132,15 @@ def _stack(spec: Spec, rtf: float, settings: Settings, log_dir: Path) -> Iterato
     else:
         with Router() as router:
             stack = InProcessStack(settings, router.endpoint).start()
+            stacks = [stack]
+            if spec.vps == "camera+onboard":  # the second camera's own vps
+                onboard = spec.settings(rtf, vps={"source": "onboard", "name": "onboard"})
+                stacks.append(InProcessStack(onboard, router.endpoint, ["vps"]).start())
             try:
                 yield router.endpoint, lambda: None
             finally:
-                stack.stop()
+                for s in reversed(stacks):
+                    s.stop()
 
 
 def run(spec: Spec, rtf: float, log_dir: Path) -> Run:

@@ -41,7 +41,7 @@ class OnboardCamera(Struct, frozen=True, kw_only=True, forbid_unknown_fields=Tru
     noise: Annotated[float, Meta(ge=0.0, le=100.0)] = 2.0  # [grey levels] sim: sensor noise, 1 sigma
     link_delay: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.05  # [s] added after detection (the coprocessor's link)
     corner_sigma: Annotated[float, Meta(gt=0.0, le=100.0)] = 0.3  # [px] 1 sigma of a tag corner, the base of a fix's covariance
-    max_distance: Annotated[float, Meta(gt=0.0, le=100.0)] = 4.0  # [m] a tag farther than this gives no one-tag fix
+    max_distance: Annotated[float, Meta(gt=0.0, le=100.0)] = 3.0  # [m] a tag farther than this gives no one-tag fix
     max_ambiguity: Annotated[float, Meta(gt=0.0, le=1.0)] = 0.2  # a one-tag fix whose two poses fit this alike is refused
 
     def __post_init__(self) -> None:

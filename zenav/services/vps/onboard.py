@@ -28,7 +28,8 @@ from zenav.world.onboard import lens, mount, robot_to_camera
 
 ITERATIONS = 8  # Gauss-Newton steps of the floor refinement, at most
 STEP_DONE = 1e-7  # [m, rad] a step this small ends it
-SAME = (0.01, 0.01)  # [m, rad] two refined candidates this close are one pose (no ambiguity left)
+SAME = (0.01, 0.01)  # [m, rad] two refined candidates this close are one pose (no ambiguity left) ...
+SAME_D2 = 9.0  # ... and so are two within 3 sigma of the fix's covariance (Mahalanobis d^2)
 PRIOR_GATE = (0.3, 0.3)  # [m, rad] the estimate chooses a candidate only when it lies this near it ...
 PRIOR_MARGIN = 3.0  # ... and the other candidate is this many times farther
 MAX_TILT_OFF = 0.1  # [m] a PnP solution whose camera stands this far off its mounted height is no pose on the floor
@@ -78,10 +79,12 @@ def solve(
         return Refused("no_solution", f"no PnP solution places the camera on its mount over tags {[t.id for t in known]}")
     refined = sorted((_refine(cfg, world, image, s) for s in seeds), key=lambda r: r[1])
     ids = tuple(t.id for t in known)
-    (best, err), rest = refined[0], refined[1:]
+    best, err = refined[0]
+    cov = _covariance(cfg, world, best)
+    rest = [r for r in refined[1:] if not _same(best, r[0], cov)]  # the other minima (seeds that converged apart)
     ambiguity = 0.0
     chosen = False
-    if len(known) == 1 and rest and not _same(best, rest[0][0]):
+    if len(known) == 1 and rest:
         other, err2 = rest[0]
         ambiguity = err / max(err2, 1e-12)
         if ambiguity > cfg.max_ambiguity:
@@ -91,8 +94,8 @@ def solve(
                 return Refused("ambiguous", f"tag {ids[0]}: its two poses fit alike (ambiguity {ambiguity:.2f}); {why}")
             if pick is other:
                 best, err = other, err2
+                cov = _covariance(cfg, world, best)
             chosen = True
-    cov = _covariance(cfg, world, best)
     return TagFix(*best, cov, ids, distance, err, ambiguity, chosen)
 
 
@@ -109,35 +112,71 @@ def _distance(known: Sequence[Tag], layout: Mapping[int, FieldTag], cfg: Onboard
 def _candidates(
     known: Sequence[Tag], layout: Mapping[int, FieldTag], cfg: OnboardCamera, world: np.ndarray, image: np.ndarray
 ) -> list[tuple[float, float, float]]:
-    """Robot poses on the floor from the 6-DoF PnP solutions: SQPnP over every corner, or IPPE's two for one tag."""
+    """Robot poses on the floor to refine from: SQPnP over every corner for several tags (each tag's IPPE poses when
+    it places the camera off its mount); for one tag IPPE's poses and each one's mirror image about the tag's normal
+    (far off, perspective cannot tell a tag seen from an angle left of its normal from one seen as far right)."""
     lo = lens(cfg)
     poses: list[tuple[np.ndarray, np.ndarray]] = []  # (camera-to-map rotation, camera centre) [m]
-    if len(known) == 1:
-        tag = layout[known[0].id]
-        h = tag.size / 2.0
-        square = np.array([[-h, h, 0.0], [h, h, 0.0], [h, -h, 0.0], [-h, -h, 0.0]])
-        r_tag = rotation(tag.yaw, tag.pitch, tag.roll)
-        to_map = np.column_stack([r_tag[:, 1], r_tag[:, 2], r_tag[:, 0]])  # IPPE's square frame: right, up, out
-        n, rvecs, tvecs, _ = cv2.solvePnPGeneric(square, image, lo.K, lo.dist, flags=cv2.SOLVEPNP_IPPE_SQUARE)
-        for rv, tv in zip(rvecs[:n], tvecs[:n]):
-            r, _ = cv2.Rodrigues(rv)  # square frame -> camera
-            r_cam = to_map @ r.T  # camera -> map
-            poses.append((r_cam, np.array([tag.x, tag.y, tag.z]) - r_cam @ tv.ravel()))
-    else:
+    if len(known) > 1:
         ok, rv, tv = cv2.solvePnP(world, image, lo.K, lo.dist, flags=cv2.SOLVEPNP_SQPNP)
         if ok:
             r, _ = cv2.Rodrigues(rv)  # map -> camera
             poses.append((r.T, -r.T @ tv.ravel()))
+    out = _on_floor(cfg, poses, MAX_TILT_OFF)
+    if out:
+        return out
+    for t in known:  # far off, IPPE places the camera's height poorly: every pose is refined, the floor decides
+        out += _on_floor(cfg, _ippe(layout[t.id], t.corners.astype(np.float64), lo.K, lo.dist), math.inf)
+    if len(known) == 1:
+        out += [_mirror(cfg, layout[known[0].id], p) for p in out]
+    return out
+
+
+def _ippe(tag: FieldTag, corners: np.ndarray, k: np.ndarray, dist: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """IPPE's two camera poses (camera-to-map rotation, centre [m]) from one tag's corners."""
+    h = tag.size / 2.0
+    square = np.array([[-h, h, 0.0], [h, h, 0.0], [h, -h, 0.0], [-h, -h, 0.0]])
+    r_tag = rotation(tag.yaw, tag.pitch, tag.roll)
+    to_map = np.column_stack([r_tag[:, 1], r_tag[:, 2], r_tag[:, 0]])  # IPPE's square frame: right, up, out
+    n, rvecs, tvecs, _ = cv2.solvePnPGeneric(square, corners, k, dist, flags=cv2.SOLVEPNP_IPPE_SQUARE)
+    out = []
+    for rv, tv in zip(rvecs[:n], tvecs[:n]):
+        r, _ = cv2.Rodrigues(rv)  # square frame -> camera
+        r_cam = to_map @ r.T  # camera -> map
+        out.append((r_cam, np.array([tag.x, tag.y, tag.z]) - r_cam @ tv.ravel()))
+    return out
+
+
+def _on_floor(cfg: OnboardCamera, poses: Sequence[tuple[np.ndarray, np.ndarray]], tol: float) -> list[tuple[float, float, float]]:
+    """The robot poses of camera poses that keep the camera within tol [m] of its mounted height."""
     r_rc, t_rc = robot_to_camera(cfg)
     out = []
     for r_cam, centre in poses:
-        if abs(centre[2] - cfg.z) > MAX_TILT_OFF:
+        if abs(centre[2] - cfg.z) > tol:
             continue
         body = r_cam @ r_rc.T  # robot -> map, tilted by the solution's errors
         theta = math.atan2(body[1, 0], body[0, 0])
         off = rotation(theta) @ t_rc
         out.append((float(centre[0] - off[0]), float(centre[1] - off[1]), theta))
     return out
+
+
+def _mirror(cfg: OnboardCamera, tag: FieldTag, pose: tuple[float, float, float]) -> tuple[float, float, float]:
+    """The robot pose whose camera sees the tag from the mirror image of `pose`'s bearing about the tag's normal."""
+    cam = mount(cfg, *pose).C[:2]
+    centre = np.array([tag.x, tag.y])
+    normal = rotation(tag.yaw, tag.pitch, tag.roll)[:2, 0]
+    if np.linalg.norm(normal) < 1e-6:  # a tag flat on the floor: no such mirror
+        return pose
+    normal = normal / np.linalg.norm(normal)
+    rel = cam - centre
+    mirrored = centre + 2.0 * (rel @ normal) * normal - rel
+    look = pose[2] + cfg.yaw  # the optical axis's heading
+    bearing = math.atan2(-rel[1], -rel[0])  # camera to tag
+    bearing_m = math.atan2(centre[1] - mirrored[1], centre[0] - mirrored[0])
+    theta = wrap_angle(bearing_m - (look - bearing) - cfg.yaw)
+    off = rotation(theta) @ robot_to_camera(cfg)[1]
+    return float(mirrored[0] - off[0]), float(mirrored[1] - off[1]), theta
 
 
 def _project(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray) -> np.ndarray:
@@ -187,8 +226,11 @@ def _covariance(cfg: OnboardCamera, world: np.ndarray, pose: tuple[float, float,
     return tuple(float(v) for v in cov.ravel())
 
 
-def _same(a: Sequence[float], b: Sequence[float]) -> bool:
-    return math.hypot(a[0] - b[0], a[1] - b[1]) < SAME[0] and abs(wrap_angle(a[2] - b[2])) < SAME[1]
+def _same(a: Sequence[float], b: Sequence[float], cov: tuple[float, ...]) -> bool:
+    """Whether two refined poses are one: within SAME of each other, or within the fix's own 3 sigma (a flat valley)."""
+    d = np.array([a[0] - b[0], a[1] - b[1], wrap_angle(a[2] - b[2])])
+    close = math.hypot(d[0], d[1]) < SAME[0] and abs(d[2]) < SAME[1]
+    return close or float(d @ np.linalg.solve(np.array(cov).reshape(3, 3), d)) < SAME_D2
 
 
 def _gap(a: Sequence[float], b: Sequence[float]) -> float:
