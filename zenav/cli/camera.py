@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from zenav.cli import intrinsics
 from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_UNAVAILABLE, EXIT_USAGE
 from zenav.cli.nav import open_client
 from zenav.common import codec, extras, keys
@@ -43,7 +44,7 @@ DETECT_EPILOG = """exit codes: 0 tags found, 1 no tag found, 2 the file cannot b
 
 
 def add_arguments(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("camera", help="the overhead camera: calibrate, snapshot, stream, detect")
+    p = sub.add_parser("camera", help="the overhead camera: calibrate, snapshot, stream, detect; a lens's intrinsics")
     verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
     d = verbs.add_parser(
         "detect",
@@ -68,6 +69,7 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     )
     d.add_argument("--json", action="store_true", help="print one JSON object: the picture, the detector, the tags")
     d.set_defaults(func=run_detect)
+    intrinsics.add_verb(verbs)
     for name, text in (
         ("calibrate", "fit the floor homography to the fixed tags in one frame; write [camera] calibration"),
         ("snapshot", "save a PNG of one frame with the field grid, the tags and the fixes drawn"),
