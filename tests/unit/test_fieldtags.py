@@ -71,3 +71,17 @@ def test_a_bad_layout_is_refused_at_start_saying_why(tmp_path, content, extra, e
 def test_a_missing_layout_file_is_named(tmp_path):
     with pytest.raises(ConfigError, match="tags_file .*nowhere.json"):
         Settings.load(None, field={"tags_file": str(tmp_path / "nowhere.json"), "tag_size": 0.1})
+
+
+def test_a_tag_no_camera_on_the_field_can_see_is_refused_at_start():
+    with pytest.raises(ConfigError, match=r"tag 5 at \(3, 1\) faces out of the field .*yaw off by pi"):
+        Settings.load(None, field={"tags": [{"id": 5, "x": 3.0, "y": 1.0, "z": 0.3, "yaw": 0.0}]})
+    with pytest.raises(ConfigError, match=r"tag 6 at \(16.5, 4\) lies outside the field \(x -1..3, y -1..3\)"):
+        Settings.load(None, field={"tags": [{"id": 6, "x": 16.5, "y": 4.0, "z": 0.3, "yaw": 3.14}]})
+    floor = Settings.load(None, field={"tags": [{"id": 7, "x": 1.0, "y": 1.0, "pitch": -math.pi / 2}]}).field
+    assert [t.id for t in floor.tags] == [7]  # flat on the floor, facing up: seen from above
+
+
+def test_the_default_tags_belong_to_the_default_field():
+    assert len(Settings.load(None).field.tags) == 12
+    assert Settings.load(None, field={"x_min": 0.0, "x_max": 2.0}).field.tags == ()

@@ -132,7 +132,8 @@ class FieldTag(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
         return fieldtags.corners(self.size, self.x, self.y, self.z, self.yaw, self.pitch, self.roll)
 
 
-# The default field's tags: three on the wall of each of its edges, 0.25 m up, facing in (FRC's 0.1651 m tags).
+# The default field's tags (a config that sets neither the field's bounds nor its tags gets them): three on the wall of
+# each of its edges, 0.25 m up, facing in (FRC's 0.1651 m tags).
 DEFAULT_TAGS = (
     FieldTag(id=1, size=0.1651, x=3.0, y=0.0, z=0.25, yaw=3.1415927),
     FieldTag(id=2, size=0.1651, x=3.0, y=1.0, z=0.25, yaw=3.1415927),
@@ -162,7 +163,7 @@ class Field(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     file: str = ""  # a field file (TOML or JSON) with the bounds, obstacles and tags; read when the config is loaded
     margin: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.05  # [m] kept clear beyond the robot's footprint ([robot] radius)
     obstacles: tuple[Obstacle, ...] = ()
-    tags: tuple[FieldTag, ...] = DEFAULT_TAGS
+    tags: tuple[FieldTag, ...] = ()  # a loaded config's default: DEFAULT_TAGS, on the default field (Settings.load)
     tags_file: str = ""  # a WPILib AprilTagFieldLayout JSON whose tags join `tags`; read when the config is loaded
     tag_size: Annotated[float, Meta(gt=0.0, le=10.0)] | None = None  # [m] edge of tags_file's tags (the layout has none)
 
@@ -173,6 +174,10 @@ class Field(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
         twice = sorted({i for i in ids if ids.count(i) > 1})
         if twice:
             raise ValueError(f"tags: id {twice[0]} is given twice")
+        for t in self.tags if self.enabled else ():
+            why = fieldtags.misplaced(t.id, t.x, t.y, t.yaw, t.pitch, t.roll, (self.x_min, self.y_min, self.x_max, self.y_max))
+            if why:
+                raise ValueError(f"tags: {why}")
         fieldmod.check_layout(self.shapes(), (self.x_min, self.y_min, self.x_max, self.y_max) if self.enabled else None)
 
     def shapes(self) -> tuple[fieldmod.Shape, ...]:
@@ -331,6 +336,8 @@ class Settings:
             if both:
                 raise ConfigError(f"config [field]: `{both[0]}` is set both here and in its file {area['file']}: keep one")
             area = {**area, **described}
+        if not any(k in area for k in ("tags", "tags_file", "x_min", "x_max", "y_min", "y_max")):
+            area = {**area, "tags": msgspec.to_builtins(DEFAULT_TAGS)}  # they stand on the default field's walls only
         if area.get("tags_file"):
             area = {**area, "tags": [*area.get("tags", []), *_layout_tags(str(area["tags_file"]), area.get("tag_size"), path)]}
         bounds = _convert(area, Field, "field")

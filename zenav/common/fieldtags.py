@@ -70,3 +70,23 @@ def wpilib_tags(raw: Any, size: float | None, where: str) -> list[dict[str, floa
             ) from None
         out.append({**entry, "yaw": yaw, "pitch": pitch, "roll": roll})
     return out
+
+
+EDGE_TOLERANCE = 0.05  # [m] a tag may stand this far beyond the field's edge (on the wall's face)
+FACING_PROBE = 0.1  # [m] a point this far in front of a tag must lie on the field, or the tag faces out of it
+
+
+def misplaced(
+    tag_id: int, x: float, y: float, yaw: float, pitch: float, roll: float, bounds: tuple[float, float, float, float]
+) -> str | None:
+    """Why a tag at (x, y) facing (yaw, pitch, roll) can be seen from no point of the field (x_min, y_min, x_max,
+    y_max), or None: it lies outside it, or it faces out of it (a yaw off by pi)."""
+    x0, y0, x1, y1 = bounds
+    t = EDGE_TOLERANCE
+    if not (x0 - t <= x <= x1 + t and y0 - t <= y <= y1 + t):
+        return f"tag {tag_id} at ({x:g}, {y:g}) lies outside the field (x {x0:g}..{x1:g}, y {y0:g}..{y1:g}): set the field's bounds"
+    nx, ny, _ = rotation(yaw, pitch, roll)[:, 0]
+    px, py = x + FACING_PROBE * nx, y + FACING_PROBE * ny
+    if not (x0 < px < x1 and y0 < py < y1):
+        return f"tag {tag_id} at ({x:g}, {y:g}) faces out of the field (yaw {yaw:g}): no camera on it can see it; is yaw off by pi?"
+    return None
