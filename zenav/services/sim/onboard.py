@@ -19,6 +19,7 @@ class OnboardFrames:
         self.renderer = OnboardRenderer(cfg, settings.field.tags, settings.field.shapes(), settings.deployment.seed)
         self.due = Cadence(cfg.rate_hz).due
         self.seq = 0
+        self.lost = 0  # frames lost on the way: none, the robot's own camera is on its own computer
 
     def frame(self, truth: m.Truth) -> m.CameraFrame:
         """The frame whose (instant) exposure is at truth.t."""
