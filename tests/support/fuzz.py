@@ -321,6 +321,8 @@ def minimal(t: mi.Type) -> object:
         return [minimal(u) for u in t.item_types]
     if isinstance(t, mi.DictType):
         return {}
+    if isinstance(t, mi.BytesType):
+        return b"\x00" * (t.min_length or 0)
     if isinstance(t, mi.StructType):
         return {f.encode_name: minimal(f.type) for f in t.fields if f.required}
     raise TypeError(f"no minimal value for {t}")
