@@ -80,6 +80,13 @@ def _detectors(scenarios: Sequence[str], seeds: int) -> str:
     return "\n".join(camera.lines(measured, DETECTOR_FRAMES))
 
 
+def _onboard(scenarios: Sequence[str], seeds: int) -> str:
+    from zenav.bench import onboard
+
+    return "\n".join([*onboard.fix_errors(ONBOARD_POSES, 1), "", *onboard.drive(ONBOARD_LAPS, 1.0)])
+
+
+ONBOARD_POSES, ONBOARD_LAPS = 300, 3.0  # random poses whose frames are solved; laps of the square driven
 DETECTOR_FRAMES = 50  # frames timed per camera and detector
 ALL = ("default", "coarse", "harsh")
 STUDIES = {
@@ -90,6 +97,7 @@ STUDIES = {
     "odometry": Study(_odometry, 10, ALL, "dead reckoning's drift with each heading source"),
     "navigator": Study(_navigator, 10, (), "each controller's path and square on default and harsh, its turns"),
     "peers": Study(_peers, 5, ALL, "WPILib's pose estimator beside zenav's on the same streams"),
+    "onboard": Study(_onboard, 1, (), "the onboard camera's fixes by tag count and distance, then the square driven"),
     "detectors": Study(_detectors, 1, (), "the overhead camera's detectors, pupil-apriltags and OpenCV, on rendered frames"),
 }
 

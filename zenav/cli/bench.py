@@ -17,7 +17,7 @@ from zenav.common import extras
 # that building the parser imports none of the bench's optional packages.
 SECTIONS = ("latency", "cost", "speed", "accuracy", "navigation", "settle", "planning", "camera", "peers", "profile", "fleet")
 PRINTED = ("safety", "link", "studies")  # sections that print their tables, not written to the report
-STUDIES = ("localizer", "localizer-latency", "localizer-pushed", "calibration", "odometry", "navigator", "peers", "detectors")
+STUDIES = ("localizer", "localizer-latency", "localizer-pushed", "calibration", "odometry", "navigator", "peers", "onboard", "detectors")
 DEFAULT_OUT = Path("bench-report")  # a scratch directory: the committed report is written with --out docs/bench
 
 
