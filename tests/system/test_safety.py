@@ -1,6 +1,6 @@
 """Safety, for real: the stack as processes, a frozen operator, a flood, bad inputs, duplicates, the field's edge.
 
-The figures are printed (`pytest -s`); `python -m zenav.bench.safety` prints them too.
+The figures are printed (`pytest -s`); `zenav bench safety` prints them too.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ import argparse
 
 import pytest
 
-from zenav.bench import plan, safety
+from zenav.bench import chain, child, plan, safety
 from zenav.bench.accuracy import Spec
 from zenav.cli import bench as cli
 from zenav.common.app import parse_sets
@@ -48,8 +48,36 @@ def test_a_camera_run_sets_the_sim_and_the_vps_alike_in_both_harnesses():
     assert parse_sets([a for a in Spec().args(1.0) if a.startswith("vps.")]) == {"vps": {"source": "synthetic"}}
 
 
-def test_safety_bench_refuses_a_flood_count_out_of_range(capsys):
+def test_sections_named_choose_the_report_s_and_the_printed_ones():
+    args = parse("latency", "safety", "studies", "calibration", "peers", "--seeds", "3", "--only", "cost")
+    assert (args.sections, args.studies, args.seeds) == (["latency", "safety", "studies"], ["calibration", "peers"], 3)
+    assert cli.report_sections(args) == ["latency", "cost"]
+    assert cli.command_line(args) == "zenav bench latency --only cost --out bench-report"
+    assert cli.report_sections(parse("link")) == [] and cli.report_sections(parse("--quick")) is None
+
+
+@pytest.mark.parametrize(
+    "argv, says",
+    [
+        (["studies"], "`studies` wants one or more of"),
+        (["latency", "studies", "cost"], "unknown 'cost'"),
+        (["everything"], "unknown 'everything'"),
+        (["safety", "--floods", "0"], "--floods: 1 to 1000"),
+    ],
+)
+def test_unknown_or_incomplete_sections_are_refused(capsys, argv, says):
     with pytest.raises(SystemExit) as e:
-        safety.main(["--floods", "0"])
-    assert e.value.code == 2 and "--floods: 1 to 1000" in capsys.readouterr().err
+        parse(*argv)
+    assert e.value.code == 2 and says in capsys.readouterr().err
+
+
+def test_safety_spread_is_min_median_max_in_ms():
     assert safety._spread([0.003, 0.001, 0.002]) == "1.0 / 2.0 / 3.0"
+
+
+def test_a_helper_process_runs_only_a_role_of_the_bench():
+    assert child.argv(chain.relay, "tcp/127.0.0.1:1", 2, "peer")[-3:] == ["chain", "relay", '["tcp/127.0.0.1:1", 2, "peer"]']
+    with pytest.raises(ValueError, match="not a role"):
+        child.argv(chain.measure, "tcp/127.0.0.1:1")
+    assert child.main(["chain", "measure", "[]"]) == 2
+    assert child.main(["os", "system", '["true"]']) == 2

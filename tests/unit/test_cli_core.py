@@ -36,9 +36,10 @@ def test_an_optional_command_says_what_is_missing():
 
 def test_bench_sections_named_by_the_cli_are_the_bench_s():
     from zenav.bench.plan import SECTIONS
-    from zenav.cli.bench import SECTIONS as CLI
+    from zenav.bench.printed import STUDIES
+    from zenav.cli import bench
 
-    assert CLI == SECTIONS
+    assert bench.SECTIONS == SECTIONS and bench.STUDIES == tuple(STUDIES)
 
 
 def test_output_to_a_reader_that_left_ends_quietly():

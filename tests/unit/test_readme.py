@@ -134,3 +134,13 @@ def test_the_figures_readme_quotes_are_the_committed_reports():
     figures = [x for text in quoted for x in decimals.findall(text)]
     assert len(figures) > 20
     assert [x for x in figures if x not in printed] == []
+
+
+def test_the_user_docs_stay_under_30000_words():
+    """README and docs/ (not the contract, which the code generates, nor the bench report) are read by users:
+    what to install, run, drive, configure and how far to trust each figure, not the history of a measurement."""
+    counted = [page for page in PAGES if page.name != "contract.md"]
+    words = {page.relative_to(REPO).as_posix(): len(page.read_text().split()) for page in counted}
+    assert len(counted) >= 10 and sum(words.values()) < 30_000, (
+        f"{sum(words.values())} words: {sorted(words.items(), key=lambda kv: -kv[1])}"
+    )

@@ -12,19 +12,18 @@ stack minus end to end of the arm is what the services' own work adds: their cod
 runtime's hand-off, their extra messages, all else (sim, hops, codec, router, host load)
 alike.
 
-`python -m zenav.bench.arm relay --connect EP --service odometry` runs one relay
-(`--service composed`: the four in one).
+Each relay is a process of its own (`relay`, run by bench/child.py; its service `composed`: the four in one).
 """
 
 from __future__ import annotations
 
-import argparse
 import subprocess
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from zenav.bench import child
 from zenav.bench.latency import Observer
 from zenav.common import codec, keys
 from zenav.common import messages as m
@@ -106,8 +105,7 @@ class Arm:
     def __init__(self, connect: str, sim_args: Sequence[str], log: Path, mode: str = "client", composed: bool = False) -> None:
         """`log`: the file the arm's sim writes its log to."""
         sim = service_argv("sim", ["--connect", connect, "--robot", ROBOT, *sim_args, "--set", "sim.body_radius=0"])
-        base = [sys.executable, "-m", "zenav.bench.arm", "relay", "--connect", connect, "--mode", mode, "--service"]
-        self.argv = [sim] + [base + [s] for s in ((COMPOSED,) if composed else ROBOT_SERVICES)]
+        self.argv = [sim] + [child.argv(relay, connect, s, mode) for s in ((COMPOSED,) if composed else ROBOT_SERVICES)]
         self.observer = Observer(connect, ROBOT, mode)
         self.log = log
         self.procs: list[subprocess.Popen[str]] = []
@@ -151,19 +149,3 @@ class Arm:
             if p.stdout is not None:
                 p.stdout.close()
         self.procs = []
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m zenav.bench.arm", description=__doc__.splitlines()[0])
-    parser.add_argument("role", choices=("relay",))
-    parser.add_argument("--connect", required=True, help="router endpoint")
-    parser.add_argument("--service", required=True, choices=(*ROBOT_SERVICES, COMPOSED), help="the service it stands in for")
-    parser.add_argument("--robot", default=ROBOT, help="robot id")
-    parser.add_argument("--mode", default="client", choices=("client", "peer"), help="Zenoh mode, as the stack's services")
-    args = parser.parse_args(argv)
-    relay(args.connect, args.service, args.mode, args.robot)
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

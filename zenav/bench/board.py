@@ -13,12 +13,11 @@ clock): the control loop's latency on the robot computer, the serial link's repl
 aside. Not in the CPU window: composed, the command leaves the process only for someone
 outside who listens, and would cost it that.
 
-`python -m zenav.bench.board --seconds 20` runs it alone.
+`zenav bench cost` measures it with the rate and robot sweeps.
 """
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 import threading
 import time
@@ -124,21 +123,3 @@ def _age(msg: m.Wheels, ages: list[float]) -> None:
 def measure(window: float, log_dir: Path) -> dict[str, BoardRun]:
     """Every deployment of DEPLOYMENTS in turn."""
     return {name: run(window, log_dir / f"board-{i}", compose) for i, (name, compose) in enumerate(DEPLOYMENTS.items())}
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m zenav.bench.board", description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=float, default=20.0, help="[s] window of each deployment")
-    a = parser.parse_args(argv)
-    with tempfile.TemporaryDirectory(prefix="zenav-bench-board-") as logs:
-        for name, r in measure(a.seconds, Path(logs)).items():
-            each = ", ".join(f"{p} {c:.3f}" for p, c in r.cores.items())
-            lat = f"sample to wheels p50 {r.latency.p50:.2f} ms, p99 {r.latency.p99:.2f} ms"
-            print(f"{name}: {r.robot:.3f} of a core besides the router ({each}); encoders {r.encoders_hz:.0f}/s; {lat}")
-            for f in r.goal_failures:
-                print(f"  goal failed: {f}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,10 +1,7 @@
 """The overhead camera measured: render and detection time, fix accuracy, two robots.
 
-    python -m zenav.bench.camera [--frames 100] [--quick]
-
-`zenav bench --only camera` measures the default and the worse camera with pupil-apriltags,
-and the whole stack with the camera VPS against the synthetic one; this command adds
-OpenCV's detector ([vps] detector = "opencv") for comparison.
+`zenav bench camera` measures each camera of CAMERAS with the detector the vps would pick,
+and the whole stack with the camera VPS against the synthetic one.
 
 Frames are rendered by the sim's camera model from known poses, with a real camera's
 errors ([camera] model = "realistic": the lens off its calibration, a tilted and shaken
@@ -18,7 +15,6 @@ error over the sigma its covariance claims (about 1 when the covariance is hones
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import math
 import time
@@ -212,24 +208,3 @@ def lines(measured: dict[str, Measured], frames: int) -> list[str]:
         n, both, wrong = r.pairs
         out.append(f"- two robots, {name}: both fixed in {both}/{n} frames, fixes given to the wrong robot: {wrong}")
     return out
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m zenav.bench.camera", description=__doc__.splitlines()[0])
-    ap.add_argument("--frames", type=int, default=100, help="frames timed per camera (default 100)")
-    ap.add_argument("--quick", action="store_true", help="only the default camera with pupil-apriltags")
-    args = ap.parse_args(argv)
-    (default, cfg), (ideal, ideal_cfg), (worse, worse_cfg) = CAMERAS.items()
-    runs: list[tuple[str, Camera, detect.Backend]] = [(f"{default}, apriltag", cfg, "apriltag")]
-    if not args.quick:
-        runs += [
-            (f"{default}, opencv", cfg, "opencv"),
-            (f"{ideal}, apriltag", ideal_cfg, "apriltag"),
-            (f"{worse}, apriltag", worse_cfg, "apriltag"),
-        ]
-    print("\n".join(lines({name: measure(c, args.frames, backend) for name, c, backend in runs}, args.frames)))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

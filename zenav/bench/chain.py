@@ -9,18 +9,17 @@ odometry -> localizer -> navigator -> motor -> observer, with the same codec,
 publisher settings, Zenoh mode and measuring apparatus, under a robot id of its own.
 Its stages compare hop for hop with the stack's.
 
-`python -m zenav.bench.chain relay --connect EP --index 0` runs one relay, `... pub
---connect EP --rate 100 --duration 10` the publisher.
+The relays and the publisher are processes of their own (`relay`, `publish`, run by bench/child.py).
 """
 
 from __future__ import annotations
 
-import argparse
 import subprocess
 import sys
 import time
 from dataclasses import dataclass
 
+from zenav.bench import child
 from zenav.bench.latency import CHAIN, END_TO_END, Observer
 from zenav.common import codec, keys
 from zenav.common import messages as m
@@ -109,11 +108,10 @@ class Chain:
 
 def measure(connect: str, rate: float = 100.0, duration: float = 10.0, mode: str = "client") -> Chain:
     """Start the observer and the relays, run the publisher through them."""
-    base = [sys.executable, "-m", "zenav.bench.chain"]
     observer = Observer(connect, ROBOT, mode).start()
-    relay_args = base + ["relay", "--connect", connect, "--mode", mode]
     procs = [
-        subprocess.Popen(relay_args + ["--index", str(i)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True) for i in range(RELAYS)
+        subprocess.Popen(child.argv(relay, connect, i, mode), stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        for i in range(RELAYS)
     ]
     try:
         for p in procs:
@@ -121,8 +119,7 @@ def measure(connect: str, rate: float = 100.0, duration: float = 10.0, mode: str
             if p.stdout.readline().strip() != READY:
                 raise RuntimeError("a chain relay did not start")
         s0, t0 = [read_proc(p.pid) for p in procs], time.monotonic()
-        pub = base + ["pub", "--connect", connect, "--rate", str(rate), "--duration", str(duration), "--mode", mode]
-        subprocess.run(pub, check=True, timeout=duration + 30.0)
+        subprocess.run(child.argv(publish, connect, rate, duration, mode), check=True, timeout=duration + 30.0)
         s1, t1 = [read_proc(p.pid) for p in procs], time.monotonic()
         per_relay = len(procs) * (t1 - t0)
         runs = sum(b.runs - a.runs for a, b in zip(s0, s1))
@@ -142,23 +139,3 @@ def measure(connect: str, rate: float = 100.0, duration: float = 10.0, mode: str
                 p.wait()
             if p.stdout is not None:
                 p.stdout.close()
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m zenav.bench.chain", description=__doc__.splitlines()[0])
-    parser.add_argument("role", choices=("relay", "pub"))
-    parser.add_argument("--connect", required=True, help="router endpoint")
-    parser.add_argument("--index", type=int, default=0, help="relay: which hop it reads (0: the publisher's)")
-    parser.add_argument("--rate", type=float, default=100.0, help="pub: [Hz]")
-    parser.add_argument("--duration", type=float, default=10.0, help="pub: [s] of measured samples")
-    parser.add_argument("--mode", default="client", choices=("client", "peer"), help="Zenoh mode, as the stack's services")
-    args = parser.parse_args(argv)
-    if args.role == "relay":
-        relay(args.connect, args.index, args.mode)
-    else:
-        publish(args.connect, args.rate, args.duration, args.mode)
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

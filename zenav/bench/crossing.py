@@ -1,6 +1,6 @@
 """Crossing robots: two robots swapping places and four crossing the centre, on the world model, against driving alone.
 
-    python -m zenav.bench.crossing [--runs 50] [--seed 1]
+    zenav bench planning   # with the planner's tables (bench/planning.py)
 
 Each robot runs the navigator's goal machine among the others (traffic_machine.py: right of way by id, waiting, detours
 round robots) and the motor's guard under its commands, on its own world-model robot (the default scenario's motor
@@ -12,7 +12,6 @@ from the same start, on the same seed: a run's time is when its last robot arriv
 
 from __future__ import annotations
 
-import argparse
 import math
 import statistics
 from dataclasses import dataclass, field
@@ -196,16 +195,3 @@ def tables(cases: list[Crossing]) -> list[str]:
 def report(runs: int = 50, seed: int = 1) -> list[str]:
     """Both cases: the table's markdown."""
     return tables([measure(case, runs, seed) for case in CASES])
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m zenav.bench.crossing", description=__doc__.split("\n\n")[0])
-    p.add_argument("--runs", type=int, default=50, help="perturbed runs per case (default 50)")
-    p.add_argument("--seed", type=int, default=1)
-    args = p.parse_args(argv)
-    print("\n".join(report(args.runs, args.seed)))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

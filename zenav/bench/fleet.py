@@ -18,7 +18,6 @@ and the others must go on hearing each other without a gap.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import signal
@@ -33,6 +32,7 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
+from zenav.bench import child
 from zenav.bench.latency import Stats
 from zenav.common import codec, keys
 from zenav.common import messages as m
@@ -177,17 +177,15 @@ def router_load(counts: tuple[int, ...], duration: float, log_dir: Path) -> list
 
 
 def _point(stack: ProcStack, n: int, duration: float) -> Point:
-    base = [sys.executable, "-m", "zenav.bench.fleet"]
-    ids = ",".join(robot_ids(n))
-    sink_args = ["sink", "--connect", stack.endpoint, "--robots", ids, "--timeout", str(duration + 30.0)]
-    sub = subprocess.Popen(base + sink_args, stdout=subprocess.PIPE, text=True)
+    ids = robot_ids(n)
+    sub = subprocess.Popen(child.argv(sink, stack.endpoint, ids, duration + 30.0), stdout=subprocess.PIPE, text=True)
     assert sub.stdout is not None
     try:
         if sub.stdout.readline().strip() != READY:
             raise RuntimeError("fleet sink did not start")
         c0, t0 = stack.sample()[ProcStack.ROUTER].cpu, time.monotonic()
-        play_args = ["play", "--connect", stack.endpoint, "--robots", ids, "--duration", str(duration)]
-        played = subprocess.run(base + play_args, check=True, timeout=duration + 60.0, capture_output=True, text=True)
+        player = child.argv(play, stack.endpoint, ids, duration)
+        played = subprocess.run(player, check=True, timeout=duration + 60.0, capture_output=True, text=True)
         c1, t1 = stack.sample()[ProcStack.ROUTER].cpu, time.monotonic()
         res = json.loads(sub.communicate(timeout=30.0)[0])
     finally:
@@ -316,22 +314,19 @@ def hosts(n: int = 3, phase: float = 3.0, log_dir: Path | None = None) -> HostsR
     """Routers on n hosts; a robot and a watcher on each; the last host's router killed once every
     watcher has heard every robot, and `phase` s later the watches end."""
     logs = log_dir or Path(tempfile.mkdtemp(prefix="zenav-fleet-"))
-    base = [sys.executable, "-m", "zenav.bench.fleet"]
     robots = [f"h{i + 1}" for i in range(n)]
     procs: list[subprocess.Popen] = []
     with Hosts(n) as net:
         eps = [f"tcp/{net.address(i)}:{PORT}" for i in range(n)]
         try:
             for i in range(n):  # one after the other, each linking to those already listening
-                procs.append(net.run(i, base + ["router", "--listen", eps[i], "--connect", ",".join(eps[:i])], logs / f"router{i}.log"))
+                procs.append(net.run(i, child.argv(router, eps[i], ",".join(eps[:i])), logs / f"router{i}.log"))
                 net.wait_listening(i, PORT)
             routers = procs[:]
-            watch_args = ["watch", "--robots", ",".join(robots)]
-            watchers = [net.run(i, base + [*watch_args, "--connect", eps[i]], logs / f"watch{i}.log") for i in range(n)]
+            watchers = [net.run(i, child.argv(watch, eps[i], robots), logs / f"watch{i}.log") for i in range(n)]
             procs += watchers
             ready = all(_wait_line(logs / f"watch{i}.log", READY, START) for i in range(n))
-            play_args = ["play", "--duration", str(3600.0)]  # until killed
-            procs += [net.run(i, base + [*play_args, "--robots", robots[i], "--connect", eps[i]], logs / f"robot{i}.log") for i in range(n)]
+            procs += [net.run(i, child.argv(play, eps[i], [robots[i]], 3600.0), logs / f"robot{i}.log") for i in range(n)]  # until killed
             heard_all = ready and all(_wait_line(logs / f"watch{i}.log", ALL, START) for i in range(n))
             t_kill = time.time()
             routers[-1].send_signal(signal.SIGKILL)
@@ -372,28 +367,3 @@ def router(listen: str, connect: str) -> None:
     session = zenoh.open(zenoh_config("router", connect=connect or None, listen=listen))
     threading.Event().wait()  # until the bench kills it
     session.close()
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m zenav.bench.fleet", description=__doc__.splitlines()[0])
-    parser.add_argument("role", choices=("play", "sink", "watch", "router"))
-    parser.add_argument("--connect", default="", help="router endpoint(s)")
-    parser.add_argument("--listen", default="", help="router: its endpoint")
-    parser.add_argument("--robots", default="", help="comma-separated robot ids")
-    parser.add_argument("--duration", type=float, default=5.0, help="[s] publishing or watching time")
-    parser.add_argument("--timeout", type=float, default=60.0, help="[s] sink gives up after this")
-    args = parser.parse_args(argv)
-    robots = [r for r in args.robots.split(",") if r]
-    if args.role == "play":
-        print(play(args.connect, robots, args.duration))
-    elif args.role == "sink":
-        print(json.dumps(sink(args.connect, robots, args.timeout)))
-    elif args.role == "watch":
-        watch(args.connect, robots)
-    else:
-        router(args.listen, args.connect)
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

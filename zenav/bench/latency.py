@@ -13,15 +13,14 @@ the observer also stamps `vps/pose`, and splits the localizer's stage and end to
 the odom samples that arrive just after a fix from the others (AROUND_FIX), to show
 whether that work holds up the chain.
 
-The observer is a process of its own that does nothing else (`Observer`; `python -m
-zenav.bench.latency observe --connect EP --robot r1`), in the services' Zenoh mode: a
+The observer is a process of its own that does nothing else (`Observer`, `observe`
+run by bench/child.py), in the services' Zenoh mode: a
 stamp is not held up by the bench's own threads. The bare chain (bench/chain.py) is
 measured by the same observer.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import subprocess
 import sys
@@ -32,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from zenav.bench import child
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.app import PEER_LISTEN
@@ -159,7 +159,7 @@ class Observer:
 
     def __init__(self, connect: str, robot: str, mode: str = "client") -> None:
         self.robot = robot
-        self.args = [sys.executable, "-m", "zenav.bench.latency", "observe", "--connect", connect, "--robot", robot, "--mode", mode]
+        self.args = child.argv(observe, connect, robot, mode)
         self.proc: subprocess.Popen[str] | None = None
 
     def start(self) -> Observer:
@@ -184,19 +184,3 @@ class Observer:
             self.proc.kill()
             self.proc.wait()
         self.proc = None
-
-
-def main(argv: list[str] | None = None) -> int:
-    """`observe --connect EP --robot r1 [--mode client|peer]`: the observer process."""
-    parser = argparse.ArgumentParser(prog="python -m zenav.bench.latency", description=__doc__.splitlines()[0])
-    parser.add_argument("role", choices=("observe",))
-    parser.add_argument("--connect", required=True, help="router endpoint")
-    parser.add_argument("--robot", required=True, help="robot id")
-    parser.add_argument("--mode", choices=("client", "peer"), default="client", help="Zenoh mode")
-    args = parser.parse_args(argv)
-    observe(args.connect, args.robot, args.mode)
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

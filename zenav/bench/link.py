@@ -7,12 +7,11 @@ their bytes' time at the baud rate), while `motors/wheels` comes as the motor se
 received (from its `motors/wheels` to the board), how many the driver sent, how many a
 newer one superseded, and how often the counts were read meanwhile.
 
-`python -m zenav.bench.link --baud 57600 --baud 9600 --baud 4800 --seconds 5` prints the table.
+`zenav bench link` prints the table for BAUDS, 5 s each.
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
 import tempfile
@@ -30,6 +29,7 @@ from zenav.services.driver.service import Driver
 from zenav.tools.arduino_emulator import Emulator
 
 RATE = 100.0  # [Hz] motors/wheels, as the motor sends it
+BAUDS = (57600, 9600, 4800, 2400)  # the baud rates `zenav bench link` measures
 WAIT = 5.0  # [s] the longest wait for the board's handshake
 
 
@@ -101,16 +101,3 @@ def table(links: list[Link]) -> str:
         ages = f"{1e3 * x.age_p50:.1f} | {1e3 * x.age_max:.1f}"
         lines.append(f"| {x.baud} | {x.commands} | {x.sent} | {x.superseded} | {x.queued} | {ages} | {x.reads:.0f} |")
     return "\n".join(lines)
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m zenav.bench.link", description=__doc__.splitlines()[0])
-    parser.add_argument("--baud", type=int, action="append", help="baud rate (repeatable; default 57600, 9600, 4800, 2400)")
-    parser.add_argument("--seconds", type=float, default=5.0, help="how long the commands come, per baud rate")
-    args = parser.parse_args(argv)
-    print(table([run(b, args.seconds) for b in args.baud or (57600, 9600, 4800, 2400)]))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

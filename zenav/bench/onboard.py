@@ -1,6 +1,6 @@
 """The onboard camera section: its fixes' error against distance and tag count, and the fused pose driving the square.
 
-    python -m zenav.bench.onboard [--poses 300] [--seed 1] [--drive] [--laps 1] [--rtf 1]
+    zenav bench studies onboard   # 300 poses, then the square driven 3 laps at rtf 1
 
 Fixes: `poses` random robot poses on the default field (its twelve wall tags, FRC's 0.1651 m), each frame rendered
 by the sim's onboard camera ([onboard_camera] defaults: 640 x 480, 65 deg, 2 grey levels of noise), its tags
@@ -9,7 +9,7 @@ ambiguity, is the truth off by 2 cm and 1 deg). Errors against the truth, by tag
 accepted more than 5 cm off the truth and outside its own covariance's 99.9 % ellipse counts as a wrong one (a
 wrong ambiguity pick, a bad solve); one far off but saying so (a large covariance) does not.
 
-Drive (`--drive`): the whole stack on a real router driving seed 003's 1 m square `laps` times, the vps reading the
+Drive: the whole stack on a real router driving seed 003's 1 m square `laps` times, the vps reading the
 onboard camera alone (each service its own process, as `zenav up` runs them), then with the overhead camera's vps
 beside it (two vps, two latencies; in this process): the fused pose's RMSE against the truth, and the fixes the
 localizer accepted and rejected. Simulated.
@@ -17,7 +17,6 @@ localizer accepted and rejected. Simulated.
 
 from __future__ import annotations
 
-import argparse
 import math
 import tempfile
 from collections.abc import Sequence
@@ -131,21 +130,3 @@ def drive(laps: float, rtf: float) -> list[str]:
             f" {used} / {len(fixes) - used} | {len(r.failures)} |"
         )
     return out
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m zenav.bench.onboard", description=__doc__.split("\n\n")[0])
-    p.add_argument("--poses", type=int, default=300, help="random poses whose frames are solved (default 300)")
-    p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--drive", action="store_true", help="also drive the square with the whole stack (about 2 min)")
-    p.add_argument("--laps", type=float, default=1.0, help="square laps per drive (default 1)")
-    p.add_argument("--rtf", type=float, default=1.0, help="realtime factor of the drives (default 1)")
-    args = p.parse_args(argv)
-    print("\n".join(fix_errors(args.poses, args.seed)))
-    if args.drive:
-        print("\n".join(["", *drive(args.laps, args.rtf)]))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

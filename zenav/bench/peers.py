@@ -1,7 +1,7 @@
 """WPILib's DifferentialDrivePoseEstimator beside zenav's localizer, on the same sensor stream.
 
-    python -m zenav.bench.peers --seeds 5 --scenarios default coarse harsh   # the world model's streams
-    zenav bench --only peers                                               # the live stack's recordings
+    zenav bench studies peers --seeds 5   # the world model's streams (default, coarse, harsh)
+    zenav bench peers                     # those and the live stack's recordings, into the report
 
 What FIRST teams run (robotpy-wpimath, `pip install 'zenav[peers]'`) is fed what the
 localizer is fed: the wheels' travel from the encoder counts (nominal wheel radius), the
@@ -19,7 +19,6 @@ is dropped: WPILib has none); its best is reported beside the default.
 
 from __future__ import annotations
 
-import argparse
 import heapq
 import math
 import statistics
@@ -240,19 +239,3 @@ def lines(results: dict[str, list[Compared]]) -> list[str]:
 def short_sweep() -> tuple[Tuning, ...]:
     """A few tunings of the sweep (the scenario's VPS noise, with and without the gate): for tests."""
     return tuple(t for t in SWEEP if t.state == DEFAULT.state and t.vision == VISIONS[0])
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="zenav-peers", description=(__doc__ or "").splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=5, help="seeds 1..N (default 5)")
-    parser.add_argument("--scenarios", nargs="+", default=["default", "coarse", "harsh"])
-    parser.add_argument("--seconds", type=float, default=60.0, help="of the square per seed (default 60)")
-    args = parser.parse_args(argv)
-    wpimath()
-    res = study(args.scenarios, range(1, args.seeds + 1), args.seconds)
-    print("\n".join(lines({f"{name}, synthetic VPS, world model, seeds 1..{args.seeds}": r for name, r in res.items()})))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

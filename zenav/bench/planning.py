@@ -1,6 +1,6 @@
 """The planning section: the planner on three layouts, and goals planned round obstacles driven on the world model.
 
-    python -m zenav.bench.planning [--pairs 200] [--drives 20] [--seed 1]
+    zenav bench planning
 
 Layouts: the shipped `table` and `arena`, and `random20` (20 seeded boxes and discs on a 3 m square). Per layout,
 random start/goal pairs whose both ends keep the clearance ([robot] radius + [field] margin) from every obstacle
@@ -15,7 +15,6 @@ true clearance, time.
 
 from __future__ import annotations
 
-import argparse
 import math
 import statistics
 import time
@@ -245,17 +244,3 @@ def tables(layouts: list[Layout], drives: list[Drives]) -> list[str]:
 def report(pairs_per_layout: int = 200, drives: int = 20, seed: int = 1) -> list[str]:
     """Every layout measured and driven: the section's markdown."""
     return tables([measure(n, pairs_per_layout, seed) for n in LAYOUTS], [driven(n, drives, seed) for n in LAYOUTS])
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m zenav.bench.planning", description=__doc__.split("\n\n")[0])
-    p.add_argument("--pairs", type=int, default=200, help="reachable random pairs per layout (default 200)")
-    p.add_argument("--drives", type=int, default=20, help="blocked pairs driven per layout (default 20)")
-    p.add_argument("--seed", type=int, default=1)
-    args = p.parse_args(argv)
-    print("\n".join(report(args.pairs, args.drives, args.seed)))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -15,12 +15,11 @@ again. A bare chain's relay (decode a message, encode it again: bench/chain.py) 
 timed both ways beside them. Each input message is timed by its topic too (decode,
 handler, publishing what it returns): what one sample of the chain costs each service.
 
-`python -m zenav.bench.profile --seconds 20 --top 12` prints them all.
+`zenav bench profile` reports them.
 """
 
 from __future__ import annotations
 
-import argparse
 import cProfile
 import pstats
 import time
@@ -244,19 +243,3 @@ def lines(costs: dict[str, Cost], paced: dict[str, Cost], relays: tuple[float, f
         out.append(f"{name}: top functions by own time, then with callees, us per sensor period (under cProfile)")
         out += [f"  {h.own:8.2f} {h.total:8.2f} {h.calls:>8}  {h.where}" for h in rows]
     return out
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m zenav.bench.profile", description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=float, default=10.0, help="[s] stack time measured")
-    parser.add_argument("--rate", type=float, default=RATE, help="[Hz] sensor rate")
-    parser.add_argument("--top", type=int, default=10, help="functions shown per service")
-    args = parser.parse_args(argv)
-    costs, paced, relays = measure_both(args.seconds, args.rate)
-    hot = profile(min(args.seconds, 5.0), args.rate, top=args.top)
-    print("\n".join(lines(costs, paced, relays, hot, args.rate)))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

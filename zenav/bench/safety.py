@@ -1,7 +1,7 @@
 """Safety figures measured on real processes: a frozen operator, a stop under a flood, bad inputs.
 
-    python -m zenav.bench.safety               # each figure once
-    python -m zenav.bench.safety --floods 30   # and the stop under a flood 30 times (spread)
+    zenav bench safety               # each figure once
+    zenav bench safety --floods 30   # and the stop under a flood 30 times (spread)
 
 A router and the whole stack run as processes (their logs in a temporary folder);
 the operator and the flood are child processes too (bench/safety_rig.py); the bad
@@ -11,7 +11,6 @@ the processes).
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
@@ -28,7 +27,8 @@ from typing import Any
 
 import zenoh
 
-from zenav.bench.safety_rig import OPERATOR_GOAL, WAIT, Rig, end_child, read_lines, start_child
+from zenav.bench import child
+from zenav.bench.safety_rig import OPERATOR_GOAL, WAIT, Rig, big, end_child, flood, operator, read_lines, start_child
 from zenav.common import codec
 from zenav.common import messages as m
 
@@ -58,11 +58,11 @@ def frozen_operator(rig: Rig, cli: bool = False) -> Freeze:
     last = rig.nav.wait(timeout=WAIT).goal_id
     x, y = OPERATOR_GOAL
     argv = (
-        ["zenav", "goto", str(x), str(y), "--wait", "--connect", rig.endpoint]
+        [sys.executable, "-m", "zenav", "goto", str(x), str(y), "--wait", "--connect", rig.endpoint]
         if cli
-        else ["zenav.bench.safety_rig", "operator", rig.endpoint]
+        else child.argv(operator, rig.endpoint)
     )
-    proc = subprocess.Popen([sys.executable, "-m", *argv], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     read_lines(proc)
     try:
         goal = rig.nav.wait(lambda s: s.goal_id > last and s.state != "STOPPED", timeout=90).goal_id
@@ -90,7 +90,7 @@ class Flood:
 def stop_under_flood(rig: Rig, goals: int = FLOOD_GOALS, points: int = FLOOD_POINTS) -> Flood:
     """A second process sends `goals` follow_path goals of `points` points at once; then nav/stop."""
     rig.ready()
-    proc, lines = start_child("flood", rig.endpoint, str(goals), str(points))
+    proc, lines = start_child(flood, rig.endpoint, goals, points)
     try:
         assert lines.get(timeout=60).startswith("sent")
         t0 = time.monotonic()
@@ -125,7 +125,7 @@ def stop_after_a_burst(rig: Rig, goals: int = BURST_GOALS, points: int = FLOOD_P
     """A second process sends `goals` follow_path goals of `points` points at once; once they have all reached the
     navigator (safety_rig's `burst`), nav/stop; then what started, and what was commanded, for the rest of the burst."""
     rig.ready()
-    proc, lines = start_child("burst", rig.endpoint, str(goals), str(points))
+    proc, lines = start_child(flood, rig.endpoint, goals, points, True)
     try:
         assert lines.get(timeout=60).startswith("sent")
         assert lines.get(timeout=60).startswith("arrived")
@@ -237,7 +237,7 @@ def oversize_at_the_edge(rig: Rig, size: int = BIG_PAYLOAD, query: bool = False)
     records the poses, its sending would delay their arrival here, whatever the stack does.)"""
     service, suffix = ("localizer", "localizer/pose") if query else ("odometry", "sensors/encoders")
     oversize, bad = rig.counter(service, "oversize"), rig.counter(service, "bad_input")
-    proc, lines = start_child("big", rig.endpoint, rig.client.key(suffix), str(size), "query" if query else "put")
+    proc, lines = start_child(big, rig.endpoint, rig.client.key(suffix), size, query)
     try:
         t0 = float(lines.get(timeout=60).split()[1])  # the child's session is open: it sends now
         after_bad = rig.wait_counter(service, "bad_input", bad)
@@ -298,15 +298,10 @@ def _get(session: zenoh.Session, selector: str) -> list[bytes]:
     return [r.err.payload.to_bytes() if r.err is not None else b"" for r in session.get(selector, timeout=WAIT)]
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Measure and print the figures."""
-    ap = argparse.ArgumentParser(prog="python -m zenav.bench.safety", description=__doc__.splitlines()[0])
-    ap.add_argument("--floods", type=int, default=1, metavar="N", help="run the stop under a flood N times (default 1)")
-    args = ap.parse_args(argv)
-    if not 1 <= args.floods <= 1000:
-        ap.error("--floods: 1 to 1000")
+def measure(floods: int = 1) -> None:
+    """Measure and print the figures: each once, the stop under a flood `floods` times."""
     with tempfile.TemporaryDirectory(prefix="zenav-safety-") as logs:
-        return _measure(Rig(Path(logs)), args.floods)
+        _measure(Rig(Path(logs)), floods)
 
 
 def _spread(values: list[float]) -> str:
@@ -314,7 +309,7 @@ def _spread(values: list[float]) -> str:
     return " / ".join(f"{v * 1000:.1f}" for v in (min(values), statistics.median(values), max(values)))
 
 
-def _measure(rig: Rig, floods: int) -> int:
+def _measure(rig: Rig, floods: int) -> None:
     try:
         for cli in (False, True):
             f = frozen_operator(rig, cli)
@@ -352,8 +347,3 @@ def _measure(rig: Rig, floods: int) -> int:
         )
     finally:
         rig.close()
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

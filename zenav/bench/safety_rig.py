@@ -1,8 +1,8 @@
 """The safety bench's rig: the stack as processes, recorders of what it publishes, and the child processes.
 
-`python -m zenav.bench.safety_rig operator ENDPOINT` holds a Robot and sends one goal (to
-be frozen); `... flood ENDPOINT GOALS POINTS` sends follow_path goals without waiting;
-`... burst ENDPOINT GOALS POINTS` too, then says when they have all reached the navigator.
+The child processes (bench/child.py runs them): `operator` holds a Robot and sends one goal (to be
+frozen); `flood` sends follow_path goals without waiting, and with `arrived` then says when they have
+all reached the navigator; `big` sends an oversize payload.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ from typing import Any
 import zenoh
 
 from zenav import services as registry
+from zenav.bench import child
 from zenav.common import codec
 from zenav.common.bus import ZenohBus, zenoh_config
 from zenav.common.client import Client, Latest
@@ -141,11 +142,9 @@ def end_child(proc: subprocess.Popen) -> None:
         proc.stdin.close()
 
 
-def start_child(*args: str) -> tuple[subprocess.Popen, queue.Queue]:
-    """`python -m zenav.bench.safety_rig ARGS...`, and its stdout lines."""
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "zenav.bench.safety_rig", *args], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
-    )
+def start_child(fn: Callable[..., None], *args: object) -> tuple[subprocess.Popen, queue.Queue]:
+    """`fn(*args)`, one of the child processes below, in a process of its own; and its stdout lines."""
+    proc = subprocess.Popen(child.argv(fn, *args), stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     return proc, read_lines(proc)
 
 
@@ -199,22 +198,3 @@ def big(endpoint: str, key: str, size: int, query: bool) -> None:
             session.put(key, data, congestion_control=zenoh.CongestionControl.BLOCK)
     print(f"sent {time.monotonic()}", flush=True)
     sys.stdin.read()  # until killed: the session stays open while the parent watches
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Run one child process: `operator ENDPOINT`, `flood ENDPOINT GOALS POINTS` or `big ENDPOINT KEY SIZE put|query`."""
-    args = sys.argv[1:] if argv is None else argv
-    if args[:1] == ["operator"]:
-        operator(args[1])
-    elif args[:1] in (["flood"], ["burst"]):
-        flood(args[1], int(args[2]), int(args[3]), arrived=args[0] == "burst")
-    elif args[:1] == ["big"]:
-        big(args[1], args[2], int(args[3]), args[4] == "query")
-    else:
-        print("usage: python -m zenav.bench.safety_rig operator ENDPOINT | flood|burst ENDPOINT GOALS POINTS", file=sys.stderr)
-        return 2
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,8 +1,6 @@
 """The settle table: how every kind of move ends, against the truth, over seeded trials.
 
-    python -m zenav.bench.settle [--trials 100] [--pose-sigma 0.005] [--heading-sigma DEG] [--quick]
-
-`zenav bench --only settle` writes two: with the synthetic late VPS's pose error (the
+`zenav bench settle` writes two: with the synthetic late VPS's pose error (the
 default here) and with the camera VPS's (CAMERA_SIGMA, CAMERA_HEADING_SIGMA).
 
 Each move runs the navigator's goal machine on the world model's robot through the
@@ -16,7 +14,6 @@ final turn in place to the heading).
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import math
 from collections import Counter
@@ -162,21 +159,3 @@ def table(
             f"| {_stats([o.swing for o in out], 180 / math.pi)} | {sum(o.result == goals.SUCCEEDED for o in out)}/{trials} | {exits} |"
         )
     return "\n".join(lines)
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="zenav-settle", description=(__doc__ or "").splitlines()[0])
-    parser.add_argument("--trials", type=int, default=100, help="seeded trials per move (default 100)")
-    parser.add_argument("--pose-sigma", type=float, default=LATE_VPS_SIGMA, help="[m] late VPS pose error, 1 sigma (0: the truth)")
-    parser.add_argument(
-        "--heading-sigma", type=float, help=f"[deg] its heading error, 1 sigma (default: the position's over {HEADING_ARM:g} m)"
-    )
-    parser.add_argument("--quick", action="store_true", help="3 trials per move (CI)")
-    args = parser.parse_args(argv)
-    heading = None if args.heading_sigma is None else math.radians(args.heading_sigma)
-    print(table(3 if args.quick else args.trials, args.pose_sigma, heading_sigma=heading))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -17,12 +17,11 @@ is Zenoh's own work in Rust: reading and writing the sockets, routing, waking th
 py-spy must be installed (`pip install py-spy`) and allowed to read other processes' memory
 (ptrace: root, or `kernel.yama.ptrace_scope` 0); where it is not, the section says why.
 
-`python -m zenav.bench.spy --seconds 10 --top 10` prints it.
+`zenav bench profile` reports it with the profile.
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import shutil
 import subprocess
@@ -196,22 +195,3 @@ def lines(d: Deployed, top: int = 10) -> list[str]:
         out += ["", f"{name} as deployed: top functions by own samples, then with callees, us active per sensor period (py-spy)"]
         out += [f"  {d.per_period(n):8.2f} {d.per_period(s.total[f]):8.2f}  {f}" for f, n in s.own.most_common(top)]
     return out
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m zenav.bench.spy", description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=int, default=10, help="[s] of the live stack sampled")
-    parser.add_argument("--rate", type=int, default=SAMPLE_RATE, help="[Hz] py-spy's samples of each process")
-    parser.add_argument("--top", type=int, default=10, help="functions shown per service")
-    args = parser.parse_args(argv)
-    why = refused()
-    if why is not None:
-        print(why, file=sys.stderr)
-        return 1
-    with tempfile.TemporaryDirectory(prefix="zenav-spy-logs-") as logs:
-        print("\n".join(lines(deployed(args.seconds, Path(logs), args.rate), args.top)))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,7 +1,5 @@
 """A 1280x720 camera read by the VPS: the windowed search against the whole-frame one, on the same frames.
 
-    python -m zenav.bench.window [--frames 200]
-
 The sim's camera model renders a 1280x720 camera over the default field (the default
 camera's view, its focal length scaled to the taller frame) with two robots moving; each
 frame goes through the wire (encoded and decoded as a CameraFrame) to two VPS readers
@@ -15,7 +13,6 @@ gave that the windowed one did not is a lost fix.
 
 from __future__ import annotations
 
-import argparse
 import math
 import time
 from collections.abc import Sequence
@@ -127,15 +124,3 @@ def measure(frames: int, backend: detect.Backend = "auto") -> Compared:
     """The 720p camera's frames rendered, then both readers over them."""
     cfg = camera_720p()
     return compare(cfg, messages(cfg, frames), backend)
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m zenav.bench.window", description=__doc__.splitlines()[0])
-    ap.add_argument("--frames", type=int, default=200, help="frames rendered and read (default 200)")
-    args = ap.parse_args(argv)
-    print(measure(args.frames).line())
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -10,7 +10,7 @@ per pixel, at several instants of the exposure for the motion blur, each row at 
 time with a rolling shutter's `readout`), then the light
 (a swing over time and a gradient across the field, with vignetting) and the sensor
 noise are applied to the whole image. About 12 ms of CPU a 640x480 frame with two
-robots (python -m zenav.bench.camera).
+robots (`zenav bench camera`).
 """
 
 from __future__ import annotations

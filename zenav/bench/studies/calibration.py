@@ -1,6 +1,6 @@
 """The calibration study: the localizer's online wheel and track-width estimates against the scenario's truth.
 
-    python -m zenav.bench.studies.calibration --seeds 5 --scenarios default coarse harsh
+    zenav bench studies calibration --seeds 5 --scenarios default coarse harsh
 
 The robot drives the 1 m square for 60 s on the world model (harness.py: the scenario's
 wheels, slip, encoders, gyro and VPS camera); the default localizer is fed its streams
@@ -11,7 +11,6 @@ the seeds, the truth, and the largest error of any seed [%], against the goal (0
 
 from __future__ import annotations
 
-import argparse
 import statistics
 from collections.abc import Sequence
 
@@ -60,17 +59,3 @@ def table(scenarios: Sequence[str], seeds: Sequence[int], duration: float = 60.0
             met = "yes" if worst <= GOAL else "**no**"
             lines.append(f"| {name} | {key} | {statistics.fmean(values):.4f} | {true[key]:.4f} | {worst * 100:.2f} | {met} |")
     return "\n".join(lines)
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="zenav-calibration-study", description=(__doc__ or "").splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=5, help="seeds 1..N (default 5)")
-    parser.add_argument("--scenarios", nargs="+", default=["default", "coarse", "harsh"])
-    parser.add_argument("--seconds", type=float, default=60.0, help="of the square per seed (default 60)")
-    args = parser.parse_args(argv)
-    print(table(args.scenarios, range(1, args.seeds + 1), args.seconds))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

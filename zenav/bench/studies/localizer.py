@@ -1,6 +1,6 @@
 """The localizer study: every mode on the world model's streams, scored against the truth, side by side.
 
-    python -m zenav.bench.studies.localizer --seeds 10 --scenarios default harsh coarse
+    zenav bench studies localizer --seeds 10 --scenarios default harsh coarse
 
 The robot drives the 1 m square at 0.3 m/s for 60 s on its true pose (one offline
 trial of harness.py: the scenario's wheels, slip, motors, encoders, IMU, compass and
@@ -10,14 +10,14 @@ its t (shared/spec/scenarios.md, "Scores"). Prints a markdown table of position 
 max, final and outage-end error [cm], heading RMSE [deg] and outliers accepted,
 averaged over the seeds.
 
-    python -m zenav.bench.studies.localizer --latency --seeds 5 --scenarios default harsh
+    zenav bench studies localizer-latency --seeds 5 --scenarios default harsh
 
 compares instead fixes with their capture stamps against fixes stamped on arrival
 (a VPS that sends none: [vps] stamp = "none"), used as they are or with the latency
 estimated online ([localizer] latency = "estimate"): RMSE, the final estimate and
 its sigma, and the time it takes to settle within 20 ms of its final value.
 
-    python -m zenav.bench.studies.localizer --pushed --seeds 5 --scenarios default coarse
+    zenav bench studies localizer-pushed --seeds 5 --scenarios default coarse
 
 runs the ekf on the square with another robot standing on its first side for the first
 4 s, which the robot drives into and is held by for 3 s, its wheels slipping: with the
@@ -27,7 +27,6 @@ or the odometry's travel always trusted.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import heapq
 import math
@@ -43,7 +42,7 @@ from zenav.common.config import Robot
 from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import Scenario, scenario
 from zenav.common.track import Track
-from zenav.services.localizer.base import MODES, LocalizerConfig, Mode
+from zenav.services.localizer.base import LocalizerConfig, Mode
 from zenav.services.localizer.modes import make_mode
 from zenav.services.odometry.service import OdometryConfig
 from zenav.world import faults
@@ -272,26 +271,3 @@ def latency_table(scenarios: Sequence[str], seeds: Sequence[int], mode: str = "e
             cells = [_mean([s for s, _ in res], "rmse", 100), _mean([s for s, _ in res], "heading_rmse", 180 / math.pi)]
             lines.append(f"| {name} | {label} | " + " | ".join([*cells, f"{sc.vps_latency:.3f}", *est]) + " |")
     return "\n".join(lines)
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="zenav-localizer-study", description=(__doc__ or "").splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=5, help="seeds 1..N (default 5)")
-    parser.add_argument("--scenarios", nargs="+", default=["default", "harsh"])
-    parser.add_argument("--modes", nargs="+", default=list(MODES), choices=MODES)
-    parser.add_argument("--no-imu", action="store_true", help="withhold the IMU and compass streams")
-    parser.add_argument("--latency", action="store_true", help="stamped fixes against estimated latency (first of --modes)")
-    parser.add_argument("--pushed", action="store_true", help="the ekf with another robot in the square's way, slip found or not")
-    args = parser.parse_args(argv)
-    if args.pushed:
-        print(pushed_table(args.scenarios, range(1, args.seeds + 1)))
-        return 0
-    if args.latency:
-        print(latency_table(args.scenarios, range(1, args.seeds + 1), args.modes[0]))
-        return 0
-    print(table(args.scenarios, args.modes, range(1, args.seeds + 1), imu=not args.no_imu))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

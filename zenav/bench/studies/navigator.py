@@ -1,6 +1,6 @@
 """The navigator study: its goal machine driving the world model's robot, alone.
 
-    python -m zenav.bench.studies.navigator [--seeds 10]
+    zenav bench studies navigator [--seeds 10]
 
 Each goal runs on one offline trial (harness.py: the scenario's motor lag, deadband,
 saturation, wheel slip, wheel/track errors and encoders). The pose the machine is
@@ -11,7 +11,6 @@ the VPS rate, as fixes correct the estimate), with the speeds of the odometry
 
 from __future__ import annotations
 
-import argparse
 import math
 import statistics
 from collections.abc import Sequence
@@ -201,14 +200,3 @@ def report(seeds: int = 10, params: Params | None = None) -> str:
             f"{statistics.fmean(o.duration for o in runs):.2f} |"
         )
     return "\n".join(lines)
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="zenav-navigator-study", description=(__doc__ or "").splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 (default 10)")
-    print(report(parser.parse_args(argv).seeds))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,6 +1,6 @@
 """The odometry study: how far dead reckoning drifts with each heading source, on the world model.
 
-    python -m zenav.bench.studies.odometry [--seeds 10] [--scenarios default coarse harsh]
+    zenav bench studies odometry [--seeds 10] [--scenarios default coarse harsh]
 
 Drives 3 laps of a 1 m square (straight at 0.2 m/s, turns in place at 1 rad/s) with
 open-loop wheel commands on one offline trial each (harness.py: the robot, its
@@ -13,7 +13,6 @@ encoder, gyro and accelerometer angle changes, weighted-averaged.
 
 from __future__ import annotations
 
-import argparse
 import heapq
 import math
 import statistics
@@ -128,18 +127,13 @@ def evaluate(scenarios: Sequence[str], seeds: int) -> list[Row]:
     return rows
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="zenav-odometry-study", description=(__doc__ or "").splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--scenarios", nargs="+", default=["default", "coarse", "harsh"])
-    args = ap.parse_args(argv)
-    print(f"3 laps of a 1 m square, mean of {args.seeds} seeds, arc integrator")
-    print("| scenario | heading source | final error [cm] | largest heading jump in odom [deg] |")
-    print("|---|---|---|---|")
-    for r in evaluate(args.scenarios, args.seeds):
-        print(f"| {r.scenario} | {r.label} | {r.final_cm:.1f} | {r.jump_deg:.1f} |")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+def table(scenarios: Sequence[str], seeds: int) -> str:
+    """The markdown table of `evaluate`."""
+    lines = [
+        f"3 laps of a 1 m square, mean of {seeds} seeds, arc integrator",
+        "",
+        "| scenario | heading source | final error [cm] | largest heading jump in odom [deg] |",
+        "|---|---|---|---|",
+    ]
+    lines += [f"| {r.scenario} | {r.label} | {r.final_cm:.1f} | {r.jump_deg:.1f} |" for r in evaluate(scenarios, seeds)]
+    return "\n".join(lines)

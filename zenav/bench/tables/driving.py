@@ -192,7 +192,7 @@ def camera(res: Results) -> list[str]:
     if res.window is not None:
         lines += [
             "",
-            "A 1280x720 camera (the default's view, python -m zenav.bench.window), two robots moving, 10 Hz: the vps "
+            "A 1280x720 camera (the default's view), two robots moving, 10 Hz: the vps "
             "looks for each robot's tag in a window round its predicted place, the whole frame every "
             f"{FULL_PERIOD:g} s (after the frame's fixes are out) and at once when a tag is not in its window; beside it, "
             "a reader that searches every frame whole, on the same frames. Frames/s per core: one over the CPU a frame "

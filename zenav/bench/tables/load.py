@@ -135,7 +135,7 @@ def boards(res: Results) -> list[str]:
         "the encoder samples the odometry took a second, over the window's last (the driver's `sensor_rate`: "
         f"{DriverConfig().sensor_rate:g}); `sample to wheels`: for half a window after it, from the driver's stamp of an "
         "encoder sample to the `motors/wheels` command made from it reaching the bench's process (composed, the "
-        "driver has it a hop sooner), the serial link's replies aside. Also `python -m zenav.bench.board --seconds 20`.",
+        "driver has it a hop sooner), the serial link's replies aside.",
         "",
         *table(
             ["deployment", "cores, router aside", "by process", "router", "encoders/s", "sample to wheels p50 / p99 [ms]", "goals failed"],
