@@ -40,9 +40,10 @@ from zenav.common import keys
 from zenav.common import messages as m
 from zenav.common.bus import Handle, ZenohBus, undeclare_all
 from zenav.common.client import Client, Internal, InvalidArgument, Latest, QueryBus, Unavailable, ZenavError
+from zenav.common.contract import GoalResult, State
 from zenav.common.geometry import wrap_angle
 from zenav.common.keys import DEFAULT_CONNECT
-from zenav.common.navgoals import STOPPED, TURNING_TO_HEADING, GoalEnd, GoalTracker
+from zenav.common.navgoals import GoalEnd, GoalTracker
 from zenav.common.roles import DRIVE_SERVICES
 
 __all__ = ["Goal", "Internal", "InvalidArgument", "Result", "Robot", "Unavailable", "ZenavError"]
@@ -70,7 +71,7 @@ class Result:
     @property
     def succeeded(self) -> bool:
         """Whether the goal reached its target."""
-        return self.result == "succeeded"
+        return self.result == GoalResult.SUCCEEDED
 
     def __str__(self) -> str:
         p = self.pose
@@ -89,7 +90,7 @@ class Goal:
         self._seq = 0  # nav/state messages of this goal seen
         self._result: Result | None = None
         self._sent = time.monotonic()
-        self._turn = reply.state == TURNING_TO_HEADING  # travelled in radians turned, not metres
+        self._turn = reply.state == State.TURNING_TO_HEADING  # travelled in radians turned, not metres
         self._travelled = 0.0  # [m] or [rad] since the goal started, summed over the poses seen
         self._last: m.Pose | None = None  # the pose the sum has reached
         self._marks: list[float] = []  # travelled distances someone waits for: reaching one wakes them
@@ -425,7 +426,7 @@ class Robot:
                 return True
             newest = self._track.newest
         if newest is not None:
-            return newest.state != STOPPED
+            return newest.state != State.STOPPED
         return bool(self.status().is_moving)
 
     # ------------------------------------------------------------ pose and status
@@ -526,7 +527,7 @@ class Robot:
             return
         with self._cond:
             for goal in list(self._open.values()):
-                self._finish(goal, GoalEnd("aborted", "navigator gone", None))
+                self._finish(goal, GoalEnd(GoalResult.ABORTED, "navigator gone", None))
             self._track.forget()
             self._cond.notify_all()
         self._changed()
@@ -565,7 +566,7 @@ class Robot:
             if st.goal_id == goal.id and st.result is not None:
                 self._finish(goal, GoalEnd(st.result, "", None, st.exit))
             elif st.goal_id > goal.id:
-                self._finish(goal, GoalEnd("cancelled", f"ended unseen; the navigator has run goal {st.goal_id} since", None))
+                self._finish(goal, GoalEnd(GoalResult.CANCELLED, f"ended unseen; the navigator has run goal {st.goal_id} since", None))
             self._cond.notify_all()
         self._changed()
 

@@ -20,8 +20,7 @@ import pytest
 
 from zenav.common import keys
 from zenav.common import messages as m
-from zenav.common.client import _ERRORS
-from zenav.services.navigator import exits, goals
+from zenav.common.contract import ErrorCode, Exit, GoalResult, State
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "contract.md"
 PER_SERVICE = "<service>"
@@ -219,7 +218,7 @@ def test_every_field_is_documented_with_its_type_and_default(doc, typ):
 
 @pytest.mark.parametrize(
     ("header", "values"),
-    [("code", tuple(_ERRORS)), ("state", goals.STATES), ("result", goals.RESULTS), ("exit", exits.EXITS)],
+    [("code", tuple(ErrorCode)), ("state", tuple(State)), ("result", tuple(GoalResult)), ("exit", tuple(Exit))],
 )
 def test_every_error_code_state_result_and_exit_is_documented(header, values):
     """The tables of error codes, navigator states, goal results and move exits list exactly the code's, in its order."""

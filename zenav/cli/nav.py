@@ -26,12 +26,13 @@ from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_UNAVAILABLE, EXIT_USAGE
 from zenav.cli.session import CONNECT_TIMEOUT, open_bus, positive, robot_id
 from zenav.common.app import connection_args
 from zenav.common.client import Client
+from zenav.common.contract import ErrorCode, State
 from zenav.robot import Goal, Robot, ZenavError
 
 QUERY_TIMEOUT = 5.0  # [s] a goal is answered when it starts
 WAIT_TIMEOUT = 3600.0  # [s] default --timeout with --wait: the navigator ends stuck goals itself
 MAX_RADIANS = 2 * math.pi  # [rad] a larger angle without --deg is taken for degrees given by mistake
-EXIT_CODES = {"invalid_argument": EXIT_USAGE, "unavailable": EXIT_UNAVAILABLE}  # other errors: EXIT_FAILED
+EXIT_CODES: dict[str, int] = {ErrorCode.INVALID_ARGUMENT: EXIT_USAGE, ErrorCode.UNAVAILABLE: EXIT_UNAVAILABLE}  # other errors: EXIT_FAILED
 
 
 def open_client(args: argparse.Namespace) -> Client:
@@ -232,7 +233,7 @@ def speed_text(args: argparse.Namespace, speed: float | None) -> str:
 
 def progress(st: Any) -> str:
     """One line of nav/state: state, goal, distance remaining, ETA, elapsed."""
-    unit = "rad" if st.state == "TURNING_TO_HEADING" else "m"
+    unit = "rad" if st.state == State.TURNING_TO_HEADING else "m"
     dist = "-" if st.distance_remaining is None else f"{st.distance_remaining:.3f} {unit}"
     eta = "-" if st.eta is None else f"{st.eta:.1f} s"
     point = "" if st.next_point is None else f"  next point {st.next_point}"

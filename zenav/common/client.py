@@ -17,6 +17,7 @@ import zenoh
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.bus import Bus, Handle, Newest, ZenohBus, undeclare_all, zenoh_config
+from zenav.common.contract import ErrorCode
 from zenav.common.keys import DEFAULT_CONNECT
 
 
@@ -32,27 +33,27 @@ class InvalidArgument(ZenavError, ValueError):
     """A request the stack refuses as bad input (the message names the field)."""
 
     def __init__(self, message: str) -> None:
-        super().__init__("invalid_argument", message)
+        super().__init__(ErrorCode.INVALID_ARGUMENT, message)
 
 
 class Unavailable(ZenavError):
     """No router, no reply, or the stack cannot do it now (no pose yet, pose stale...)."""
 
     def __init__(self, message: str) -> None:
-        super().__init__("unavailable", message)
+        super().__init__(ErrorCode.UNAVAILABLE, message)
 
 
 class Internal(ZenavError):
     """The service failed while handling the request."""
 
     def __init__(self, message: str) -> None:
-        super().__init__("internal", message)
+        super().__init__(ErrorCode.INTERNAL, message)
 
 
 _ERRORS: dict[str, type[InvalidArgument | Unavailable | Internal]] = {
-    "invalid_argument": InvalidArgument,
-    "unavailable": Unavailable,
-    "internal": Internal,
+    ErrorCode.INVALID_ARGUMENT: InvalidArgument,
+    ErrorCode.UNAVAILABLE: Unavailable,
+    ErrorCode.INTERNAL: Internal,
 }
 
 

@@ -10,8 +10,8 @@ import math
 from typing import Any, TypedDict, cast
 
 from zenav.common import messages as m
+from zenav.common.contract import State
 from zenav.common.geometry import wrap_angle
-from zenav.services.navigator import goals
 from zenav.services.navigator.controllers import PoseSample, check_polar_gains
 from zenav.services.navigator.goals import Goal
 from zenav.services.navigator.params import Params
@@ -63,7 +63,7 @@ def move_to_point(req: m.MoveToPoint, cfg: Params) -> Resolved:
     """Drive to (x, y)."""
     speed, tol = _speed(req.speed, cfg), req.tolerance or cfg.tolerance
     chain, backwards, timeout = _chain(req, speed), not req.forwards, _timeout(req, cfg)
-    goal = Goal(goals.MOVING_TO_POINT, ((req.x, req.y),), speed=speed, tolerance=tol, timeout=timeout, backwards=backwards, **chain)
+    goal = Goal(State.MOVING_TO_POINT, ((req.x, req.y),), speed=speed, tolerance=tol, timeout=timeout, backwards=backwards, **chain)
     return goal, {"type": "move_to_point", "x": req.x, "y": req.y, "speed": speed, "tolerance": tol, "forwards": req.forwards, **chain}
 
 
@@ -78,7 +78,7 @@ def move_to_pose(req: m.MoveToPose, cfg: Params) -> Resolved:
     heading, heading_tol = wrap_angle(req.theta), req.heading_tolerance or cfg.heading_tolerance
     lead, chain = cfg.lead if req.lead is None else req.lead, _chain(req, speed)
     goal = Goal(
-        goals.MOVING_TO_POSE,
+        State.MOVING_TO_POSE,
         points=((req.x, req.y),),
         heading=heading,
         speed=speed,
@@ -120,7 +120,7 @@ def move_straight(req: m.MoveStraight, cfg: Params) -> Resolved:
     if req.speed == 0.0:
         raise Invalid("speed: must not be 0 (use nav/stop to stop)")
     speed = math.copysign(min(abs(_slowest(req.speed, "m/s")), cfg.max_speed), req.speed)
-    goal = Goal(goals.MOVING_STRAIGHT, speed=speed, distance=req.distance, tolerance=cfg.tolerance)
+    goal = Goal(State.MOVING_STRAIGHT, speed=speed, distance=req.distance, tolerance=cfg.tolerance)
     return goal, {"type": "move_straight", "speed": speed, "distance": req.distance}
 
 
@@ -143,7 +143,7 @@ def follow_path(req: m.FollowPath, cfg: Params) -> Resolved:
         points = tuple((p[0], p[1]) for p in pts)
         tols = tuple(p[2] if len(p) == 3 else through for p in pts[:-1]) + (pts[-1][2] if len(pts[-1]) == 3 else tol,)
     goal = Goal(
-        goals.FOLLOWING_PATH,
+        State.FOLLOWING_PATH,
         points=points,
         speed=speed,
         tolerance=tols[-1],
@@ -167,5 +167,5 @@ def _turn(
     speed = min(_slowest(req.speed or cfg.turn_speed, "rad/s"), cfg.max_turn_speed)
     tol, chain, way = req.tolerance or cfg.heading_tolerance, _chain(req, speed), TURN_WAYS[req.direction]
     timeout = _timeout(req, cfg)
-    goal = Goal(goals.TURNING_TO_HEADING, heading=heading, speed=speed, tolerance=tol, timeout=timeout, direction=way, pivot=pivot, **chain)
+    goal = Goal(State.TURNING_TO_HEADING, heading=heading, speed=speed, tolerance=tol, timeout=timeout, direction=way, pivot=pivot, **chain)
     return goal, {**info, "speed": speed, "tolerance": tol, "direction": req.direction, **chain}

@@ -32,6 +32,7 @@ from zenav.common import messages as m
 from zenav.common.bus import Bus, Query
 from zenav.common.clock import Clock
 from zenav.common.config import ConfigError, Settings
+from zenav.common.contract import ErrorCode, GoalResult
 from zenav.common.geometry import wrap_angle
 from zenav.common.runtime import QueryError, Service, on_liveliness, publish, query, reply_error, reply_ok, subscribe, timer
 from zenav.services.navigator import goals, intake, planner, routing
@@ -327,7 +328,7 @@ class Navigator(Service):
         if reason is not None:
             self._pose_wanted = True
             self._health(now)
-            raise QueryError("unavailable", reason)
+            raise QueryError(ErrorCode.UNAVAILABLE, reason)
         pose = self.machine.pose
         assert pose is not None  # no refusal: there is a pose
         return pose
@@ -337,16 +338,16 @@ class Navigator(Service):
         try:
             goal, info = resolve(req, self.cfg)
         except intake.Invalid as e:
-            raise QueryError("invalid_argument", str(e)) from None
+            raise QueryError(ErrorCode.INVALID_ARGUMENT, str(e)) from None
         if self._motor_gone:
-            raise QueryError("unavailable", "the motor service is gone: no goal can be driven")
+            raise QueryError(ErrorCode.UNAVAILABLE, "the motor service is gone: no goal can be driven")
         pose = self._pose_or_unavailable()
         out = goals.outside(goal, pose, self.area)
         if out is not None:
-            raise QueryError("invalid_argument", out)
+            raise QueryError(ErrorCode.INVALID_ARGUMENT, out)
         if self.query_arrival() < self._stopped_at:  # a stop came after it, however late (one held for its lease: stop_query)
             self.count("goals_voided")
-            raise QueryError("unavailable", "cancelled by nav/stop: the stop reached the navigator after this goal")
+            raise QueryError(ErrorCode.UNAVAILABLE, "cancelled by nav/stop: the stop reached the navigator after this goal")
         asked = len(goal.points)
         try:
             if getattr(req, "plan", False):
@@ -354,20 +355,20 @@ class Navigator(Service):
             else:
                 routing.check_targets(goal, self.planner)
         except routing.Blocked as e:
-            raise QueryError("invalid_argument", str(e)) from None
+            raise QueryError(ErrorCode.INVALID_ARGUMENT, str(e)) from None
         request = Request(goal, info, req.wait, q, detours=len(goal.points) - asked)
         if req.lease is None:
             self._drop_pending("superseded by a newer goal before its lease was seen")
             self._begin(request)
             return
         if len(req.lease) > LEASE_CHARS:
-            raise QueryError("invalid_argument", f"lease: {len(req.lease)} characters is over {LEASE_CHARS}")
+            raise QueryError(ErrorCode.INVALID_ARGUMENT, f"lease: {len(req.lease)} characters is over {LEASE_CHARS}")
         if any(c in req.lease for c in "*$?#"):
-            raise QueryError("invalid_argument", f"lease: {req.lease!r} must be a plain key, without wildcards")
+            raise QueryError(ErrorCode.INVALID_ARGUMENT, f"lease: {req.lease!r} must be a plain key, without wildcards")
         try:
             request.watch = self.watch(req.lease, lambda alive: self._on_lease(request, alive))
         except Exception as e:  # the key expression does not parse
-            raise QueryError("invalid_argument", f"lease: {req.lease!r} is not a valid key: {e}") from None
+            raise QueryError(ErrorCode.INVALID_ARGUMENT, f"lease: {req.lease!r} is not a valid key: {e}") from None
         old = self.requests.hold(request, req.lease, self.clock.now() + self.cfg.lease_grace)
         if old is not None:
             self._refuse(old, "superseded by a newer goal before its lease was seen")
@@ -433,7 +434,7 @@ class Navigator(Service):
     def _refuse(self, request: Request, message: str) -> None:
         """Answer a request that will not start `unavailable`, and release its lease watch."""
         self._unwatch(request)
-        reply_error(request.reply_to, "unavailable", message)
+        reply_error(request.reply_to, ErrorCode.UNAVAILABLE, message)
 
     def _drop_pending(self, message: str) -> None:
         p = self.requests.take_pending()
@@ -447,7 +448,7 @@ class Navigator(Service):
 
     def _ended(self, end: End, zero: bool = True) -> None:
         """A goal ended: answer its waiter, drop its lease, and command zero unless handed over."""
-        log = self.log.info if end.result != goals.ABORTED else self.log.warning
+        log = self.log.info if end.result != GoalResult.ABORTED else self.log.warning
         log("goal %d %s: %s", end.goal_id, end.result, end.message)
         done, waiter = self.requests.ended(end.goal_id)
         if done is not None and done.watch is not None and not end.stop and self.machine.coasting:
