@@ -40,7 +40,7 @@ from zenav.common import keys
 from zenav.common import messages as m
 from zenav.common.bus import Handle, ZenohBus, undeclare_all
 from zenav.common.client import Client, Internal, InvalidArgument, Latest, QueryBus, Unavailable, ZenavError
-from zenav.common.contract import GoalResult, State
+from zenav.common.contract import RETRYABLE, GoalResult, State
 from zenav.common.geometry import wrap_angle
 from zenav.common.keys import DEFAULT_CONNECT
 from zenav.common.navgoals import GoalEnd, GoalTracker
@@ -487,8 +487,7 @@ class Robot:
             try:
                 return self.client.query(suffix, request, timeout=self.timeout)
             except Unavailable as e:
-                lease_unseen = self.lease_key is not None and self.lease_key in e.message
-                if attempt == RETRIES or not ("pose stale" in e.message or lease_unseen):
+                if attempt == RETRIES or e.reason not in RETRYABLE:
                     raise
                 try:
                     self._next_pose(seen, self.timeout)

@@ -20,7 +20,7 @@ import pytest
 
 from zenav.common import keys
 from zenav.common import messages as m
-from zenav.common.contract import ErrorCode, Exit, GoalResult, State
+from zenav.common.contract import ErrorCode, Exit, GoalResult, Reason, State
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "contract.md"
 PER_SERVICE = "<service>"
@@ -218,8 +218,8 @@ def test_every_field_is_documented_with_its_type_and_default(doc, typ):
 
 @pytest.mark.parametrize(
     ("header", "values"),
-    [("code", tuple(ErrorCode)), ("state", tuple(State)), ("result", tuple(GoalResult)), ("exit", tuple(Exit))],
+    [("code", tuple(ErrorCode)), ("state", tuple(State)), ("result", tuple(GoalResult)), ("exit", tuple(Exit)), ("reason", tuple(Reason))],
 )
-def test_every_error_code_state_result_and_exit_is_documented(header, values):
-    """The tables of error codes, navigator states, goal results and move exits list exactly the code's, in its order."""
+def test_every_error_code_state_result_exit_and_reason_is_documented(header, values):
+    """The tables of error codes, navigator states, goal results, move exits and refusal reasons list exactly the code's, in its order."""
     assert column(DOC.read_text(), header) == list(values), f"{DOC}: the `| {header} |` table differs from the code"

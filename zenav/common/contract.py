@@ -63,9 +63,8 @@ class ErrorCode(Code):
 
 
 class Reason(Code):
-    """An error reply's `reason`: which `unavailable` it is, for a client to decide on ("": none given)."""
+    """An error reply's `reason`: which `unavailable` it is, for a client to decide on (the reply's "": none given)."""
 
-    NONE = ""
     NO_POSE = "no_pose"  # no pose yet
     POSE_STALE = "pose_stale"  # the newest pose is older than [navigator] stale_after
     POSE_UNCERTAIN = "pose_uncertain"  # its sigma is over [navigator] max_position_sigma or max_heading_sigma

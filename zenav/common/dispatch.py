@@ -119,7 +119,7 @@ class Dispatch:
         except QueryError as e:
             if e.code == ErrorCode.INVALID_ARGUMENT:
                 self.counters.inc("bad_input")
-            reply_error(q, e.code, e.message)
+            reply_error(q, e.code, e.message, reason=e.reason)
             return
         except Exception as e:
             self.counters.inc("errors")

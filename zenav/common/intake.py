@@ -29,7 +29,7 @@ from typing import Any, NamedTuple
 from zenav.common import messages as m
 from zenav.common.bus import Query
 from zenav.common.config import Limits
-from zenav.common.contract import ErrorCode
+from zenav.common.contract import ErrorCode, Reason
 from zenav.common.diagnostics import Counters
 from zenav.common.inbox import Inbox
 from zenav.common.replies import reply_error
@@ -150,6 +150,6 @@ class Intake:
             if priority and q.key == exact:
                 self.on_priority(suffix, queued, arrival)
             if not queued:
-                reply_error(q, ErrorCode.UNAVAILABLE, f"{self.name} is overloaded: input queue full")
+                reply_error(q, ErrorCode.UNAVAILABLE, f"{self.name} is overloaded: input queue full", reason=Reason.OVERLOADED)
 
         return enqueue

@@ -385,7 +385,8 @@ class LocalizerPoseReply(Reply, frozen=True, kw_only=True):
 
 class ErrorReply(Reply, frozen=True, kw_only=True):
     error: str  # a contract.ErrorCode
-    message: str
+    message: str  # for people: its words may change; programs decide on `error` and `reason`
+    reason: str = ""  # a contract.Reason: which refusal it is ("": none given)
 
 
 def to_builtins(msg: Struct) -> dict[str, Any]:

@@ -34,9 +34,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import NamedTuple
 
 from zenav.common.config import Field
-from zenav.common.contract import Exit, GoalResult, State
+from zenav.common.contract import Exit, GoalResult, Reason, State
 from zenav.common.geometry import wrap_angle
 from zenav.services.navigator import controllers
 from zenav.services.navigator.controllers import PoseSample, Wheelbase
@@ -63,6 +64,7 @@ __all__ = [  # the names the navigator's service and the tests import from here
     "Feedback",
     "Goal",
     "GoalMachine",
+    "Refusal",
     "Refused",
     "outside",
     "path_rest",
@@ -74,8 +76,19 @@ SLIPPED = " (the wheels slipped: held by a wall or a robot?)"  # ends a move's f
 NOISE_SIGMAS = 2.0  # [-] plus this many position sigmas: an offset the estimate's noise explains is not chased by a turn
 
 
+class Refusal(NamedTuple):
+    """Why no goal can start now: the contract's code, and the words."""
+
+    reason: Reason
+    message: str
+
+
 class Refused(Exception):
-    """A goal that cannot start: no pose yet, or the pose is stale."""
+    """A goal that cannot start: no pose yet, or the pose is stale or too uncertain."""
+
+    def __init__(self, refusal: Refusal) -> None:
+        super().__init__(refusal.message)
+        self.reason = refusal.reason
 
 
 class GoalMachine(Steering):
@@ -102,15 +115,15 @@ class GoalMachine(Steering):
         """Whether a goal is running."""
         return self._run is not None
 
-    def refusal(self, now: float) -> str | None:
+    def refusal(self, now: float) -> Refusal | None:
         """Why no goal can start now (no pose, stale pose, uncertain pose), or None."""
         if self.pose is None:
-            return "no pose yet: is the localizer running?"
+            return Refusal(Reason.NO_POSE, "no pose yet: is the localizer running?")
         if now - self.pose.t > self.params.stale_after:
-            return f"pose stale: the newest is {now - self.pose.t:.2f} s old"
+            return Refusal(Reason.POSE_STALE, f"pose stale: the newest is {now - self.pose.t:.2f} s old")
         doubt = self.uncertain() if self.gated else None
         if doubt is not None:
-            return f"{doubt} (no VPS fix yet or for long: wait for one, or set the pose)"
+            return Refusal(Reason.POSE_UNCERTAIN, f"{doubt} (no VPS fix yet or for long: wait for one, or set the pose)")
         return None
 
     def uncertain(self) -> str | None:
