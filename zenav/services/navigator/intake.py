@@ -12,14 +12,12 @@ from typing import Any, TypedDict, cast
 from zenav.common import messages as m
 from zenav.common.contract import State
 from zenav.common.geometry import wrap_angle
+from zenav.common.goalschema import SLOWEST
 from zenav.services.navigator.controllers import PoseSample, check_polar_gains
 from zenav.services.navigator.goals import Goal
 from zenav.services.navigator.params import Params
 
 Resolved = tuple[Goal, dict[str, Any]]  # the goal, and its `goal` map of nav/state
-# [m/s] ([rad/s] for turns) the slowest speed a goal may ask for: 1 mm/s. Slower is no drive at all (a 1 m goal at 1e-14 m/s
-# would end after 3 million years: its eta would leave the contract's range), and is refused naming this bound.
-MIN_SPEED = 1e-3
 
 
 class Invalid(ValueError):
@@ -32,9 +30,9 @@ def _speed(speed: float | None, cfg: Params) -> float:
 
 
 def _slowest(speed: float, unit: str) -> float:
-    """`speed` if it is MIN_SPEED or more (its magnitude, signed for move_straight), else Invalid naming the bound."""
-    if abs(speed) < MIN_SPEED:
-        raise Invalid(f"speed: {speed:g} {unit} is under the slowest a goal drives, {MIN_SPEED:g} {unit}")
+    """`speed` if it is goalschema.SLOWEST or more (its magnitude, signed for move_straight), else Invalid naming the bound."""
+    if abs(speed) < SLOWEST:
+        raise Invalid(f"speed: {speed:g} {unit} is under the slowest a goal drives, {SLOWEST:g} {unit}")
     return speed
 
 
