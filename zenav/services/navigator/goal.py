@@ -45,7 +45,7 @@ class End:
     result: str  # succeeded, cancelled, aborted
     message: str
     stop: bool  # command zero velocity now (every end but a handover)
-    exit: str = ""  # why the move ended (exits.EXITS)
+    exit: str = ""  # why the move ended (a contract.Exit)
 
 
 @dataclass(frozen=True)
