@@ -22,11 +22,13 @@ from __future__ import annotations
 
 import asyncio
 import functools
-from collections.abc import AsyncIterator, Awaitable, Callable, Generator, Iterable, Sequence
+from collections.abc import AsyncIterator, Awaitable, Callable, Coroutine, Generator, Iterable
 from typing import Any
 
 from zenav.common import messages as m
 from zenav.common.client import QueryBus
+from zenav.common.goalschema import GoalSpec
+from zenav.goalapi import GoalMethods
 from zenav.robot import CONNECT_TIMEOUT, DRIVE_PERIOD, DRIVE_SERVICES, POSE_TIMEOUT, QUERY_TIMEOUT, Result
 from zenav.robot import Goal as SyncGoal
 from zenav.robot import Robot as SyncRobot
@@ -122,8 +124,10 @@ class Goal:
         return self._goal.feedback() is not last or self._goal.done()
 
 
-class Robot:
-    """One robot's navigation and localization, for asyncio programs (see `zenav.robot.Robot`)."""
+class Robot(GoalMethods[Coroutine[Any, Any, Goal]]):
+    """One robot's navigation and localization, for asyncio programs (see `zenav.robot.Robot`).
+
+    The goal methods are zenav.robot.Robot's (zenav.goalapi): here each returns a coroutine of the Goal."""
 
     def __init__(
         self,
@@ -185,113 +189,6 @@ class Robot:
         """Until the navigator would take a goal (see `zenav.robot.Robot.wait_ready`)."""
         await asyncio.to_thread(self.sync.wait_ready, timeout, tuple(services))
 
-    async def move_to_point(
-        self,
-        x: float,
-        y: float,
-        *,
-        speed: float | None = None,
-        tolerance: float | None = None,
-        timeout: float | None = None,
-        forwards: bool = True,
-        min_speed: float | None = None,
-        early_exit_range: float | None = None,
-    ) -> Goal:
-        """Drive to (x [m], y [m]) in the map frame (see `zenav.robot.Robot.move_to_point` for the options)."""
-        options = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "forwards": forwards}
-        return await self._goal(self.sync.move_to_point, x, y, **options, min_speed=min_speed, early_exit_range=early_exit_range)
-
-    async def move_to_pose(
-        self,
-        x: float,
-        y: float,
-        theta: float,
-        *,
-        speed: float | None = None,
-        tolerance: float | None = None,
-        heading_tolerance: float | None = None,
-        lead: float | None = None,
-        timeout: float | None = None,
-        forwards: bool = True,
-        min_speed: float | None = None,
-        early_exit_range: float | None = None,
-    ) -> Goal:
-        """Drive to (x [m], y [m]) and arrive with heading `theta` [rad]."""
-        options = {"speed": speed, "tolerance": tolerance, "heading_tolerance": heading_tolerance, "lead": lead, "timeout": timeout}
-        chain = {"forwards": forwards, "min_speed": min_speed, "early_exit_range": early_exit_range}
-        return await self._goal(self.sync.move_to_pose, x, y, theta, **options, **chain)
-
-    async def turn_to_heading(
-        self,
-        heading: float,
-        *,
-        speed: float | None = None,
-        tolerance: float | None = None,
-        timeout: float | None = None,
-        direction: str = "auto",
-        min_speed: float | None = None,
-        early_exit_range: float | None = None,
-    ) -> Goal:
-        """Turn in place to `heading` [rad]."""
-        options = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "direction": direction}
-        return await self._goal(self.sync.turn_to_heading, heading, **options, min_speed=min_speed, early_exit_range=early_exit_range)
-
-    async def swing_to_heading(
-        self,
-        heading: float,
-        side: str,
-        *,
-        speed: float | None = None,
-        tolerance: float | None = None,
-        timeout: float | None = None,
-        direction: str = "auto",
-        min_speed: float | None = None,
-        early_exit_range: float | None = None,
-    ) -> Goal:
-        """Turn to `heading` [rad] about one wheel, `side` "left" or "right", which stays still."""
-        options = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "direction": direction}
-        return await self._goal(
-            self.sync.swing_to_heading, heading, side, **options, min_speed=min_speed, early_exit_range=early_exit_range
-        )
-
-    async def turn_to_point(
-        self,
-        x: float,
-        y: float,
-        *,
-        speed: float | None = None,
-        tolerance: float | None = None,
-        timeout: float | None = None,
-        forwards: bool = True,
-        direction: str = "auto",
-        min_speed: float | None = None,
-        early_exit_range: float | None = None,
-    ) -> Goal:
-        """Turn in place to face (x [m], y [m]), or to turn the back to it."""
-        options = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "forwards": forwards, "direction": direction}
-        return await self._goal(self.sync.turn_to_point, x, y, **options, min_speed=min_speed, early_exit_range=early_exit_range)
-
-    async def move_straight(self, speed: float, *, distance: float | None = None) -> Goal:
-        """Drive on the current heading at `speed` [m/s], for `distance` [m] or until stopped."""
-        return await self._goal(self.sync.move_straight, speed, distance=distance)
-
-    async def follow_path(
-        self,
-        points: Iterable[Sequence[float]],
-        *,
-        speed: float | None = None,
-        tolerance: float | None = None,
-        waypoint_tolerance: float | None = None,
-        timeout: float | None = None,
-        forwards: bool = True,
-        min_speed: float | None = None,
-        early_exit_range: float | None = None,
-    ) -> Goal:
-        """Drive through the points in order, (x [m], y [m]) or (x, y, tolerance [m])."""
-        options = {"speed": speed, "tolerance": tolerance, "waypoint_tolerance": waypoint_tolerance, "timeout": timeout}
-        chain = {"forwards": forwards, "min_speed": min_speed, "early_exit_range": early_exit_range}
-        return await self._goal(self.sync.follow_path, points, **options, **chain)  # the robot makes the points lists
-
     async def drive(self, v: float, omega: float = 0.0, seconds: float = 0.0) -> None:
         """Drive open loop at v [m/s] and omega [rad/s] for `seconds`, then command zero (see `zenav.robot.Robot.drive`);
         cancelled meanwhile, it commands zero."""
@@ -329,8 +226,11 @@ class Robot:
         return await asyncio.to_thread(self.sync.status)
 
     # ------------------------------------------------------------ internals
-    async def _goal(self, send: Any, *args: Any, **kwargs: Any) -> Goal:
-        return Goal(self, await asyncio.to_thread(send, *args, **kwargs))
+    def _send(self, spec: GoalSpec, fields: dict[str, Any]) -> Coroutine[Any, Any, Goal]:
+        return self._goal(spec, fields)
+
+    async def _goal(self, spec: GoalSpec, fields: dict[str, Any]) -> Goal:
+        return Goal(self, await asyncio.to_thread(self.sync._send, spec, fields))
 
     def _wake(self) -> None:
         event, self._changed = self._changed, asyncio.Event()

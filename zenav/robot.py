@@ -30,7 +30,7 @@ import threading
 import time
 import uuid
 import weakref
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,10 +40,13 @@ from zenav.common import keys
 from zenav.common import messages as m
 from zenav.common.bus import Handle, ZenohBus, undeclare_all
 from zenav.common.client import Client, Internal, InvalidArgument, Latest, QueryBus, Unavailable, ZenavError
+from zenav.common.contract import RETRYABLE, GoalResult, State
 from zenav.common.geometry import wrap_angle
+from zenav.common.goalschema import GoalSpec, request
 from zenav.common.keys import DEFAULT_CONNECT
-from zenav.common.navgoals import STOPPED, TURNING_TO_HEADING, GoalEnd, GoalTracker
+from zenav.common.navgoals import GoalEnd, GoalTracker
 from zenav.common.roles import DRIVE_SERVICES
+from zenav.goalapi import GoalMethods
 
 __all__ = ["Goal", "Internal", "InvalidArgument", "Result", "Robot", "Unavailable", "ZenavError"]
 
@@ -70,7 +73,7 @@ class Result:
     @property
     def succeeded(self) -> bool:
         """Whether the goal reached its target."""
-        return self.result == "succeeded"
+        return self.result == GoalResult.SUCCEEDED
 
     def __str__(self) -> str:
         p = self.pose
@@ -89,7 +92,7 @@ class Goal:
         self._seq = 0  # nav/state messages of this goal seen
         self._result: Result | None = None
         self._sent = time.monotonic()
-        self._turn = reply.state == TURNING_TO_HEADING  # travelled in radians turned, not metres
+        self._turn = reply.state == State.TURNING_TO_HEADING  # travelled in radians turned, not metres
         self._travelled = 0.0  # [m] or [rad] since the goal started, summed over the poses seen
         self._last: m.Pose | None = None  # the pose the sum has reached
         self._marks: list[float] = []  # travelled distances someone waits for: reaching one wakes them
@@ -193,7 +196,7 @@ class Goal:
         return any(before < mark <= self._travelled for mark in self._marks)
 
 
-class Robot:
+class Robot(GoalMethods[Goal]):
     """One robot's navigation and localization, through a Zenoh router."""
 
     def __init__(
@@ -277,123 +280,9 @@ class Robot:
             except TimeoutError:
                 raise TimeoutError(f"navigator not ready after {timeout} s: {why}") from None
 
-    # ------------------------------------------------------------ goals
-    def move_to_point(
-        self,
-        x: float,
-        y: float,
-        *,
-        speed: float | None = None,
-        tolerance: float | None = None,
-        timeout: float | None = None,
-        forwards: bool = True,
-        min_speed: float | None = None,
-        early_exit_range: float | None = None,
-    ) -> Goal:
-        """Drive to (x [m], y [m]) in the map frame; speed [m/s] and tolerance [m] default to the navigator's.
-
-        Every goal but move_straight also takes:
-        `timeout` [s]: the move stops after this long, exit `timeout`;
-        `min_speed` [m/s, rad/s for turns] > 0: a chained goal (LemLib's motion chaining) that never slows below it
-        and ends at speed (exit `chained`) `early_exit_range` [m, rad] before its target: send the next goal at once;
-        and but for turn_to_heading, `forwards=False`: the robot's back leads.
-        """
-        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout}
-        return self._goal("nav/move_to_point", {"x": x, "y": y, **fields, **_options(forwards, min_speed, early_exit_range)})
-
-    def move_to_pose(
-        self,
-        x: float,
-        y: float,
-        theta: float,
-        *,
-        speed: float | None = None,
-        tolerance: float | None = None,
-        heading_tolerance: float | None = None,
-        lead: float | None = None,
-        timeout: float | None = None,
-        forwards: bool = True,
-        min_speed: float | None = None,
-        early_exit_range: float | None = None,
-    ) -> Goal:
-        """Drive to (x [m], y [m]) and arrive with heading `theta` [rad] (of the robot's front, backing in too);
-        tolerances [m] and [rad]; `lead` [0..1] how far the boomerang's carrot sits before the point, per metre to it."""
-        fields = {"speed": speed, "tolerance": tolerance, "heading_tolerance": heading_tolerance, "lead": lead, "timeout": timeout}
-        return self._goal("nav/move_to_pose", {"x": x, "y": y, "theta": theta, **fields, **_options(forwards, min_speed, early_exit_range)})
-
-    def turn_to_heading(
-        self,
-        heading: float,
-        *,
-        speed: float | None = None,
-        tolerance: float | None = None,
-        timeout: float | None = None,
-        direction: str = "auto",
-        min_speed: float | None = None,
-        early_exit_range: float | None = None,
-    ) -> Goal:
-        """Turn in place to `heading` [rad, CCW from +x]; speed [rad/s], tolerance [rad];
-        `direction` "cw" or "ccw": that way round, the long way if need be ("auto": the shorter way)."""
-        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "direction": _way(direction)}
-        return self._goal("nav/turn_to_heading", {"heading": heading, **fields, **_options(True, min_speed, early_exit_range)})
-
-    def swing_to_heading(
-        self,
-        heading: float,
-        side: str,
-        *,
-        speed: float | None = None,
-        tolerance: float | None = None,
-        timeout: float | None = None,
-        direction: str = "auto",
-        min_speed: float | None = None,
-        early_exit_range: float | None = None,
-    ) -> Goal:
-        """Turn to `heading` [rad] about one wheel, `side` "left" or "right", which stays still (LemLib's swingToHeading);
-        the options as turn_to_heading's."""
-        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "direction": _way(direction)}
-        request = {"heading": heading, "side": side, **fields, **_options(True, min_speed, early_exit_range)}
-        return self._goal("nav/swing_to_heading", request)
-
-    def turn_to_point(
-        self,
-        x: float,
-        y: float,
-        *,
-        speed: float | None = None,
-        tolerance: float | None = None,
-        timeout: float | None = None,
-        forwards: bool = True,
-        direction: str = "auto",
-        min_speed: float | None = None,
-        early_exit_range: float | None = None,
-    ) -> Goal:
-        """Turn in place to face (x [m], y [m]), or to turn the back to it; speed [rad/s], tolerance [rad]; `direction`
-        as turn_to_heading's."""
-        fields = {"speed": speed, "tolerance": tolerance, "timeout": timeout, "direction": _way(direction)}
-        return self._goal("nav/turn_to_point", {"x": x, "y": y, **fields, **_options(forwards, min_speed, early_exit_range)})
-
-    def move_straight(self, speed: float, *, distance: float | None = None) -> Goal:
-        """Drive on the current heading at `speed` [m/s, negative reverses], for `distance` [m] or until stopped."""
-        return self._goal("nav/move_straight", {"speed": speed, "distance": distance})
-
-    def follow_path(
-        self,
-        points: Iterable[Sequence[float]],
-        *,
-        speed: float | None = None,
-        tolerance: float | None = None,
-        waypoint_tolerance: float | None = None,
-        timeout: float | None = None,
-        forwards: bool = True,
-        min_speed: float | None = None,
-        early_exit_range: float | None = None,
-    ) -> Goal:
-        """Drive through the points in order, (x [m], y [m]) or (x, y, tolerance [m]); nav/state's next_point says
-        which is next. `tolerance` is the last point's, `waypoint_tolerance` the others' that name none."""
-        pts = [list(p) for p in points]
-        fields = {"speed": speed, "tolerance": tolerance, "waypoint_tolerance": waypoint_tolerance, "timeout": timeout}
-        return self._goal("nav/follow_path", {"points": pts, **fields, **_options(forwards, min_speed, early_exit_range)})
+    # ------------------------------------------------------------ goals (their methods: zenav.goalapi)
+    def _send(self, spec: GoalSpec, fields: dict[str, Any]) -> Goal:
+        return self._goal(spec.key, request(spec, fields))
 
     def drive(self, v: float, omega: float = 0.0, seconds: float = 0.0) -> None:
         """Drive open loop at v [m/s] and omega [rad/s] for `seconds` of this program's (wall) time, then command zero:
@@ -425,7 +314,7 @@ class Robot:
                 return True
             newest = self._track.newest
         if newest is not None:
-            return newest.state != STOPPED
+            return newest.state != State.STOPPED
         return bool(self.status().is_moving)
 
     # ------------------------------------------------------------ pose and status
@@ -486,8 +375,7 @@ class Robot:
             try:
                 return self.client.query(suffix, request, timeout=self.timeout)
             except Unavailable as e:
-                lease_unseen = self.lease_key is not None and self.lease_key in e.message
-                if attempt == RETRIES or not ("pose stale" in e.message or lease_unseen):
+                if attempt == RETRIES or e.reason not in RETRYABLE:
                     raise
                 try:
                     self._next_pose(seen, self.timeout)
@@ -526,7 +414,7 @@ class Robot:
             return
         with self._cond:
             for goal in list(self._open.values()):
-                self._finish(goal, GoalEnd("aborted", "navigator gone", None))
+                self._finish(goal, GoalEnd(GoalResult.ABORTED, "navigator gone", None))
             self._track.forget()
             self._cond.notify_all()
         self._changed()
@@ -565,7 +453,7 @@ class Robot:
             if st.goal_id == goal.id and st.result is not None:
                 self._finish(goal, GoalEnd(st.result, "", None, st.exit))
             elif st.goal_id > goal.id:
-                self._finish(goal, GoalEnd("cancelled", f"ended unseen; the navigator has run goal {st.goal_id} since", None))
+                self._finish(goal, GoalEnd(GoalResult.CANCELLED, f"ended unseen; the navigator has run goal {st.goal_id} since", None))
             self._cond.notify_all()
         self._changed()
 
@@ -575,17 +463,6 @@ class Robot:
         if running:
             self.stop()
         return running
-
-
-def _way(direction: str) -> str | None:
-    """A turn's `direction`, sent only when it is not the default (a navigator that predates it turns the shorter way)."""
-    return None if direction == "auto" else direction
-
-
-def _options(forwards: bool, min_speed: float | None, early_exit_range: float | None) -> dict[str, Any]:
-    """A goal's `forwards`, `min_speed` and `early_exit_range`, each sent only when it asks for something (a navigator
-    that predates them takes every goal that does not)."""
-    return {"forwards": None if forwards else False, "min_speed": min_speed, "early_exit_range": early_exit_range}
 
 
 def _shut(client: Client, handles: list[Handle], own: ZenohBus | None) -> None:

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 from tests.support.fuzz import FUZZ
 from tests.support.navigator import Rig, reply
 from zenav.common import messages as m
-from zenav.services.navigator.intake import MIN_SPEED
+from zenav.common.goalschema import SLOWEST as MIN_SPEED
 
 TINY = 5e-324  # the smallest positive float
 SPEEDS = st.sampled_from([TINY, 1e-300, 1e-14, 1e-4, MIN_SPEED * 0.999, MIN_SPEED, 0.01, 0.2, 1e3]) | st.floats(TINY, 1e3)

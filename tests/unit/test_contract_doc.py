@@ -20,8 +20,8 @@ import pytest
 
 from zenav.common import keys
 from zenav.common import messages as m
-from zenav.common.client import _ERRORS
-from zenav.services.navigator import exits, goals
+from zenav.common.contract import ErrorCode, Exit, GoalResult, Reason, State
+from zenav.common.goalschema import GOALS, SLOWEST
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "contract.md"
 PER_SERVICE = "<service>"
@@ -219,8 +219,17 @@ def test_every_field_is_documented_with_its_type_and_default(doc, typ):
 
 @pytest.mark.parametrize(
     ("header", "values"),
-    [("code", tuple(_ERRORS)), ("state", goals.STATES), ("result", goals.RESULTS), ("exit", exits.EXITS)],
+    [("code", tuple(ErrorCode)), ("state", tuple(State)), ("result", tuple(GoalResult)), ("exit", tuple(Exit)), ("reason", tuple(Reason))],
 )
-def test_every_error_code_state_result_and_exit_is_documented(header, values):
-    """The tables of error codes, navigator states, goal results and move exits list exactly the code's, in its order."""
+def test_every_error_code_state_result_exit_and_reason_is_documented(header, values):
+    """The tables of error codes, navigator states, goal results, move exits and refusal reasons list exactly the code's, in its order."""
     assert column(DOC.read_text(), header) == list(values), f"{DOC}: the `| {header} |` table differs from the code"
+
+
+@pytest.mark.parametrize("spec", GOALS.values(), ids=lambda s: s.name)
+def test_every_goal_field_is_documented_with_its_unit_and_the_slowest_speed(doc, spec):
+    """A goal request's table says each field's unit as the goal schema declares it (a turn's speed in rad/s)."""
+    rows = {code(row[0]): row for row in doc.get(f"### {spec.request.__name__}", [])}
+    wrong = {f.name: (rows[f.name][3], f.unit) for f in spec.fields if rows[f.name][3] != f.unit}
+    assert not wrong, f"{DOC}: '### {spec.request.__name__}' units differ from common/goalschema.py (doc, schema): {wrong}"
+    assert f"at least {SLOWEST:g}" in rows["speed"][4], f"{DOC}: '### {spec.request.__name__}' speed: say 'at least {SLOWEST:g}'"

@@ -6,8 +6,9 @@ import random
 import pytest
 
 from zenav.common import messages as m
+from zenav.common.contract import Exit, GoalResult, State
 from zenav.common.geometry import wrap_angle
-from zenav.services.navigator import exits, goals, intake
+from zenav.services.navigator import intake
 from zenav.services.navigator.controllers import PoseSample, Wheelbase
 from zenav.services.navigator.goals import Goal, GoalMachine
 from zenav.services.navigator.params import Params
@@ -24,7 +25,7 @@ def machine(**cfg):
 
 
 def to_point(x, y, tol=0.01, **kw):
-    return Goal(goals.MOVING_TO_POINT, points=((x, y),), speed=0.2, tolerance=tol, **kw)
+    return Goal(State.MOVING_TO_POINT, points=((x, y),), speed=0.2, tolerance=tol, **kw)
 
 
 def still(mc, x, y, theta=0.0, until=10.0):
@@ -94,30 +95,30 @@ def run_on(mc, bot, max_s=20.0):
 # ---------------------------------------------------------------- each exit reachable
 def test_within_tolerance_ends_the_move_and_the_recheck_passes():
     end, *_ = drive(to_point(1.0, 0.0))
-    assert (end.result, end.exit, end.message) == (goals.SUCCEEDED, exits.WITHIN_TOLERANCE, "arrived")
+    assert (end.result, end.exit, end.message) == (GoalResult.SUCCEEDED, Exit.WITHIN_TOLERANCE, "arrived")
 
 
 def test_settled_a_small_error_held():
     mc = machine(settle_error=0.02, settle_time=0.5, big_time=5.0, rest_time=0.2)
     mc.start(to_point(1.0, 0.0), 0.0)
     t, end = still(mc, 0.985, 0.0)  # 1.5 cm short, not moving closer
-    assert end.exit == exits.SETTLED and end.result == goals.ABORTED and t == pytest.approx(0.5 + 0.2, abs=0.03)
+    assert end.exit == Exit.SETTLED and end.result == GoalResult.ABORTED and t == pytest.approx(0.5 + 0.2, abs=0.03)
     assert "1.50 cm from the goal (tolerance 1.00 cm): exit settled" in end.message
-    assert mc.exit == exits.SETTLED
+    assert mc.exit == Exit.SETTLED
 
 
 def test_big_error_a_large_error_held():
     mc = machine(big_error=0.05, big_time=1.5, rest_time=0.2)
     mc.start(to_point(1.0, 0.0), 0.0)
     t, end = still(mc, 0.97, 0.0)  # 3 cm short: outside settle_error, inside big_error
-    assert end.exit == exits.BIG_ERROR and end.result == goals.ABORTED and t == pytest.approx(1.5 + 0.2, abs=0.03)
+    assert end.exit == Exit.BIG_ERROR and end.result == GoalResult.ABORTED and t == pytest.approx(1.5 + 0.2, abs=0.03)
 
 
 def test_timeout_stops_the_move_then_rechecks():
     mc = machine(rest_time=0.2)
     mc.start(to_point(1.0, 0.0, timeout=1.0), 0.0)
     t, end = still(mc, 0.5, 0.0)
-    assert end.exit == exits.TIMEOUT and end.result == goals.ABORTED and t == pytest.approx(1.0 + 0.2, abs=0.011)
+    assert end.exit == Exit.TIMEOUT and end.result == GoalResult.ABORTED and t == pytest.approx(1.0 + 0.2, abs=0.011)
     assert mc.on_pose(PoseSample(t + DT, 0.5, 0.0, 0.0)) == (None, None)
 
 
@@ -125,14 +126,14 @@ def test_config_goal_timeout_applies_to_goals_naming_none():
     mc = machine(goal_timeout=0.5, rest_time=0.0)
     mc.start(to_point(1.0, 0.0), 0.0)
     t, end = still(mc, 0.5, 0.0)
-    assert end.exit == exits.TIMEOUT and t == pytest.approx(0.5, abs=0.011)
+    assert end.exit == Exit.TIMEOUT and t == pytest.approx(0.5, abs=0.011)
 
 
 def test_stalled_no_progress_aborts_at_once():
     mc = machine(progress_timeout=2.0)
     mc.start(to_point(1.0, 0.0), 0.0)
     t, end = still(mc, 0.0, 0.0)
-    assert end.exit == exits.STALLED and end.result == goals.ABORTED and "no progress" in end.message and t == pytest.approx(2.05)
+    assert end.exit == Exit.STALLED and end.result == GoalResult.ABORTED and "no progress" in end.message and t == pytest.approx(2.05)
 
 
 def test_passed_a_point_abeam_outside_the_tolerance():
@@ -143,10 +144,10 @@ def test_passed_a_point_abeam_outside_the_tolerance():
     cmd, end = mc.on_pose(PoseSample(0.02, 1.001, 0.012, 0.0))  # past abeam, 1.2 cm off
     assert cmd == (0.0, 0.0) and end is None
     _, end = still(mc, 1.001, 0.012)
-    assert end.exit == exits.PASSED and end.result == goals.ABORTED
+    assert end.exit == Exit.PASSED and end.result == GoalResult.ABORTED
 
 
-@pytest.mark.parametrize("how, exit", [("cancel", exits.CANCELLED), ("abort", exits.ABORTED)])
+@pytest.mark.parametrize("how, exit", [("cancel", Exit.CANCELLED), ("abort", Exit.ABORTED)])
 def test_cancelled_and_aborted(how, exit):
     mc = machine()
     mc.start(to_point(1.0, 0.0), 0.0)
@@ -156,10 +157,10 @@ def test_cancelled_and_aborted(how, exit):
 def test_succeeded_only_if_the_recheck_is_within_tolerance():
     """A turn whose coast ends past a tight tolerance is not a success."""
     mc = machine(rest_time=0.1, retries=0)
-    mc.start(Goal(goals.TURNING_TO_HEADING, heading=0.5, speed=2.0, tolerance=math.radians(0.1)), 0.0)
+    mc.start(Goal(State.TURNING_TO_HEADING, heading=0.5, speed=2.0, tolerance=math.radians(0.1)), 0.0)
     mc.on_pose(PoseSample(0.01, 0.0, 0.0, 0.49))  # the coast is predicted to reach it: the turn stops
     _, end = still(mc, 0.0, 0.0, theta=0.5 + math.radians(0.2))  # it coasted 0.2 deg past
-    assert end.result == goals.ABORTED and "0.20 deg off the heading (tolerance 0.10 deg)" in end.message
+    assert end.result == GoalResult.ABORTED and "0.20 deg off the heading (tolerance 0.10 deg)" in end.message
 
 
 def test_a_recheck_over_the_tolerance_moves_again_a_bounded_number_of_times():
@@ -171,7 +172,7 @@ def test_a_recheck_over_the_tolerance_moves_again_a_bounded_number_of_times():
     assert end is None and cmd[0] > 0 and mc.active  # moving again
     assert mc.on_pose(PoseSample(0.13, 0.995, 0.0, 0.0)) == ((0.0, 0.0), None)
     _, end = mc.on_pose(PoseSample(0.24, 0.97, 0.0, 0.0))  # over again: no retry left
-    assert end.result == goals.ABORTED and end.exit == exits.WITHIN_TOLERANCE and "3.00 cm from the goal" in end.message
+    assert end.result == GoalResult.ABORTED and end.exit == Exit.WITHIN_TOLERANCE and "3.00 cm from the goal" in end.message
 
 
 def test_a_backwards_move_corrects_backwards():
@@ -186,7 +187,7 @@ def test_a_backwards_move_corrects_backwards():
     assert end is None and cmd[0] < 0.0 and cmd[1] == 0.0  # backing on, straight
     assert mc.on_pose(PoseSample(0.13, 0.998, 0.0, math.pi)) == ((0.0, 0.0), None)
     _, end = mc.on_pose(PoseSample(0.24, 0.998, 0.0, math.pi))
-    assert end.result == goals.SUCCEEDED
+    assert end.result == GoalResult.SUCCEEDED
 
 
 def test_a_recheck_finding_the_point_sideways_turns_to_face_it_then_drives_onto_it():
@@ -203,7 +204,7 @@ def test_a_recheck_finding_the_point_sideways_turns_to_face_it_then_drives_onto_
         cmd, end = mc.on_pose(bot.sample())
         if end is not None:
             break
-    assert end is not None and end.result == goals.SUCCEEDED, end
+    assert end is not None and end.result == GoalResult.SUCCEEDED, end
     assert math.hypot(1.0 - bot.x, bot.y) <= 0.01 and abs(bot.theta) > math.radians(30)  # it turned: not straight on
 
 
@@ -221,7 +222,7 @@ def test_a_larger_tolerance_ends_sooner():
     steps, errors = [], []
     for tol in (0.2, 0.05, 0.01):
         end, n, _, bot = drive(to_point(1.0, 0.0, tol=tol))
-        assert end.result == goals.SUCCEEDED and end.exit == exits.WITHIN_TOLERANCE
+        assert end.result == GoalResult.SUCCEEDED and end.exit == Exit.WITHIN_TOLERANCE
         steps.append(n)
         errors.append(math.hypot(1.0 - bot.x, bot.y))
     assert steps[0] < steps[1] < steps[2] and steps[2] - steps[0] > 50  # at least 0.5 s saved
@@ -232,9 +233,9 @@ def test_a_larger_tolerance_ends_sooner():
 @pytest.mark.parametrize("controller", ["polar", "boomerang"])
 @pytest.mark.parametrize("x, y, theta", [(1.0, 0.5, math.pi / 2), (0.8, -0.4, 0.0), (0.5, 0.5, math.pi)])
 def test_move_to_pose_arrives_with_the_heading(controller, x, y, theta):
-    goal = Goal(goals.MOVING_TO_POSE, points=((x, y),), heading=theta, speed=0.2, tolerance=0.01, heading_tolerance=0.0087, lead=0.6)
+    goal = Goal(State.MOVING_TO_POSE, points=((x, y),), heading=theta, speed=0.2, tolerance=0.01, heading_tolerance=0.0087, lead=0.6)
     end, _, _, bot = drive(goal, pose_controller=controller)
-    assert end.result == goals.SUCCEEDED, end.message
+    assert end.result == GoalResult.SUCCEEDED, end.message
     assert math.hypot(x - bot.x, y - bot.y) <= 0.01 and abs(wrap_angle(theta - bot.theta)) <= 0.0087
 
 
@@ -250,15 +251,15 @@ def test_move_to_pose_refuses_unstable_polar_gains_naming_the_equation():
 # ---------------------------------------------------------------- chaining
 def test_a_path_keeps_moving_through_its_points():
     path = ((0.5, 0.0), (1.0, 0.0), (1.0, 0.5), (0.5, 0.5))
-    end, _, trace, _ = drive(Goal(goals.FOLLOWING_PATH, points=path, speed=0.2, tolerance=0.01))
-    assert end.result == goals.SUCCEEDED
+    end, _, trace, _ = drive(Goal(State.FOLLOWING_PATH, points=path, speed=0.2, tolerance=0.01))
+    assert end.result == GoalResult.SUCCEEDED
     between = [v for *_, v, i in trace if i is not None and 0 < i < len(path) - 1]
     assert len(between) > 100 and min(between) > 0.03  # never stopped: only the turn limit scales the through speed down
 
 
 def test_a_missed_intermediate_point_is_turned_to_in_place_not_orbited():
     mc = machine()
-    path = Goal(goals.FOLLOWING_PATH, points=((0.5, 0.0), (1.0, 0.0)), speed=0.2, tolerance=0.01, point_tolerances=(0.01, 0.01))
+    path = Goal(State.FOLLOWING_PATH, points=((0.5, 0.0), (1.0, 0.0)), speed=0.2, tolerance=0.01, point_tolerances=(0.01, 0.01))
     mc.start(path, 0.0)
     cmd, _ = mc.on_pose(PoseSample(0.01, 0.6, 0.02, 0.0))  # past the first point, 2 cm beside it
     assert mc.feedback(0.01).next_point == 0 and cmd[0] == 0.0 and cmd[1] != 0.0
@@ -278,10 +279,10 @@ def test_a_chained_move_ends_at_speed_on_its_exit_line_and_holds_its_command_for
     mc.on_pose(bot.sample())
     mc.start(to_point(1.0, 0.0, min_speed=0.1, early_exit_range=0.03), bot.t)
     cmd, end, cmds = run_on(mc, bot)
-    assert (end.result, end.exit, end.stop) == (goals.SUCCEEDED, exits.CHAINED, False)
+    assert (end.result, end.exit, end.stop) == (GoalResult.SUCCEEDED, Exit.CHAINED, False)
     assert 0.97 <= bot.x < 0.975  # on the line 3 cm before the point (one pose past it at most)
     assert min(v for v, _ in cmds[50:]) >= 0.1  # never below min_speed once under way, nor zeroed at the end
-    assert mc.state == goals.STOPPED and mc.coasting
+    assert mc.state == State.STOPPED and mc.coasting
     bot.step(cmd)
     held, _ = mc.on_pose(bot.sample())
     assert held == cmd  # still driving, no goal running
@@ -296,7 +297,7 @@ def test_a_chained_move_with_no_next_goal_stops_after_chain_time_and_a_stop_ends
     mc.on_pose(bot.sample())
     mc.start(to_point(1.0, 0.0, min_speed=0.1), bot.t)
     cmd, end, _ = run_on(mc, bot)
-    assert end.exit == exits.CHAINED and cmd[0] >= 0.1
+    assert end.exit == Exit.CHAINED and cmd[0] >= 0.1
     held = []
     for _ in range(40):
         bot.step(cmd or (0.0, 0.0))
@@ -314,9 +315,9 @@ def test_a_chained_turn_keeps_its_min_speed_and_ends_early_exit_range_before_the
     bot = Unicycle()
     mc = GoalMachine(Params(), WHEELS)
     mc.on_pose(bot.sample())
-    mc.start(Goal(goals.TURNING_TO_HEADING, heading=1.5, speed=2.0, tolerance=0.0175, min_speed=1.0, early_exit_range=0.1), bot.t)
+    mc.start(Goal(State.TURNING_TO_HEADING, heading=1.5, speed=2.0, tolerance=0.0175, min_speed=1.0, early_exit_range=0.1), bot.t)
     cmd, end, cmds = run_on(mc, bot)
-    assert end.exit == exits.CHAINED and end.result == goals.SUCCEEDED and not end.stop
+    assert end.exit == Exit.CHAINED and end.result == GoalResult.SUCCEEDED and not end.stop
     assert 1.4 <= bot.theta <= 1.42 and min(w for _, w in cmds) >= 1.0 and cmd == cmds[-2]  # one pose past 0.1 rad before, at most
 
 
@@ -324,15 +325,15 @@ def test_a_chained_goal_that_starts_within_its_early_exit_range_ends_on_the_next
     mc = machine()
     mc.start(to_point(0.02, 0.0, min_speed=0.1, early_exit_range=0.03), 0.0)  # 2 cm ahead: within the 3 cm
     cmd, end = mc.on_pose(PoseSample(0.01, 0.0, 0.0, 0.0))
-    assert (end.result, end.exit) == (goals.SUCCEEDED, exits.CHAINED) and cmd == (0.0, 0.0)  # it held what it had: nothing
-    turn = Goal(goals.TURNING_TO_HEADING, heading=0.05, speed=2.0, tolerance=0.0175, min_speed=1.0, early_exit_range=0.1)
+    assert (end.result, end.exit) == (GoalResult.SUCCEEDED, Exit.CHAINED) and cmd == (0.0, 0.0)  # it held what it had: nothing
+    turn = Goal(State.TURNING_TO_HEADING, heading=0.05, speed=2.0, tolerance=0.0175, min_speed=1.0, early_exit_range=0.1)
     mc.start(turn, 0.02)
-    assert mc.on_pose(PoseSample(0.03, 0.0, 0.0, 0.0))[1].exit == exits.CHAINED
+    assert mc.on_pose(PoseSample(0.03, 0.0, 0.0, 0.0))[1].exit == Exit.CHAINED
     # A pose at (0.5, 0) facing -x, from the origin facing +x: the robot reaches the point without crossing the line
     # across that heading, so it cannot pass through the pose at speed: it ends as an unchained move (turn, stop, re-check).
-    pose = Goal(goals.MOVING_TO_POSE, ((0.5, 0.0),), math.pi, 0.2, 0.01, heading_tolerance=0.0175, lead=0.6, min_speed=0.1)
+    pose = Goal(State.MOVING_TO_POSE, ((0.5, 0.0),), math.pi, 0.2, 0.01, heading_tolerance=0.0175, lead=0.6, min_speed=0.1)
     end, *_, bot = drive(pose)
-    assert (end.result, end.exit) == (goals.SUCCEEDED, exits.WITHIN_TOLERANCE) and end.stop
+    assert (end.result, end.exit) == (GoalResult.SUCCEEDED, Exit.WITHIN_TOLERANCE) and end.stop
     assert math.hypot(bot.x - 0.5, bot.y) <= 0.01 and abs(wrap_angle(bot.theta - math.pi)) <= 0.0175
 
 
@@ -342,18 +343,18 @@ def test_a_turn_told_its_direction_turns_that_way_round_the_long_way_if_need_be(
     bot = Unicycle()
     mc = GoalMachine(Params(), WHEELS)
     mc.on_pose(bot.sample())
-    mc.start(Goal(goals.TURNING_TO_HEADING, heading=heading, speed=2.0, tolerance=0.0175, direction=way), bot.t)
+    mc.start(Goal(State.TURNING_TO_HEADING, heading=heading, speed=2.0, tolerance=0.0175, direction=way), bot.t)
     long_way = (heading * way) % math.tau  # [rad] how far round that way
     assert mc.feedback(bot.t).distance_remaining == pytest.approx(long_way)
     _, end, cmds = run_on(mc, bot)
     turned = [w * way for _, w in cmds[:-1]]
-    assert end.result == goals.SUCCEEDED and abs(wrap_angle(bot.theta - heading)) <= 0.0175
+    assert end.result == GoalResult.SUCCEEDED and abs(wrap_angle(bot.theta - heading)) <= 0.0175
     assert min(turned[: round(0.8 * len(turned))]) > 0.0 and sum(turned) * DT == pytest.approx(long_way, abs=0.1)  # that way round
 
 
 def test_a_turn_told_its_direction_that_overshoots_turns_back_not_round_again():
     mc = machine()
-    mc.start(Goal(goals.TURNING_TO_HEADING, heading=-math.pi / 2, speed=2.0, tolerance=0.0175, direction=1), 0.0)  # ccw, 270 deg
+    mc.start(Goal(State.TURNING_TO_HEADING, heading=-math.pi / 2, speed=2.0, tolerance=0.0175, direction=1), 0.0)  # ccw, 270 deg
     mc.on_pose(PoseSample(0.01, 0.0, 0.0, -math.pi / 2 - 0.5, omega=2.0))  # 0.5 rad to go, counter-clockwise
     cmd, _ = mc.on_pose(PoseSample(0.02, 0.0, 0.0, -math.pi / 2 + 0.05, omega=2.0))  # 0.05 rad past it
     assert cmd[1] <= 0.0 and mc.feedback(0.02).distance_remaining == pytest.approx(0.05)  # back the short way, not round again
@@ -361,7 +362,7 @@ def test_a_turn_told_its_direction_that_overshoots_turns_back_not_round_again():
 
 def test_a_turn_told_its_direction_but_already_there_does_not_go_round():
     mc = machine()
-    mc.start(Goal(goals.TURNING_TO_HEADING, heading=-0.01, speed=2.0, tolerance=0.0175, direction=1), 0.0)
+    mc.start(Goal(State.TURNING_TO_HEADING, heading=-0.01, speed=2.0, tolerance=0.0175, direction=1), 0.0)
     cmd, end = mc.on_pose(PoseSample(0.01, 0.0, 0.0, 0.0))
     assert cmd == (0.0, 0.0) and mc.feedback(0.01).distance_remaining == pytest.approx(0.0)  # within its tolerance: stopped
 

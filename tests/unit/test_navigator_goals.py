@@ -5,6 +5,7 @@ import math
 import pytest
 
 from zenav.common.config import Field
+from zenav.common.contract import GoalResult, State
 from zenav.services.navigator import goals
 from zenav.services.navigator.controllers import PoseSample, Wheelbase, sigmas
 from zenav.services.navigator.goals import Goal, GoalMachine, Refused
@@ -20,12 +21,12 @@ def machine(**cfg):
 
 
 def to_point(x, y, tol=0.01):
-    return Goal(goals.MOVING_TO_POINT, points=((x, y),), speed=0.2, tolerance=tol)
+    return Goal(State.MOVING_TO_POINT, points=((x, y),), speed=0.2, tolerance=tol)
 
 
 def test_idle_machine_commands_nothing():
     mc = GoalMachine(Params(), WHEELS)
-    assert mc.state == goals.STOPPED and not mc.active
+    assert mc.state == State.STOPPED and not mc.active
     assert mc.on_pose(PoseSample(0.0, 0.0, 0.0, 0.0)) == (None, None)
     assert mc.check(10.0) is None and mc.cancel("stopped") is None
     assert mc.feedback(0.0) == goals.Feedback()
@@ -41,12 +42,12 @@ def test_refused_without_a_pose_or_with_a_stale_one():
 def test_arrival_rests_at_zero_then_succeeds():
     mc = machine(rest_time=0.2)
     assert mc.start(to_point(0.005, 0.0), 0.0) is None  # already within tolerance: the move ends at once
-    assert mc.state == goals.MOVING_TO_POINT and mc.goal_id == 1 and mc.result is None
+    assert mc.state == State.MOVING_TO_POINT and mc.goal_id == 1 and mc.result is None
     cmd, end = mc.on_pose(PoseSample(0.01, 0.0101, 0.0, 0.0))  # zero is held
     assert cmd == (0.0, 0.0) and end is None and mc.active
     cmd, end = mc.on_pose(PoseSample(0.22, 0.0101, 0.0, 0.0))
-    assert cmd == (0.0, 0.0) and end == goals.End(1, goals.SUCCEEDED, "arrived", stop=True, exit="within_tolerance")
-    assert mc.state == goals.STOPPED and mc.result == goals.SUCCEEDED and mc.exit == "within_tolerance" and not mc.active
+    assert cmd == (0.0, 0.0) and end == goals.End(1, GoalResult.SUCCEEDED, "arrived", stop=True, exit="within_tolerance")
+    assert mc.state == State.STOPPED and mc.result == GoalResult.SUCCEEDED and mc.exit == "within_tolerance" and not mc.active
 
 
 def test_a_stop_while_the_wheels_slip_is_judged_once_the_fixes_say_where_the_robot_is():
@@ -57,7 +58,7 @@ def test_a_stop_while_the_wheels_slip_is_judged_once_the_fixes_say_where_the_rob
     assert mc.on_pose(PoseSample(0.5, 0.005, 0.0, 0.0, slipping=True)) == ((0.0, 0.0), None) and mc.active
     # The fixes put the robot 6 cm short, and the slip is over: the verdict, saying why.
     cmd, end = mc.on_pose(PoseSample(1.0, -0.055, 0.0, 0.0))
-    assert cmd == (0.0, 0.0) and end is not None and end.result == goals.ABORTED
+    assert cmd == (0.0, 0.0) and end is not None and end.result == GoalResult.ABORTED
     why = "(the wheels slipped: held by a wall or a robot?)"
     assert end.message == f"stopped 6.00 cm from the goal (tolerance 1.00 cm): exit within_tolerance {why}"
 
@@ -67,7 +68,7 @@ def test_a_move_held_where_it_stopped_is_not_retried_one_that_stopped_free_is():
     held.on_pose(PoseSample(0.0, 0.0, 0.0, 0.0, slipping=True))  # pushing against a wall
     held.start(to_point(0.005, 0.0), 0.0)  # stops at once, still slipping
     cmd, end = held.on_pose(PoseSample(1.0, -0.055, 0.0, 0.0))
-    assert end is not None and end.result == goals.ABORTED and end.message.endswith("held by a wall or a robot?)")
+    assert end is not None and end.result == GoalResult.ABORTED and end.message.endswith("held by a wall or a robot?)")
 
     free = machine(rest_time=0.2, slip_wait=1.5)
     free.start(to_point(0.005, 0.0), 0.0)  # stops at once, the wheels gripping
@@ -82,7 +83,7 @@ def test_a_slip_that_lasts_is_waited_for_slip_wait_at_most():
     mc.on_pose(PoseSample(0.01, 0.005, 0.0, 0.0, slipping=True))
     assert mc.on_pose(PoseSample(1.69, 0.005, 0.0, 0.0, slipping=True)) == ((0.0, 0.0), None)  # stopped at 0
     cmd, end = mc.on_pose(PoseSample(1.71, 0.005, 0.0, 0.0, slipping=True))
-    assert end == goals.End(1, goals.SUCCEEDED, "arrived", stop=True, exit="within_tolerance")
+    assert end == goals.End(1, GoalResult.SUCCEEDED, "arrived", stop=True, exit="within_tolerance")
 
 
 def test_a_point_outside_tolerance_is_driven_to():
@@ -96,11 +97,11 @@ def test_preemption_is_a_handover():
     mc = machine()
     mc.start(to_point(1.0, 0.0), 0.0)
     end = mc.start(to_point(0.0, 1.0), 0.1)
-    assert end == goals.End(1, goals.CANCELLED, "preempted by goal 2", stop=False, exit="cancelled")
-    assert mc.goal_id == 2 and mc.state == goals.MOVING_TO_POINT and mc.result is None
+    assert end == goals.End(1, GoalResult.CANCELLED, "preempted by goal 2", stop=False, exit="cancelled")
+    assert mc.goal_id == 2 and mc.state == State.MOVING_TO_POINT and mc.result is None
 
 
-@pytest.mark.parametrize("how, result", [("cancel", goals.CANCELLED), ("abort", goals.ABORTED)])
+@pytest.mark.parametrize("how, result", [("cancel", GoalResult.CANCELLED), ("abort", GoalResult.ABORTED)])
 def test_cancel_and_abort_stop(how, result):
     mc = machine()
     mc.start(to_point(1.0, 0.0), 0.0)
@@ -114,7 +115,7 @@ def test_stale_pose_aborts():
     mc.start(to_point(1.0, 0.0), 0.0)
     assert mc.check(0.5) is None
     end = mc.check(0.51)
-    assert end.result == goals.ABORTED and "stale" in end.message
+    assert end.result == GoalResult.ABORTED and "stale" in end.message
 
 
 def test_an_uncertain_pose_refuses_a_goal_and_aborts_a_running_one():
@@ -130,7 +131,7 @@ def test_an_uncertain_pose_refuses_a_goal_and_aborts_a_running_one():
     assert mc.check(0.03) is None
     mc.on_pose(PoseSample(0.04, 0.01, 0.0, 0.0, sigma_xy=0.6, sigma_theta=0.01))  # the fixes stopped long ago
     end = mc.check(0.05)
-    assert end.result == goals.ABORTED and "position sigma 0.600 m" in end.message
+    assert end.result == GoalResult.ABORTED and "position sigma 0.600 m" in end.message
 
 
 def test_pose_sigma_is_the_worst_axis_of_the_covariance():
@@ -148,7 +149,7 @@ def test_no_progress_aborts_after_the_timeout(slipping):
         t = round(t + 0.05, 2)
         mc.on_pose(PoseSample(t, 0.0, 0.0, 0.0, slipping=slipping and t < 0.5))  # stuck (against a robot: slipping)
         end = mc.check(t)
-    assert end.result == goals.ABORTED and end.message.startswith("no progress for 2.") and t == pytest.approx(2.05)
+    assert end.result == GoalResult.ABORTED and end.message.startswith("no progress for 2.") and t == pytest.approx(2.05)
     assert end.message.endswith("(the wheels slipped: held by a wall or a robot?)") == slipping
 
 
@@ -163,7 +164,7 @@ def test_slow_progress_is_progress():
 
 def test_path_switches_points_in_order_and_invalidates_the_old_distance():
     mc = machine()
-    path = Goal(goals.FOLLOWING_PATH, points=((1.0, 0.0), (1.0, 1.0), (0.0, 1.0)), speed=0.2, tolerance=0.01)
+    path = Goal(State.FOLLOWING_PATH, points=((1.0, 0.0), (1.0, 1.0), (0.0, 1.0)), speed=0.2, tolerance=0.01)
     mc.start(path, 0.0)
     fb = mc.feedback(0.0)
     assert fb.next_point == 0 and fb.distance_remaining == pytest.approx(3.0) and fb.eta == pytest.approx(15.0)
@@ -188,35 +189,35 @@ def test_feedback_errors_of_a_point_goal():
 
 def test_turn_reaches_the_heading():
     mc = machine()
-    mc.start(Goal(goals.TURNING_TO_HEADING, heading=-1.0, speed=2.0, tolerance=0.0175), 0.0)
+    mc.start(Goal(State.TURNING_TO_HEADING, heading=-1.0, speed=2.0, tolerance=0.0175), 0.0)
     cmd, _ = mc.on_pose(PoseSample(0.01, 0.0, 0.0, 0.0))
     assert cmd[0] == 0.0 and cmd[1] < 0
     fb = mc.feedback(0.01)
     assert fb.heading_error == pytest.approx(-1.0) and fb.distance_remaining == pytest.approx(1.0) and fb.eta == pytest.approx(0.5)
     mc = machine()
-    mc.start(Goal(goals.TURNING_TO_HEADING, heading=1.0, speed=2.0, tolerance=0.0175), 0.0)
+    mc.start(Goal(State.TURNING_TO_HEADING, heading=1.0, speed=2.0, tolerance=0.0175), 0.0)
     cmd, _ = mc.on_pose(PoseSample(0.02, 0.0, 0.0, 0.999))
     assert cmd == (0.0, 0.0)  # the coast takes it there
 
 
 def test_straight_with_a_distance_stops_there_and_without_runs_on():
     mc = machine()
-    mc.start(Goal(goals.MOVING_STRAIGHT, speed=-0.1, distance=0.5, tolerance=0.01), 0.0)
+    mc.start(Goal(State.MOVING_STRAIGHT, speed=-0.1, distance=0.5, tolerance=0.01), 0.0)
     cmd, _ = mc.on_pose(PoseSample(0.01, -0.2, 0.0, 0.0))
     assert cmd[0] == pytest.approx(-0.1) and mc.feedback(0.01).distance_remaining == pytest.approx(0.3)
     cmd, _ = mc.on_pose(PoseSample(0.02, -0.5, 0.0, 0.0))
     assert cmd == (0.0, 0.0)
-    mc.start(Goal(goals.MOVING_STRAIGHT, speed=0.1, tolerance=0.01), 0.02)
+    mc.start(Goal(State.MOVING_STRAIGHT, speed=0.1, tolerance=0.01), 0.02)
     cmd, _ = mc.on_pose(PoseSample(0.03, 100.0, 0.0, 0.0))
     assert cmd[0] == pytest.approx(0.1) and mc.feedback(0.03).distance_remaining is None
 
 
 def test_straight_steers_back_to_the_line():
     mc = machine()
-    mc.start(Goal(goals.MOVING_STRAIGHT, speed=0.1, tolerance=0.01), 0.0)
+    mc.start(Goal(State.MOVING_STRAIGHT, speed=0.1, tolerance=0.01), 0.0)
     assert mc.on_pose(PoseSample(0.01, 0.1, 0.02, 0.0))[0][1] < 0  # left of the line: turn right
     mc = machine()
-    mc.start(Goal(goals.MOVING_STRAIGHT, speed=-0.1, tolerance=0.01), 0.0)
+    mc.start(Goal(State.MOVING_STRAIGHT, speed=-0.1, tolerance=0.01), 0.0)
     assert mc.on_pose(PoseSample(0.01, -0.1, 0.02, 0.0))[0][1] > 0  # reversing: the other way
 
 
@@ -231,7 +232,7 @@ def test_path_rest_is_the_length_after_each_point():
 def test_bunched_points_are_passed_a_bounded_number_per_pose():
     mc = machine()
     n = 3 * goals.MAX_SWITCHES
-    mc.start(Goal(goals.FOLLOWING_PATH, points=((0.001, 0.0),) * n + ((1.0, 0.0),), speed=0.2, tolerance=0.01), 0.0)
+    mc.start(Goal(State.FOLLOWING_PATH, points=((0.001, 0.0),) * n + ((1.0, 0.0),), speed=0.2, tolerance=0.01), 0.0)
     assert mc.feedback(0.0).next_point == goals.MAX_SWITCHES
     mc.on_pose(PoseSample(0.01, 0.0, 0.0, 0.0))
     assert mc.feedback(0.01).next_point == 2 * goals.MAX_SWITCHES
@@ -244,8 +245,8 @@ FIELD = Field(x_min=-1.0, x_max=3.0, y_min=-1.0, y_max=3.0)
     "goal, words",
     [
         (to_point(3.5, 0.0), "x, y: 3.5 m is outside the field ([field] x_max = 3.0)"),
-        (Goal(goals.FOLLOWING_PATH, points=((0.0, 1.0), (0.0, -2.0)), speed=0.2), "points[1]: -2 m"),
-        (Goal(goals.MOVING_STRAIGHT, speed=-0.1, distance=1.5), "distance: the end is outside"),
+        (Goal(State.FOLLOWING_PATH, points=((0.0, 1.0), (0.0, -2.0)), speed=0.2), "points[1]: -2 m"),
+        (Goal(State.MOVING_STRAIGHT, speed=-0.1, distance=1.5), "distance: the end is outside"),
     ],
 )
 def test_targets_outside_the_field_name_the_bound(goal, words):
@@ -254,7 +255,7 @@ def test_targets_outside_the_field_name_the_bound(goal, words):
 
 def test_targets_inside_the_field_or_without_an_end_pass():
     pose = PoseSample(0.0, 0.0, 0.0, 0.0)
-    for goal in (to_point(3.0, -1.0), Goal(goals.MOVING_STRAIGHT, speed=0.1), Goal(goals.TURNING_TO_HEADING, heading=1.0)):
+    for goal in (to_point(3.0, -1.0), Goal(State.MOVING_STRAIGHT, speed=0.1), Goal(State.TURNING_TO_HEADING, heading=1.0)):
         assert goals.outside(goal, pose, FIELD) is None
     assert goals.outside(to_point(30.0, 0.0), pose, Field(enabled=False)) is None
 
@@ -262,9 +263,9 @@ def test_targets_inside_the_field_or_without_an_end_pass():
 def test_a_pose_outside_the_field_aborts_the_goal():
     mc = GoalMachine(Params(), WHEELS, FIELD)
     mc.on_pose(PoseSample(0.0, 2.9, 0.0, 0.0))
-    mc.start(Goal(goals.MOVING_STRAIGHT, speed=0.2), 0.0)
+    mc.start(Goal(State.MOVING_STRAIGHT, speed=0.2), 0.0)
     cmd, end = mc.on_pose(PoseSample(0.01, 3.01, 0.0, 0.0))
-    assert cmd == (0.0, 0.0) and end.result == goals.ABORTED and end.stop and end.message.startswith("left the field")
+    assert cmd == (0.0, 0.0) and end.result == GoalResult.ABORTED and end.stop and end.message.startswith("left the field")
 
 
 def test_a_goal_started_outside_the_field_may_bring_the_robot_back_not_farther_out():
@@ -276,18 +277,18 @@ def test_a_goal_started_outside_the_field_may_bring_the_robot_back_not_farther_o
         cmd, end = mc.on_pose(PoseSample(t, 0.5, y, half_pi))
         assert end is None and cmd is not None, (y, end)
     cmd, end = mc.on_pose(PoseSample(0.4, 0.5, -1.001, half_pi))  # back in, the field's bounds hold again
-    assert cmd == (0.0, 0.0) and end.result == goals.ABORTED and end.message.startswith("left the field")
+    assert cmd == (0.0, 0.0) and end.result == GoalResult.ABORTED and end.message.startswith("left the field")
     mc.on_pose(PoseSample(0.5, 0.5, -1.011, -half_pi))
-    mc.start(Goal(goals.MOVING_STRAIGHT, speed=0.2), 0.5)  # outward
+    mc.start(Goal(State.MOVING_STRAIGHT, speed=0.2), 0.5)  # outward
     assert mc.on_pose(PoseSample(0.6, 0.5, -1.030, -half_pi))[1] is None
     end = mc.on_pose(PoseSample(0.7, 0.5, -1.032, -half_pi))[1]
-    assert end.result == goals.ABORTED and "farther out than the goal's start allows (0.031 m)" in end.message
+    assert end.result == GoalResult.ABORTED and "farther out than the goal's start allows (0.031 m)" in end.message
 
 
 def test_move_straight_without_a_distance_has_a_time_limit():
     mc = machine(straight_max_time=1.0)
-    mc.start(Goal(goals.MOVING_STRAIGHT, speed=0.2), 0.0)
+    mc.start(Goal(State.MOVING_STRAIGHT, speed=0.2), 0.0)
     mc.on_pose(PoseSample(0.9, 0.18, 0.0, 0.0))
     assert mc.check(0.95) is None
     end = mc.check(1.0)
-    assert end.result == goals.ABORTED and "straight_max_time" in end.message
+    assert end.result == GoalResult.ABORTED and "straight_max_time" in end.message

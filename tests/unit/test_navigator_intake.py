@@ -5,7 +5,8 @@ import math
 import pytest
 
 from zenav.common import messages as m
-from zenav.services.navigator import goals, intake
+from zenav.common.contract import State
+from zenav.services.navigator import intake
 from zenav.services.navigator.controllers import PoseSample
 from zenav.services.navigator.params import Params
 
@@ -24,7 +25,7 @@ def test_defaults_and_clamps():
 
 def test_turn_to_point_takes_the_heading_from_the_pose():
     goal, info = intake.turn_to_point(m.TurnToPoint(x=1.0, y=1.0), CFG, PoseSample(0.0, 0.0, 0.0, 0.0))
-    assert goal.state == goals.TURNING_TO_HEADING and goal.heading == pytest.approx(math.pi / 4) == info["heading"]
+    assert goal.state == State.TURNING_TO_HEADING and goal.heading == pytest.approx(math.pi / 4) == info["heading"]
     with pytest.raises(intake.Invalid, match="x, y"):
         intake.turn_to_point(m.TurnToPoint(x=0.0, y=0.0), CFG, PoseSample(0.0, 0.0, 0.0, 0.0))
 

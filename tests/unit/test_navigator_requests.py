@@ -1,10 +1,10 @@
 """The navigator's request bookkeeping: leases, the running request, the waiters."""
 
-from zenav.services.navigator import goals
+from zenav.common.contract import State
 from zenav.services.navigator.goals import Goal
 from zenav.services.navigator.requests import LOST, START, Request, Requests
 
-GOAL = Goal(goals.MOVING_TO_POINT, points=((1.0, 0.0),), speed=0.2, tolerance=0.01)
+GOAL = Goal(State.MOVING_TO_POINT, points=((1.0, 0.0),), speed=0.2, tolerance=0.01)
 
 
 def request(wait=False):

@@ -25,6 +25,7 @@ from zenav.bench.scoring import Score, rms, score
 from zenav.bench.studies.localizer import evaluate
 from zenav.bench.trials import GoalEnd, Recorder, Trial
 from zenav.common.config import Settings
+from zenav.common.contract import GoalResult
 from zenav.robot import Robot
 from zenav.services.localizer.base import LocalizerConfig
 from zenav.services.localizer.modes import make_mode
@@ -109,7 +110,7 @@ class Run:
 
     @property
     def failures(self) -> list[GoalEnd]:
-        return [g for g in self.trial.goals if g.result != "succeeded"]
+        return [g for g in self.trial.goals if g.result != GoalResult.SUCCEEDED]
 
 
 def _drive(spec: Spec) -> Callable[[Robot, list[GoalEnd], float], None]:
@@ -223,4 +224,4 @@ def summarise(r: Run, modes: Sequence[str] = ()) -> Summary:
 def _goal_rmse(r: Run) -> list[float]:
     rec = r.trial.rec
     t, pos, _ = rec.truth().errors(rec.series("pose"))
-    return [rms(pos[(t >= g.t_start) & (t <= g.t_end)]) for g in r.trial.goals if g.result == "succeeded"]
+    return [rms(pos[(t >= g.t_start) & (t <= g.t_end)]) for g in r.trial.goals if g.result == GoalResult.SUCCEEDED]

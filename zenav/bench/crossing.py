@@ -20,11 +20,13 @@ import numpy as np
 
 from zenav.bench.studies.harness import Trial
 from zenav.common.config import Field, Robot
+from zenav.common.contract import GoalResult
+from zenav.common.contract import State as NavCode
 from zenav.common.field import Point
 from zenav.common.scenarios import PRESETS
 from zenav.services.motor.guard import Guard
 from zenav.services.navigator.controllers import PoseSample, Wheelbase
-from zenav.services.navigator.goals import MOVING_TO_POINT, SUCCEEDED, Goal
+from zenav.services.navigator.goals import Goal
 from zenav.services.navigator.params import Params
 from zenav.services.navigator.traffic import Other, Traffic
 from zenav.services.navigator.traffic_machine import TrafficMachine
@@ -95,7 +97,7 @@ def simulate(robots: list[tuple[str, Point, Point, float]], seed: int, params: P
     for i, (name, a, b, heading) in enumerate(robots):
         trial = Trial(robot, scenario, seed * 100 + i, camera=False, x=a[0], y=a[1], theta=heading, others={})
         machine = TrafficMachine(params, wheels, AREA, traffic=Traffic(name, RADIUS, AREA.margin))
-        goal = Goal(MOVING_TO_POINT, points=(b,), speed=params.speed, tolerance=params.tolerance)
+        goal = Goal(NavCode.MOVING_TO_POINT, points=(b,), speed=params.speed, tolerance=params.tolerance)
         runs.append(Robotrun(name, trial, machine, goal))
     for r in runs:
         r.machine.on_pose(_pose(r.trial))
@@ -141,7 +143,7 @@ def _command(r: Robotrun, others: list[Other], guard: Guard, step: int, every: i
     if end is None and step % every == 0:
         end = r.machine.check(pose.t)
     if end is not None:
-        r.done, r.t_end = end.result + (f": {end.message}" if end.result != SUCCEEDED else ""), pose.t
+        r.done, r.t_end = end.result + (f": {end.message}" if end.result != GoalResult.SUCCEEDED else ""), pose.t
         return 0.0, 0.0
     v, omega = cmd or (0.0, 0.0)
     lim = guard.limit(v, omega, pose.x, pose.y, pose.theta, [(o.name, (o.x, o.y, o.radius)) for o in others])
@@ -157,7 +159,7 @@ def measure(case: str, runs: int, seed: int, params: Params | None = None) -> Cr
         together, least, contacts = simulate(robots, seed * 1000 + k, params)
         alone = [simulate([rb], seed * 1000 + k, params)[0][0].t_end for rb in robots]
         res.runs += 1
-        ok = all(r.done == SUCCEEDED for r in together)
+        ok = all(r.done == GoalResult.SUCCEEDED for r in together)
         res.succeeded += ok
         res.contact_runs += contacts > 0
         res.least = min(res.least, least)
@@ -166,7 +168,7 @@ def measure(case: str, runs: int, seed: int, params: Params | None = None) -> Cr
         if ok:
             res.ratios.append(max(r.t_end for r in together) / max(alone))
         else:
-            res.failures += [f"{case} run {k}: {r.name} {r.done or 'timeout'}" for r in together if r.done != SUCCEEDED]
+            res.failures += [f"{case} run {k}: {r.name} {r.done or 'timeout'}" for r in together if r.done != GoalResult.SUCCEEDED]
     return res
 
 

@@ -25,10 +25,11 @@ import numpy as np
 from zenav.bench.studies.harness import Trial
 from zenav.bench.studies.navigator import PoseError, drive
 from zenav.common.config import Field, Obstacle, Robot, Settings
+from zenav.common.contract import GoalResult, State
 from zenav.common.field import FieldError, Point, Shape, check_layout, circle_shape, polygon_shape
 from zenav.common.scenarios import PRESETS
 from zenav.services.navigator.controllers import Wheelbase
-from zenav.services.navigator.goals import MOVING_TO_POINT, Goal, GoalMachine
+from zenav.services.navigator.goals import Goal, GoalMachine
 from zenav.services.navigator.params import Params
 from zenav.services.navigator.planner import NoPath, Planner, clearance, length
 from zenav.services.navigator.routing import route
@@ -174,15 +175,15 @@ def driven(name: str, n: int, seed: int) -> Drives:
             break
         trial = Watched(robot, scenario, seed * 1000 + i, camera=False, x=a[0], y=a[1], theta=math.atan2(b[1] - a[1], b[0] - a[0]))
         trial.watch(planner.shapes)
-        goal = route(Goal(MOVING_TO_POINT, points=(b,), speed=params.speed, tolerance=params.tolerance), a, RADIUS, planner, 0.01)
+        goal = route(Goal(State.MOVING_TO_POINT, points=(b,), speed=params.speed, tolerance=params.tolerance), a, RADIUS, planner, 0.01)
         machine = GoalMachine(params, Wheelbase(robot.track_width, robot.wheel_radius, robot.max_wheel_speed), area)
         out = drive(trial, machine, goal, PoseError(0.0, scenario.vps_rate_hz, seed))
         res.goals += 1
-        res.succeeded += out.result == "succeeded"
+        res.succeeded += out.result == GoalResult.SUCCEEDED
         res.contacts += trial.contacts > 0
         res.clearances.append(trial.least)
         res.durations.append(out.duration)
-        if out.result != "succeeded":
+        if out.result != GoalResult.SUCCEEDED:
             res.failures.append(f"{name} ({a[0]:.2f}, {a[1]:.2f}) -> ({b[0]:.2f}, {b[1]:.2f}): {out.result} {out.message}")
     return res
 

@@ -31,6 +31,7 @@ from zenav.bench import child
 from zenav.bench.safety_rig import OPERATOR_GOAL, WAIT, Rig, big, end_child, flood, operator, read_lines, start_child
 from zenav.common import codec
 from zenav.common import messages as m
+from zenav.common.contract import State
 
 FLOOD_GOALS, FLOOD_POINTS = 30, 10_000  # follow_path goals the flood sends at once, points in each
 BIG_PARAMS = 200_000  # [bytes] selector parameter: over [limits] max_params, under the router's largest message
@@ -65,7 +66,7 @@ def frozen_operator(rig: Rig, cli: bool = False) -> Freeze:
     proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     read_lines(proc)
     try:
-        goal = rig.nav.wait(lambda s: s.goal_id > last and s.state != "STOPPED", timeout=90).goal_id
+        goal = rig.nav.wait(lambda s: s.goal_id > last and s.state != State.STOPPED, timeout=90).goal_id
         rig.truth.wait(lambda t: abs(t.v) > 0.1, timeout=WAIT)
         t0 = time.monotonic()
         os.kill(proc.pid, signal.SIGSTOP)
@@ -264,7 +265,7 @@ def wildcard_get(rig: Rig) -> Wildcard:
     """Start a goal, ask `get zenav/r1/**`, and look at the goal, the sim and the localizer a second later."""
     rig.ready()
     rig.client.query("nav/move_to_point", {"x": -0.5, "y": 0.0}, timeout=WAIT)
-    st = rig.nav.wait(lambda s: s.state != "STOPPED", timeout=WAIT)
+    st = rig.nav.wait(lambda s: s.state != State.STOPPED, timeout=WAIT)
     truth: list[m.Truth] = []
     handle = rig.client.subscribe("sim/truth", truth.append)
     t0 = time.monotonic()

@@ -26,9 +26,9 @@ import numpy as np
 from zenav.bench.studies.harness import Trial
 from zenav.bench.studies.navigator import HEADING_ARM, SETTLE, TIMEOUT, GoalDriver, PoseError
 from zenav.common.config import Robot
+from zenav.common.contract import GoalResult, State
 from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import PATH, PRESETS, SQUARE, Scenario
-from zenav.services.navigator import goals
 from zenav.services.navigator.controllers import Wheelbase
 from zenav.services.navigator.goals import Goal, GoalMachine
 from zenav.services.navigator.params import POSE_CONTROLLERS, Params
@@ -54,16 +54,16 @@ def moves(p: Params) -> list[Move]:
     deg = math.radians
 
     def point(x: float, y: float) -> Goal:
-        return Goal(goals.MOVING_TO_POINT, points=((x, y),), speed=p.speed, tolerance=p.tolerance)
+        return Goal(State.MOVING_TO_POINT, points=((x, y),), speed=p.speed, tolerance=p.tolerance)
 
     def pose(x: float, y: float, theta: float) -> Goal:
-        return Goal(goals.MOVING_TO_POSE, ((x, y),), theta, p.speed, p.tolerance, heading_tolerance=p.heading_tolerance, lead=p.lead)
+        return Goal(State.MOVING_TO_POSE, ((x, y),), theta, p.speed, p.tolerance, heading_tolerance=p.heading_tolerance, lead=p.lead)
 
     def turn(theta: float) -> Goal:
-        return Goal(goals.TURNING_TO_HEADING, heading=theta, speed=p.turn_speed, tolerance=p.heading_tolerance)
+        return Goal(State.TURNING_TO_HEADING, heading=theta, speed=p.turn_speed, tolerance=p.heading_tolerance)
 
     def path(points: tuple[tuple[float, float], ...], tol: float, speed: float) -> Goal:
-        return Goal(goals.FOLLOWING_PATH, points=points, speed=speed, tolerance=tol)
+        return Goal(State.FOLLOWING_PATH, points=points, speed=speed, tolerance=tol)
 
     seed002 = path(PATH, 0.05, p.max_speed)
     other = next(c for c in POSE_CONTROLLERS if c != p.pose_controller)
@@ -107,12 +107,12 @@ def run(move: Move, params: Params, scenario: Scenario, seed: int, sigma: float,
     trial.run(lambda tr: (0.0, 0.0), SETTLE)
     truth = trial.streams.truth[first:]
     end, s, goal = driver.end, trial.bot.state, move.goal
-    if goal.state == goals.TURNING_TO_HEADING:
+    if goal.state == State.TURNING_TO_HEADING:
         position, swing = 0.0, math.nan
     else:
         position = math.dist((s.x, s.y), goal.points[-1])
         swing = _swing(truth)
-    angular = goal.state in (goals.TURNING_TO_HEADING, goals.MOVING_TO_POSE)
+    angular = goal.state in (State.TURNING_TO_HEADING, State.MOVING_TO_POSE)
     heading = abs(wrap_angle(goal.heading - s.theta)) if angular else math.nan
     result, exit = (end.result, end.exit) if end else ("timeout", "none")
     return Outcome(result, exit, position, heading, duration, swing)
@@ -152,10 +152,10 @@ def table(
     ]
     for move in moves(p):
         out = [run(move, p, sc, seed, sigma, heading) for seed in range(trials)]
-        pos = _stats([o.position for o in out], 100.0) if move.goal.state != goals.TURNING_TO_HEADING else "-"
+        pos = _stats([o.position for o in out], 100.0) if move.goal.state != State.TURNING_TO_HEADING else "-"
         exits = ", ".join(f"{k} {n}" for k, n in Counter(o.exit for o in out).most_common())
         lines.append(
             f"| {move.name} | {pos} | {_stats([o.heading for o in out], 180 / math.pi)} | {_stats([o.duration for o in out], 1.0)} "
-            f"| {_stats([o.swing for o in out], 180 / math.pi)} | {sum(o.result == goals.SUCCEEDED for o in out)}/{trials} | {exits} |"
+            f"| {_stats([o.swing for o in out], 180 / math.pi)} | {sum(o.result == GoalResult.SUCCEEDED for o in out)}/{trials} | {exits} |"
         )
     return "\n".join(lines)

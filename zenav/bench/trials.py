@@ -19,6 +19,7 @@ from zenav import services
 from zenav.bench import scoring
 from zenav.common import messages as m
 from zenav.common.client import Client, ZenavError
+from zenav.common.contract import GoalResult
 from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import HEADINGS, PATH, SQUARE
 from zenav.common.track import Sample, Track
@@ -27,7 +28,7 @@ from zenav.robot import Goal, Robot
 WARMUP = scoring.WARMUP  # [s] of stack time before the first goal too (the localizer's first fixes)
 GOAL_TIMEOUT = 60.0  # [s] of stack time a goal may take
 RECOVER = 1.0  # [s] of stack time poses must flow again after a failed goal before the next (not a burst of refusals)
-ENDED_WELL = ("succeeded", "cancelled")  # goal results that are no failure (a stop cancels the goal running)
+ENDED_WELL = (GoalResult.SUCCEEDED, GoalResult.CANCELLED)  # goal results that are no failure (a stop cancels the goal running)
 RECORDED = ("sim/truth", "odom", "pose", "vps/pose", "localizer/fixes", "sensors/imu", "sensors/compass", "sensors/encoders")
 
 
@@ -76,13 +77,13 @@ class Trial:
         """Truth error of each succeeded goal of a kind: [m] to the point, or [rad] to the heading."""
         out, truth = [], self.rec.truth()
         for g in self.goals:
-            if g.kind == kind and g.result == "succeeded":
+            if g.kind == kind and g.result == GoalResult.SUCCEEDED:
                 x, y, th = truth.at(g.t_end)
                 out.append(abs(wrap_angle(th - g.target[0])) if kind == "turn" else math.dist((x, y), g.target))
         return out
 
     def durations(self, kind: str) -> list[float]:
-        return [g.t_end - g.t_start for g in self.goals if g.kind == kind and g.result == "succeeded"]
+        return [g.t_end - g.t_start for g in self.goals if g.kind == kind and g.result == GoalResult.SUCCEEDED]
 
 
 def wait_ready(bot: Robot, rtf: float, timeout: float = 60.0, names: Sequence[str] = services.NAMES) -> None:

@@ -40,11 +40,12 @@ from zenav.cli.wire import (
 from zenav.common import codec, keys
 from zenav.common.app import connection_args
 from zenav.common.bus import ZenohBus
+from zenav.common.contract import ErrorCode
 
 POLL = 0.2  # [s] longest wait for a sample before looking at the clock and Ctrl-C again
 QUIET_NOTE = 3.0  # [s] with nothing on the key this long, echo and hz say they are still listening
 HZ_KEEP = 10_000  # arrivals per key the rate is computed over (the newest)
-EXIT_CODES = {"invalid_argument": EXIT_USAGE, "unavailable": EXIT_UNAVAILABLE}  # other error codes: EXIT_FAILED
+EXIT_CODES: dict[str, int] = {ErrorCode.INVALID_ARGUMENT: EXIT_USAGE, ErrorCode.UNAVAILABLE: EXIT_UNAVAILABLE}  # others: EXIT_FAILED
 Body = Callable[[argparse.Namespace, str, ZenohBus], int]  # a subcommand: (args, key, bus) -> exit code
 
 

@@ -26,12 +26,15 @@ from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_UNAVAILABLE, EXIT_USAGE
 from zenav.cli.session import CONNECT_TIMEOUT, open_bus, positive, robot_id
 from zenav.common.app import connection_args
 from zenav.common.client import Client
+from zenav.common.contract import ErrorCode, State
+from zenav.common.goalschema import GOALS
 from zenav.robot import Goal, Robot, ZenavError
 
 QUERY_TIMEOUT = 5.0  # [s] a goal is answered when it starts
 WAIT_TIMEOUT = 3600.0  # [s] default --timeout with --wait: the navigator ends stuck goals itself
 MAX_RADIANS = 2 * math.pi  # [rad] a larger angle without --deg is taken for degrees given by mistake
-EXIT_CODES = {"invalid_argument": EXIT_USAGE, "unavailable": EXIT_UNAVAILABLE}  # other errors: EXIT_FAILED
+DIRECTIONS = GOALS["turn_to_heading"].field("direction").choices  # a turn's --direction
+EXIT_CODES: dict[str, int] = {ErrorCode.INVALID_ARGUMENT: EXIT_USAGE, ErrorCode.UNAVAILABLE: EXIT_UNAVAILABLE}  # other errors: EXIT_FAILED
 
 
 def open_client(args: argparse.Namespace) -> Client:
@@ -101,9 +104,7 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     turn.add_argument("--speed", type=finite, help="turn rate [rad/s, deg/s with --deg]")
     turn.add_argument("--tolerance", type=finite, help="heading tolerance [rad, deg with --deg]")
     turn.add_argument("--deg", action="store_true", help="angles in degrees instead of radians")
-    turn.add_argument(
-        "--direction", choices=("auto", "cw", "ccw"), default="auto", help="cw / ccw: that way round (default: the shorter way)"
-    )
+    turn.add_argument("--direction", choices=DIRECTIONS, default="auto", help="cw / ccw: that way round (default: the shorter way)")
 
     back = argparse.ArgumentParser(add_help=False)
     back.add_argument("--backwards", action="store_true", help="the robot's back leads (the request's forwards = false)")
@@ -117,7 +118,7 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run, query="nav/turn_to_heading")
     p = sub.add_parser("swing", parents=[goal, turn], help="turn to a heading about one wheel, which stays still (a swing turn)")
     p.add_argument("heading", type=finite, help="[rad] in [-2 pi, 2 pi] (degrees with --deg)")
-    p.add_argument("side", choices=("left", "right"), help="the wheel that stays still")
+    p.add_argument("side", choices=GOALS["swing_to_heading"].field("side").choices, help="the wheel that stays still")
     p.set_defaults(func=run, query="nav/swing_to_heading")
     p = sub.add_parser("face", parents=[goal, turn, back], help="turn in place to face a point, or the back to it with --backwards")
     p.add_argument("x", type=finite, help="[m]")
@@ -148,6 +149,20 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
         "--for", dest="seconds", type=positive, required=True, metavar="SECONDS", help="how long [s]; a running goal is stopped first"
     )
     p.set_defaults(func=run, query="cmd_vel")
+
+
+# Each goal command's goal (common/goalschema.py), and its options named otherwise than the goal's fields
+# (a test holds every other option equal to a field of its goal).
+COMMANDS = {
+    "goto": "move_to_point",
+    "turn": "turn_to_heading",
+    "swing": "swing_to_heading",
+    "face": "turn_to_point",
+    "straight": "move_straight",
+    "path": "follow_path",
+}
+RENAMED = {"backwards": "forwards"}  # --backwards sends forwards = false
+OWN = ("wait", "timeout", "deg")  # the command's own options, not the goal's (--timeout: how long the command waits)
 
 
 def send(bot: Robot, args: argparse.Namespace) -> Goal:
@@ -232,7 +247,7 @@ def speed_text(args: argparse.Namespace, speed: float | None) -> str:
 
 def progress(st: Any) -> str:
     """One line of nav/state: state, goal, distance remaining, ETA, elapsed."""
-    unit = "rad" if st.state == "TURNING_TO_HEADING" else "m"
+    unit = "rad" if st.state == State.TURNING_TO_HEADING else "m"
     dist = "-" if st.distance_remaining is None else f"{st.distance_remaining:.3f} {unit}"
     eta = "-" if st.eta is None else f"{st.eta:.1f} s"
     point = "" if st.next_point is None else f"  next point {st.next_point}"

@@ -26,7 +26,7 @@ from zenav.common import messages as m
 from zenav.common.app import connection_args
 from zenav.common.bus import ZenohBus
 from zenav.common.client import Client, ZenavError
-from zenav.common.navgoals import STOPPED
+from zenav.common.contract import State
 
 PERIOD = 0.05  # [s] a held key's command is sent this often (20 Hz, inside the motor's watchdog)
 STOP_TIMEOUT = 1.0  # [s] for the navigator to answer the nav/stop of a key that drives while a goal runs
@@ -77,7 +77,7 @@ class Override:
     def take(self) -> int | None:
         """Stop the running goal, if nav/state shows one not stopped yet; its id."""
         st = self.state.msg
-        if st is None or st.state == STOPPED or st.goal_id == self.stopped:
+        if st is None or st.state == State.STOPPED or st.goal_id == self.stopped:
             return None
         self.stopped = st.goal_id
         try:

@@ -21,7 +21,7 @@ from zenav.common.app import deployment_args, settings_from_args, stop_on_signal
 from zenav.common.bus import ZenohBus, zenoh_config
 from zenav.common.client import Client, Latest, ZenavError
 from zenav.common.config import ConfigError, Settings
-from zenav.common.navgoals import STOPPED
+from zenav.common.contract import GoalResult, State
 from zenav.common.roles import ESSENTIAL
 from zenav.common.scenarios import SQUARE
 from zenav.robot import Goal, Result, Robot
@@ -153,7 +153,7 @@ class DemoGate:
 
     def commanded(self, cmd: m.CmdVel, nav: m.NavState | None, now: float) -> None:
         """A cmd_vel was heard (on Zenoh's thread): one that moves while the navigator runs no goal is someone driving by hand."""
-        if (cmd.v or cmd.omega) and (nav is None or nav.state == STOPPED):
+        if (cmd.v or cmd.omega) and (nav is None or nav.state == State.STOPPED):
             self.busy_at, self.who = now, "cmd_vel"
 
     def update(self, nav: m.NavState | None, now: float) -> bool:
@@ -187,7 +187,7 @@ def demo_loop(bot: Robot, done: threading.Event, say, now=time.monotonic) -> Non
             say(f"demo: {e}")
             done.wait(1.0)
             end = None
-        if end is not None and end.result == "cancelled":
+        if end is not None and end.result == GoalResult.CANCELLED:
             gate.interrupted(now())
             continue  # the same corner again, once the other goal is done
         if end is not None and not end.succeeded:

@@ -14,6 +14,7 @@ import zenoh
 
 from zenav.common import codec, keys
 from zenav.common import messages as m
+from zenav.common.contract import ErrorCode
 
 ABSOLUTE = ("zenav/", "@/")  # keys typed with these prefixes are taken as they are
 
@@ -98,7 +99,7 @@ def error_reply(data: bytes) -> tuple[str, str]:
         err = codec.decode(data, m.ErrorReply)
     except codec.BadInput:
         text = data.decode(errors="replace")
-        return ("unavailable" if "timeout" in text.lower() else "internal"), text
+        return (ErrorCode.UNAVAILABLE if "timeout" in text.lower() else ErrorCode.INTERNAL), text
     return err.error, err.message
 
 

@@ -1,7 +1,8 @@
 """A client of a running stack: queries, subscriptions and liveliness (the robot library, CLI, tests, bench).
 
 Errors are `ZenavError`s carrying the contract's error code (`invalid_argument`,
-`unavailable`, `internal`), one subclass per code.
+`unavailable`, `internal`), one subclass per code, and the reply's `reason` (a contract.Reason,
+or ""): the class and the reason are what a program decides on, never the message's words.
 """
 
 from __future__ import annotations
@@ -17,49 +18,50 @@ import zenoh
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.bus import Bus, Handle, Newest, ZenohBus, undeclare_all, zenoh_config
+from zenav.common.contract import ErrorCode
 from zenav.common.keys import DEFAULT_CONNECT
 
 
 class ZenavError(Exception):
-    """An error reply of the stack, or no reply at all; `code` is the contract's error code."""
+    """An error reply of the stack, or no reply at all; `code` is the contract's error code, `reason` its Reason ("": none)."""
 
-    def __init__(self, code: str, message: str) -> None:
+    def __init__(self, code: str, message: str, reason: str = "") -> None:
         super().__init__(f"{code}: {message}")
-        self.code, self.message = code, message
+        self.code, self.message, self.reason = code, message, reason
 
 
 class InvalidArgument(ZenavError, ValueError):
     """A request the stack refuses as bad input (the message names the field)."""
 
-    def __init__(self, message: str) -> None:
-        super().__init__("invalid_argument", message)
+    def __init__(self, message: str, reason: str = "") -> None:
+        super().__init__(ErrorCode.INVALID_ARGUMENT, message, reason)
 
 
 class Unavailable(ZenavError):
     """No router, no reply, or the stack cannot do it now (no pose yet, pose stale...)."""
 
-    def __init__(self, message: str) -> None:
-        super().__init__("unavailable", message)
+    def __init__(self, message: str, reason: str = "") -> None:
+        super().__init__(ErrorCode.UNAVAILABLE, message, reason)
 
 
 class Internal(ZenavError):
     """The service failed while handling the request."""
 
-    def __init__(self, message: str) -> None:
-        super().__init__("internal", message)
+    def __init__(self, message: str, reason: str = "") -> None:
+        super().__init__(ErrorCode.INTERNAL, message, reason)
 
 
 _ERRORS: dict[str, type[InvalidArgument | Unavailable | Internal]] = {
-    "invalid_argument": InvalidArgument,
-    "unavailable": Unavailable,
-    "internal": Internal,
+    ErrorCode.INVALID_ARGUMENT: InvalidArgument,
+    ErrorCode.UNAVAILABLE: Unavailable,
+    ErrorCode.INTERNAL: Internal,
 }
 
 
-def error(code: str, message: str) -> ZenavError:
-    """The exception of an error code (an unknown code is a plain ZenavError)."""
+def error(code: str, message: str, reason: str = "") -> ZenavError:
+    """The exception of an error code (an unknown code is a plain ZenavError), chosen by the code alone."""
     typ = _ERRORS.get(code)
-    return ZenavError(code, message) if typ is None else typ(message)
+    return ZenavError(code, message, reason) if typ is None else typ(message, reason)
 
 
 URGENT = frozenset({"nav/stop"})  # queries that travel ahead of everything else on every Zenoh link
@@ -180,7 +182,7 @@ class Client:
                 # Not a zenav error map: Zenoh's own, e.g. b"Timeout" when no reply came in time.
                 code = "unavailable" if b"timeout" in data.lower() else "internal"
                 raise error(code, f"{self.key(suffix)}: {data.decode(errors='replace')} after {timeout} s") from None
-            raise error(err.error, err.message)
+            raise error(err.error, err.message, err.reason)
         return codec.decode(data, reply_type)
 
     def publish(self, suffix: str, msg: Any) -> None:

@@ -22,6 +22,7 @@ from typing import Any
 from zenav.common import codec
 from zenav.common.bus import Query
 from zenav.common.clock import Clock
+from zenav.common.contract import ErrorCode
 from zenav.common.diagnostics import Counters
 from zenav.common.intake import Input
 from zenav.common.replies import FORMAT_PARAM, QueryError, clip, format_refusal, reply_error, reply_ok
@@ -97,12 +98,12 @@ class Dispatch:
         if exact is not None and q.key != exact:
             self.counters.inc("wildcard_refused")
             self.warn("wildcard", f"refused a query on {q.key}: it acts, so only {exact} is served")
-            reply_error(q, "invalid_argument", f"{q.key}: this query acts; ask it on its exact key {exact}")
+            reply_error(q, ErrorCode.INVALID_ARGUMENT, f"{q.key}: this query acts; ask it on its exact key {exact}")
             return
         refused = format_refusal(q.params.get(FORMAT_PARAM) if q.params_size else None)
         if refused is not None:
             self.counters.inc("bad_input")
-            reply_error(q, "invalid_argument", refused)
+            reply_error(q, ErrorCode.INVALID_ARGUMENT, refused)
             return
         try:
             params = {k: v for k, v in q.params.items() if not k.startswith("_")} if q.params_size else {}
@@ -110,20 +111,20 @@ class Dispatch:
         except codec.BadInput as e:
             self.counters.inc("bad_input")
             self.warn(f"badq:{fn.__name__}", f"bad query on {q.key}: {e}")
-            reply_error(q, "invalid_argument", clip(str(e)))
+            reply_error(q, ErrorCode.INVALID_ARGUMENT, clip(str(e)))
             return
         self._query_arrival = arrival
         try:
             rep = fn(req, q)
         except QueryError as e:
-            if e.code == "invalid_argument":
+            if e.code == ErrorCode.INVALID_ARGUMENT:
                 self.counters.inc("bad_input")
-            reply_error(q, e.code, e.message)
+            reply_error(q, e.code, e.message, reason=e.reason)
             return
         except Exception as e:
             self.counters.inc("errors")
             self.warn(f"query:{fn.__name__}", f"query {q.key} failed:\n{traceback.format_exc()}", logging.ERROR)
-            reply_error(q, "internal", clip(f"{type(e).__name__}: {e}"))
+            reply_error(q, ErrorCode.INTERNAL, clip(f"{type(e).__name__}: {e}"))
             return
         finally:
             self._query_arrival = 0

@@ -29,6 +29,7 @@ from typing import Any, NamedTuple
 from zenav.common import messages as m
 from zenav.common.bus import Query
 from zenav.common.config import Limits
+from zenav.common.contract import ErrorCode, Reason
 from zenav.common.diagnostics import Counters
 from zenav.common.inbox import Inbox
 from zenav.common.replies import reply_error
@@ -143,12 +144,12 @@ class Intake:
                     lim.max_payload if big else lim.max_params,
                     "max_payload" if big else "max_params",
                 )
-                reply_error(q, "invalid_argument", text, read_params=psize <= lim.max_params)
+                reply_error(q, ErrorCode.INVALID_ARGUMENT, text, read_params=psize <= lim.max_params)
                 return
             queued = self._put(Input("query", fn, exact or "", typ, (q, arrival)), size + psize, priority)
             if priority and q.key == exact:
                 self.on_priority(suffix, queued, arrival)
             if not queued:
-                reply_error(q, "unavailable", f"{self.name} is overloaded: input queue full")
+                reply_error(q, ErrorCode.UNAVAILABLE, f"{self.name} is overloaded: input queue full", reason=Reason.OVERLOADED)
 
         return enqueue

@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 
 from zenav.common import messages as m
+from zenav.common.goalschema import GOALS
 from zenav.common.roles import ALL as SERVICES
 
 DEFAULT_CONNECT = "tcp/127.0.0.1:7447"  # the router the stack and its tools meet at (Zenoh's standard port)
@@ -49,13 +50,7 @@ FIELD_TOPICS: dict[str, type[m.Topic]] = {
 
 # Query suffix -> (request type, reply type).
 QUERIES: dict[str, tuple[type[m.Request], type[m.Reply]]] = {
-    "nav/move_to_point": (m.MoveToPoint, m.GoalReply),
-    "nav/move_to_pose": (m.MoveToPose, m.GoalReply),
-    "nav/turn_to_heading": (m.TurnToHeading, m.GoalReply),
-    "nav/turn_to_point": (m.TurnToPoint, m.GoalReply),
-    "nav/swing_to_heading": (m.SwingToHeading, m.GoalReply),
-    "nav/move_straight": (m.MoveStraight, m.GoalReply),
-    "nav/follow_path": (m.FollowPath, m.GoalReply),
+    **{spec.key: (spec.request, m.GoalReply) for spec in GOALS.values()},  # the goals (common/goalschema.py)
     "nav/stop": (m.Empty, m.StopReply),
     "nav/status": (m.Empty, m.StatusReply),
     "localizer/pose": (m.Empty, m.LocalizerPoseReply),

@@ -160,10 +160,10 @@ class Wheels(Topic, frozen=True, kw_only=True):
 
 class NavState(Topic, frozen=True, kw_only=True):
     t: Time
-    state: str  # STOPPED, MOVING_TO_POINT, MOVING_TO_POSE, TURNING_TO_HEADING, MOVING_STRAIGHT, FOLLOWING_PATH
+    state: str  # a contract.State
     goal_id: int = 0
     goal: dict[str, Any] | None = None
-    result: str | None = None  # succeeded, cancelled, aborted; nil while running
+    result: str | None = None  # a contract.GoalResult; nil while running
     distance_remaining: Finite | None = None  # [m]
     heading_error: Finite | None = None  # [rad]
     eta: Finite | None = None  # [s]
@@ -384,8 +384,9 @@ class LocalizerPoseReply(Reply, frozen=True, kw_only=True):
 
 
 class ErrorReply(Reply, frozen=True, kw_only=True):
-    error: str  # invalid_argument, unavailable, internal
-    message: str
+    error: str  # a contract.ErrorCode
+    message: str  # for people: its words may change; programs decide on `error` and `reason`
+    reason: str = ""  # a contract.Reason: which refusal it is ("": none given)
 
 
 def to_builtins(msg: Struct) -> dict[str, Any]:

@@ -12,9 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from zenav.common import messages as m
+from zenav.common.contract import Exit, GoalResult, State
 
-STOPPED = "STOPPED"  # nav/state's state with no goal running
-TURNING_TO_HEADING = "TURNING_TO_HEADING"  # the state of a turn (turn_to_heading, turn_to_point, swing_to_heading)
 KEEP_GOALS = 64  # goal ids remembered below the newest
 
 
@@ -41,7 +40,7 @@ class GoalTracker:
         """Take a nav/state message."""
         self.newest = st
         self._states[st.goal_id] = st
-        if st.result is None and st.state != STOPPED:
+        if st.result is None and st.state != State.STOPPED:
             self._starts.setdefault(st.goal_id, st.t - st.elapsed)
         for gid in [g for g in self._states if g <= st.goal_id - self.keep]:
             del self._states[gid]
@@ -68,7 +67,8 @@ class GoalTracker:
             return GoalEnd(st.result, st.message, self._elapsed(goal_id, st.t), st.exit)
         if not self.current(goal_id):
             later = goal_id + 1  # ids count up by one: the goal that preempted this one
-            return GoalEnd("cancelled", f"preempted by goal {later}", self._elapsed(goal_id, self._starts.get(later)), "cancelled")
+            end_t = self._starts.get(later)
+            return GoalEnd(GoalResult.CANCELLED, f"preempted by goal {later}", self._elapsed(goal_id, end_t), Exit.CANCELLED)
         return None
 
     def _elapsed(self, goal_id: int, end_t: float | None) -> float | None:

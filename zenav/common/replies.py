@@ -33,9 +33,9 @@ def clip(text: str, limit: int = LOG_CHARS) -> str:
 class QueryError(Exception):
     """Raised by a query handler to answer with an error reply."""
 
-    def __init__(self, code: str, message: str) -> None:
+    def __init__(self, code: str, message: str, reason: str = "") -> None:
         super().__init__(message)
-        self.code, self.message = code, message
+        self.code, self.message, self.reason = code, message, reason
 
 
 def format_refusal(fmt: str | None) -> str | None:
@@ -56,12 +56,12 @@ def _encode(msg: Any, encoding: str) -> bytes:
     return msgspec.json.encode(msg) if encoding == JSON else codec.encode(msg)
 
 
-def reply_error(q: Query, code: str, message: str, *, read_params: bool = True) -> None:
-    """Answer a query with the contract's error map, and end it.
+def reply_error(q: Query, code: str, message: str, *, reason: str = "", read_params: bool = True) -> None:
+    """Answer a query with the contract's error map (`reason`: a contract.Reason, or ""), and end it.
 
     `read_params=False`: msgpack without parsing the selector parameters (refused as oversize)."""
     encoding = reply_format(q) if read_params else MSGPACK
-    q.reply_err(_encode(m.ErrorReply(error=code, message=message), encoding), encoding)
+    q.reply_err(_encode(m.ErrorReply(error=code, message=message, reason=reason), encoding), encoding)
     q.finish()
 
 

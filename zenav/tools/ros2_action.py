@@ -36,6 +36,7 @@ import zenoh
 
 from zenav.common import messages as m
 from zenav.common.client import Client, ZenavError
+from zenav.common.contract import GoalResult
 from zenav.tools import ros2_msgs as rm
 from zenav.tools import ros2_types as rt
 from zenav.tools.rmw_zenoh import TRANSIENT_LOCAL
@@ -47,7 +48,7 @@ NAME = "navigate_to_pose"
 ACCEPTED, EXECUTING, CANCELING, SUCCEEDED, CANCELED, ABORTED = 1, 2, 3, 4, 5, 6  # action_msgs/msg/GoalStatus
 UNKNOWN_STATUS = 0
 TERMINAL = (SUCCEEDED, CANCELED, ABORTED)
-RESULTS = {"succeeded": SUCCEEDED, "cancelled": CANCELED, "aborted": ABORTED}
+RESULTS: dict[str, int] = {GoalResult.SUCCEEDED: SUCCEEDED, GoalResult.CANCELLED: CANCELED, GoalResult.ABORTED: ABORTED}
 CANCEL_NONE, CANCEL_UNKNOWN_GOAL, CANCEL_TERMINATED = 0, 2, 3  # action_msgs/srv/CancelGoal return codes
 KEEP = 16  # finished goals kept for get_result and status
 MOVE_TO_POSE, STOP = "nav/move_to_pose", "nav/stop"

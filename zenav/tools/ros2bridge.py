@@ -28,7 +28,7 @@ from typing import Any
 from zenav.common import messages as m
 from zenav.common.bus import ZenohBus
 from zenav.common.client import Client, Latest, ZenavError
-from zenav.common.navgoals import STOPPED
+from zenav.common.contract import State
 from zenav.tools import ros2_msgs as rm
 from zenav.tools import ros2_out as ro
 from zenav.tools.rmw_zenoh import TRANSIENT_LOCAL, Wire
@@ -190,7 +190,7 @@ class Bridge:
         if cmd is None:
             return
         nav = None if self._nav is None else self._nav.msg
-        if cmd != (0.0, 0.0) and nav is not None and nav.state != STOPPED and nav.goal_id != self._stopped_goal:
+        if cmd != (0.0, 0.0) and nav is not None and nav.state != State.STOPPED and nav.goal_id != self._stopped_goal:
             self._stopped_goal = nav.goal_id
             try:
                 self.client.query(STOP, timeout=STOP_TIMEOUT)

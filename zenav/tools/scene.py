@@ -20,6 +20,7 @@ import numpy as np
 from foxglove import messages as fm
 
 from zenav.common import messages as m
+from zenav.common.contract import GoalResult
 
 FRAME = "map"
 ROBOT_FRAME = "base_link"  # child of map, at the fused pose
@@ -170,7 +171,7 @@ class Scene:
             if before is None or (before.state, before.goal_id, before.result) != (msg.state, msg.goal_id, msg.result):
                 text = f"{msg.state} goal {msg.goal_id}" + (f": {msg.result}" if msg.result else "")
                 text += f" ({msg.message})" if msg.message else ""
-                level = fm.LogLevel.Warning if msg.result == "aborted" else fm.LogLevel.Info
+                level = fm.LogLevel.Warning if msg.result == GoalResult.ABORTED else fm.LogLevel.Info
                 return [("viz/log", self._log(stamp, level, "navigator", text))]
         elif suffix.startswith("diag/"):
             was = self.status.get(msg.service)

@@ -22,10 +22,11 @@ import numpy as np
 from zenav.bench.scoring import summary
 from zenav.bench.studies.harness import Command, Trial
 from zenav.common.config import Robot
+from zenav.common.contract import GoalResult, State
 from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import HEADINGS, PATH, PRESETS, SQUARE, Scenario
 from zenav.services.navigator.controllers import PoseSample, Wheelbase, check_polar_gains
-from zenav.services.navigator.goals import FOLLOWING_PATH, MOVING_TO_POINT, TURNING_TO_HEADING, End, Goal, GoalMachine
+from zenav.services.navigator.goals import End, Goal, GoalMachine
 from zenav.services.navigator.params import CONTROLLERS, Params
 
 ERROR_STREAM = 0x4E4156  # "NAV": seed stream of the estimate's error, apart from the world's
@@ -98,7 +99,7 @@ class GoalDriver:
         cmd, self.end = self.machine.on_pose(self.error.estimate(trial))
         if self.end is None and (trial.steps - round(self.t0 * trial.rate)) % self.check_every == 0:
             self.end = self.machine.check(trial.t)
-        if self.goal.state == TURNING_TO_HEADING:
+        if self.goal.state == State.TURNING_TO_HEADING:
             self.overshoot = max(self.overshoot, -self.side * wrap_angle(self.goal.heading - trial.bot.state.theta))
         return None if self.end is not None else trial.bot.wheels(*(cmd or (0.0, 0.0)))
 
@@ -126,7 +127,7 @@ def _machine(params: Params, trial: Trial) -> GoalMachine:
 
 def path_trial(params: Params, scenario: Scenario, seed: int, pose_sigma: float = 0.0) -> Outcome:
     """Seed 002's trial: from (0, 0, 0) follow (1, 0) -> (1, 1)."""
-    goal = Goal(FOLLOWING_PATH, points=PATH, speed=params.speed, tolerance=params.tolerance)
+    goal = Goal(State.FOLLOWING_PATH, points=PATH, speed=params.speed, tolerance=params.tolerance)
     trial = _trial(scenario, seed)
     return drive(trial, _machine(params, trial), goal, PoseError(pose_sigma, scenario.vps_rate_hz, seed))
 
@@ -135,7 +136,7 @@ def square_trial(params: Params, scenario: Scenario, seed: int, pose_sigma: floa
     """Seed 003's square: move_to_point around a 1 m square and back to the start, `laps` times."""
     trial = _trial(scenario, seed)
     machine, error = _machine(params, trial), PoseError(pose_sigma, scenario.vps_rate_hz, seed)
-    goals = (Goal(MOVING_TO_POINT, points=(p,), speed=params.speed, tolerance=params.tolerance) for p in SQUARE * laps)
+    goals = (Goal(State.MOVING_TO_POINT, points=(p,), speed=params.speed, tolerance=params.tolerance) for p in SQUARE * laps)
     return [drive(trial, machine, goal, error) for goal in goals]
 
 
@@ -143,7 +144,7 @@ def turn_sweep(params: Params, scenario: Scenario, seed: int, headings_deg: Sequ
     """turn_to_heading from 0 to each heading (each from a fresh robot at rest)."""
     out = []
     for i, deg in enumerate(headings_deg):
-        goal = Goal(TURNING_TO_HEADING, heading=math.radians(deg), speed=params.turn_speed, tolerance=params.heading_tolerance)
+        goal = Goal(State.TURNING_TO_HEADING, heading=math.radians(deg), speed=params.turn_speed, tolerance=params.heading_tolerance)
         trial = _trial(scenario, seed * 1000 + i)
         out.append(drive(trial, _machine(params, trial), goal, PoseError(pose_sigma, scenario.vps_rate_hz, seed * 1000 + i)))
     return out
@@ -155,7 +156,7 @@ def compare(params: Params, scenario: Scenario, seeds: int, pose_sigma: float = 
     squares = [square_trial(params, scenario, s, pose_sigma) for s in range(seeds)]
     err = summary([100 * math.dist((o.x, o.y), PATH[-1]) for o in paths])
     corners = [100 * math.dist((o.x, o.y), c) for sq in squares for o, c in zip(sq, SQUARE * 3)]
-    failed = sum(o.result != "succeeded" for o in paths + [o for sq in squares for o in sq])
+    failed = sum(o.result != GoalResult.SUCCEEDED for o in paths + [o for sq in squares for o in sq])
     return (
         f"{err[0]:.2f} / {err[1]:.2f} / {err[2]:.2f} | {statistics.fmean(o.duration for o in paths):.1f} / "
         f"{max(o.duration for o in paths):.1f} | {statistics.fmean(corners):.2f} / {max(corners):.2f} | "

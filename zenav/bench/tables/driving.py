@@ -12,6 +12,7 @@ from zenav.bench.accuracy import Summary
 from zenav.bench.scoring import summary
 from zenav.bench.tables.markdown import failures, fmt, table
 from zenav.common.config import Camera
+from zenav.common.contract import GoalResult
 from zenav.common.scenarios import HEADINGS, PATH
 from zenav.services.vps.track import FULL_PERIOD
 
@@ -123,7 +124,7 @@ def navigation(res: Results) -> list[str]:
         kin = res.kinematic.get(ctrl, [])
         if kin:
             errs = [100 * math.dist((o.x, o.y), PATH[-1]) for o in kin]
-            failed = sum(o.result != "succeeded" for o in kin)
+            failed = sum(o.result != GoalResult.SUCCEEDED for o in kin)
             rows.append([ctrl, "kinematic", str(len(kin)), _spread(errs), _spread([o.duration for o in kin], 1), str(failed)])
     lines = [
         "## Navigation",

@@ -7,6 +7,7 @@ from typing import Any
 
 from zenav.common import keys
 from zenav.common import messages as m
+from zenav.common.contract import ErrorCode
 from zenav.common.runtime import QueryError, Service, publish, query, subscribe, timer
 
 from .base import LocalizerConfig
@@ -104,7 +105,7 @@ class Localizer(Service):
         """getPose: the newest estimate, its calibration and the measured VPS latency."""
         p = self.mode.get_pose()
         if p is None:
-            raise QueryError("unavailable", "no odometry received yet")
+            raise QueryError(ErrorCode.UNAVAILABLE, "no odometry received yet")
         return m.LocalizerPoseReply(t=p.t, x=p.x, y=p.y, theta=p.theta, cov=p.cov, calibration=p.calibration, vps_latency=self.mode.latency)
 
     @query("time/sync", acts=False)
@@ -116,7 +117,7 @@ class Localizer(Service):
     def set_pose(self, req: m.SetPose, q) -> m.PoseStamped:
         """setPose / setPosition / setHeading: any subset of x, y, theta but none, from now on."""
         if req.x is None and req.y is None and req.theta is None:
-            raise QueryError("invalid_argument", m.SET_POSE_EMPTY)
+            raise QueryError(ErrorCode.INVALID_ARGUMENT, m.SET_POSE_EMPTY)
         now = self.clock.now()
         p = self.mode.set_pose(now, req.x, req.y, req.theta)
         self.log.info("set_pose x=%s y=%s theta=%s at t=%.3f", req.x, req.y, req.theta, now)

@@ -1,6 +1,6 @@
 """Why a move ended: the exit reasons, and an error band held for a time (LemLib / EZ-Template exits).
 
-Pure: times come in as arguments. A move ends on the first of:
+Pure: times come in as arguments. A move ends on the first of (the contract's `Exit` codes):
 - `within_tolerance`: the error is under the goal's tolerance and the robot stops within it;
 - `passed`: the stop is predicted past the target, outside the tolerance (it cannot get closer going on);
 - `settled`: the error stayed under `settle_error` for `settle_time` (close, but no longer closing in);
@@ -21,17 +21,6 @@ ends `aborted`, saying by how much.
 from __future__ import annotations
 
 from dataclasses import dataclass
-
-WITHIN_TOLERANCE = "within_tolerance"
-PASSED = "passed"
-SETTLED = "settled"
-BIG_ERROR = "big_error"
-TIMEOUT = "timeout"
-STALLED = "stalled"
-CANCELLED = "cancelled"
-ABORTED = "aborted"
-CHAINED = "chained"
-EXITS = (WITHIN_TOLERANCE, PASSED, SETTLED, BIG_ERROR, TIMEOUT, STALLED, CANCELLED, ABORTED, CHAINED)
 
 
 @dataclass

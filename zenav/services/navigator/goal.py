@@ -9,19 +9,11 @@ from dataclasses import dataclass, field
 from operator import itemgetter
 
 from zenav.common.config import Field
+from zenav.common.contract import GoalResult, State
 from zenav.common.geometry import wrap_angle
-from zenav.common.navgoals import STOPPED, TURNING_TO_HEADING
 from zenav.services.navigator import controllers
 from zenav.services.navigator.controllers import PoseSample, Target
 from zenav.services.navigator.exits import Hold
-
-MOVING_TO_POINT = "MOVING_TO_POINT"
-MOVING_TO_POSE = "MOVING_TO_POSE"
-MOVING_STRAIGHT = "MOVING_STRAIGHT"
-FOLLOWING_PATH = "FOLLOWING_PATH"
-SUCCEEDED, CANCELLED, ABORTED = "succeeded", "cancelled", "aborted"
-STATES = (STOPPED, MOVING_TO_POINT, MOVING_TO_POSE, TURNING_TO_HEADING, MOVING_STRAIGHT, FOLLOWING_PATH)  # nav/state's `state`
-RESULTS = (SUCCEEDED, CANCELLED, ABORTED)  # a goal's `result`
 
 
 @dataclass(frozen=True)
@@ -53,7 +45,7 @@ class End:
     result: str  # succeeded, cancelled, aborted
     message: str
     stop: bool  # command zero velocity now (every end but a handover)
-    exit: str = ""  # why the move ended (exits.EXITS)
+    exit: str = ""  # why the move ended (a contract.Exit)
 
 
 @dataclass(frozen=True)
@@ -118,8 +110,8 @@ def outside(goal: Goal, pose: PoseSample, area: Field) -> str | None:
         xs, ys = list(map(itemgetter(0), goal.points)), list(map(itemgetter(1), goal.points))
         if min(xs) < area.x_min or max(xs) > area.x_max or min(ys) < area.y_min or max(ys) > area.y_max:
             i, why = next((i, w) for i, p in enumerate(goal.points) if (w := area.outside(*p)) is not None)
-            return f"points[{i}]: {why}" if goal.state == FOLLOWING_PATH else f"x, y: {why}"
-    if goal.state == MOVING_STRAIGHT and goal.distance is not None:
+            return f"points[{i}]: {why}" if goal.state == State.FOLLOWING_PATH else f"x, y: {why}"
+    if goal.state == State.MOVING_STRAIGHT and goal.distance is not None:
         d = math.copysign(goal.distance, goal.speed)  # [m] along the start heading
         end = area.outside(pose.x + d * math.cos(pose.theta), pose.y + d * math.sin(pose.theta))
         if end is not None:
@@ -149,13 +141,13 @@ def left_of(ox: float, oy: float, heading: float, x: float, y: float) -> float:
 
 def final_error(goal: Goal, origin: PoseSample, pose: PoseSample) -> tuple[float, float]:
     """(position error [m], heading error [rad]) of `pose` against the goal's end (0 where it has none)."""
-    if goal.state == TURNING_TO_HEADING:
+    if goal.state == State.TURNING_TO_HEADING:
         return 0.0, abs(wrap_angle(goal.heading - pose.theta))
-    if goal.state == MOVING_STRAIGHT:
+    if goal.state == State.MOVING_STRAIGHT:
         travelled = (pose.x - origin.x) * math.cos(origin.theta) + (pose.y - origin.y) * math.sin(origin.theta)
         return abs(abs(travelled) - (goal.distance or 0.0)), 0.0
     x, y = goal.points[-1]
-    turn = abs(wrap_angle(goal.heading - pose.theta)) if goal.state == MOVING_TO_POSE else 0.0
+    turn = abs(wrap_angle(goal.heading - pose.theta)) if goal.state == State.MOVING_TO_POSE else 0.0
     return math.hypot(x - pose.x, y - pose.y), turn
 
 
@@ -163,14 +155,14 @@ def verdict(goal: Goal, origin: PoseSample, pose: PoseSample, exit: str) -> tupl
     """(result, message) of a move that stopped on `exit`, from its error re-checked at `pose`."""
     dist, turn = final_error(goal, origin, pose)
     fails = []
-    if goal.state == TURNING_TO_HEADING:
+    if goal.state == State.TURNING_TO_HEADING:
         if turn > goal.tolerance:
             fails.append(f"{math.degrees(turn):.2f} deg off the heading (tolerance {math.degrees(goal.tolerance):.2f} deg)")
     else:
         if dist > goal.tolerance:
             fails.append(f"{dist * 100:.2f} cm from the goal (tolerance {goal.tolerance * 100:.2f} cm)")
-        if goal.state == MOVING_TO_POSE and turn > goal.heading_tolerance:
+        if goal.state == State.MOVING_TO_POSE and turn > goal.heading_tolerance:
             fails.append(f"{math.degrees(turn):.2f} deg off the heading (tolerance {math.degrees(goal.heading_tolerance):.2f} deg)")
     if not fails:
-        return SUCCEEDED, "arrived"
-    return ABORTED, f"stopped {' and '.join(fails)}: exit {exit}"
+        return GoalResult.SUCCEEDED, "arrived"
+    return GoalResult.ABORTED, f"stopped {' and '.join(fails)}: exit {exit}"

@@ -34,23 +34,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import NamedTuple
 
 from zenav.common.config import Field
+from zenav.common.contract import Exit, GoalResult, Reason, State
 from zenav.common.geometry import wrap_angle
-from zenav.common.navgoals import STOPPED, TURNING_TO_HEADING
-from zenav.services.navigator import controllers, exits
+from zenav.services.navigator import controllers
 from zenav.services.navigator.controllers import PoseSample, Wheelbase
 from zenav.services.navigator.exits import Hold
 from zenav.services.navigator.goal import (
-    ABORTED,
-    CANCELLED,
-    FOLLOWING_PATH,
-    MOVING_STRAIGHT,
-    MOVING_TO_POINT,
-    MOVING_TO_POSE,
-    RESULTS,
-    STATES,
-    SUCCEEDED,
     End,
     Feedback,
     Goal,
@@ -67,22 +59,12 @@ from zenav.services.navigator.params import Params
 from zenav.services.navigator.steering import MAX_SWITCHES, Steering
 
 __all__ = [  # the names the navigator's service and the tests import from here
-    "ABORTED",
-    "CANCELLED",
-    "FOLLOWING_PATH",
     "MAX_SWITCHES",
-    "MOVING_STRAIGHT",
-    "MOVING_TO_POINT",
-    "MOVING_TO_POSE",
-    "RESULTS",
-    "STATES",
-    "STOPPED",
-    "SUCCEEDED",
-    "TURNING_TO_HEADING",
     "End",
     "Feedback",
     "Goal",
     "GoalMachine",
+    "Refusal",
     "Refused",
     "outside",
     "path_rest",
@@ -94,18 +76,29 @@ SLIPPED = " (the wheels slipped: held by a wall or a robot?)"  # ends a move's f
 NOISE_SIGMAS = 2.0  # [-] plus this many position sigmas: an offset the estimate's noise explains is not chased by a turn
 
 
+class Refusal(NamedTuple):
+    """Why no goal can start now: the contract's code, and the words."""
+
+    reason: Reason
+    message: str
+
+
 class Refused(Exception):
-    """A goal that cannot start: no pose yet, or the pose is stale."""
+    """A goal that cannot start: no pose yet, or the pose is stale or too uncertain."""
+
+    def __init__(self, refusal: Refusal) -> None:
+        super().__init__(refusal.message)
+        self.reason = refusal.reason
 
 
 class GoalMachine(Steering):
-    """The navigator's state: STOPPED or running one goal."""
+    """The navigator's state: State.STOPPED or running one goal."""
 
     def __init__(self, params: Params, wheels: Wheelbase, area: Field | None = None, gated: bool = True) -> None:
         self.params, self.wheels = params, wheels
         self.gated = gated  # an uncertain pose refuses and aborts goals (a VPS runs); else it is only reported
         self.area = area or Field(enabled=False)
-        self.state = STOPPED
+        self.state: str = State.STOPPED
         self.goal_id = 0  # id of the newest goal
         self.goal: Goal | None = None  # the newest goal (kept after it ends)
         self.result: str | None = None  # result of the newest goal; None while it runs
@@ -122,15 +115,15 @@ class GoalMachine(Steering):
         """Whether a goal is running."""
         return self._run is not None
 
-    def refusal(self, now: float) -> str | None:
+    def refusal(self, now: float) -> Refusal | None:
         """Why no goal can start now (no pose, stale pose, uncertain pose), or None."""
         if self.pose is None:
-            return "no pose yet: is the localizer running?"
+            return Refusal(Reason.NO_POSE, "no pose yet: is the localizer running?")
         if now - self.pose.t > self.params.stale_after:
-            return f"pose stale: the newest is {now - self.pose.t:.2f} s old"
+            return Refusal(Reason.POSE_STALE, f"pose stale: the newest is {now - self.pose.t:.2f} s old")
         doubt = self.uncertain() if self.gated else None
         if doubt is not None:
-            return f"{doubt} (no VPS fix yet or for long: wait for one, or set the pose)"
+            return Refusal(Reason.POSE_UNCERTAIN, f"{doubt} (no VPS fix yet or for long: wait for one, or set the pose)")
         return None
 
     def uncertain(self) -> str | None:
@@ -151,7 +144,7 @@ class GoalMachine(Steering):
             raise Refused(reason)
         pose = self.pose
         assert pose is not None  # no refusal: there is a pose
-        preempted = self._end(CANCELLED, f"preempted by goal {self.goal_id + 1}", stop=False, exit=exits.CANCELLED)
+        preempted = self._end(GoalResult.CANCELLED, f"preempted by goal {self.goal_id + 1}", stop=False, exit=Exit.CANCELLED)
         self._coast = None  # the new goal takes over from a chained one's held command
         self.goal_id += 1
         self.goal, self.state, self.result, self.exit, self.message = goal, goal.state, None, None, ""
@@ -163,7 +156,7 @@ class GoalMachine(Steering):
         if goal.backwards:  # the run drives the robot seen from behind, to the heading its back arrives with
             goal, pose = replace(goal, heading=wrap_angle(goal.heading + math.pi)), behind(pose)
         run = self._run = Run(goal, now, pose, beyond, Hold(p.settle_time), Hold(p.big_time), deadline)
-        if goal.state == TURNING_TO_HEADING:
+        if goal.state == State.TURNING_TO_HEADING:
             err = wrap_angle(goal.heading - pose.theta)
             run.forced = goal.direction != 0 and abs(err) > goal.tolerance  # told its way, and not there already
             run.way = float(goal.direction) if run.forced else math.copysign(1.0, err)
@@ -171,7 +164,7 @@ class GoalMachine(Steering):
             run.rest = path_rest(goal.points)
             self._aim(run, pose)
         cmd = self._step(run, pose)  # feedback and progress from the start
-        if cmd is None and run.exit != exits.CHAINED:  # already there (a chained goal already there ends on the next pose)
+        if cmd is None and run.exit != Exit.CHAINED:  # already there (a chained goal already there ends on the next pose)
             self._stop(run, pose)
         run.best, run.best_t = run.progress, now
         return preempted
@@ -179,12 +172,12 @@ class GoalMachine(Steering):
     def cancel(self, message: str) -> End | None:
         """Cancel the running goal (stop, lease...), and a chained goal's held command; None if there is no goal."""
         self._coast = None
-        return self._end(CANCELLED, message, stop=True, exit=exits.CANCELLED)
+        return self._end(GoalResult.CANCELLED, message, stop=True, exit=Exit.CANCELLED)
 
-    def abort(self, message: str, exit: str = exits.ABORTED) -> End | None:
+    def abort(self, message: str, exit: str = Exit.ABORTED) -> End | None:
         """Abort the running goal, and a chained goal's held command; None if there is no goal."""
         self._coast = None
-        return self._end(ABORTED, message, stop=True, exit=exit)
+        return self._end(GoalResult.ABORTED, message, stop=True, exit=exit)
 
     @property
     def coasting(self) -> bool:
@@ -214,11 +207,11 @@ class GoalMachine(Steering):
         if run.sign < 0.0:
             pose = behind(pose)
         if run.settle_from is None:
-            cmd = None if run.exit == exits.CHAINED else self._step(run, pose)
+            cmd = None if run.exit == Exit.CHAINED else self._step(run, pose)
             if cmd is not None:
                 self._cmd = controllers.limit(run.sign * cmd[0], cmd[1], self.params.max_turn_speed, self.wheels)
                 return self._cmd, None
-            if run.exit == exits.CHAINED:
+            if run.exit == Exit.CHAINED:
                 return self._chained(run, pose)
             self._stop(run, pose)
         assert run.settle_from is not None and run.exit is not None  # stopped
@@ -227,9 +220,9 @@ class GoalMachine(Steering):
         waiting = pose.slipping and resting < self.params.rest_time + self.params.slip_wait
         if resting >= self.params.rest_time and not waiting:
             result, message = verdict(run.goal, run.origin, pose, run.exit)
-            if result != SUCCEEDED and run.slipped:
+            if result != GoalResult.SUCCEEDED and run.slipped:
                 message += SLIPPED
-            if result == SUCCEEDED or not self._retry(run, pose):
+            if result == GoalResult.SUCCEEDED or not self._retry(run, pose):
                 return (0.0, 0.0), self._end(result, message, stop=True, exit=run.exit)
             return self.on_pose(self.pose)
         return (0.0, 0.0), None
@@ -244,18 +237,18 @@ class GoalMachine(Steering):
         doubt = self.uncertain() if self.gated else None
         if doubt is not None:
             return self.abort(doubt)
-        if run.goal.state == MOVING_STRAIGHT and run.goal.distance is None and now - run.start_t >= p.straight_max_time:
+        if run.goal.state == State.MOVING_STRAIGHT and run.goal.distance is None and now - run.start_t >= p.straight_max_time:
             message = f"move_straight without a distance stops after straight_max_time = {p.straight_max_time:g} s"
-            return self.abort(message, exits.TIMEOUT)
+            return self.abort(message, Exit.TIMEOUT)
         if run.settle_from is None and now >= run.deadline:
-            run.exit = exits.TIMEOUT
+            run.exit = Exit.TIMEOUT
             self._stop(run, pose)  # zero from the next pose on, then the error is re-checked
-        angular = run.goal.state == TURNING_TO_HEADING or run.turning or run.facing
+        angular = run.goal.state == State.TURNING_TO_HEADING or run.turning or run.facing
         step = p.progress_angle if angular else p.progress_distance
         if run.settle_from is not None or run.best is None or run.progress >= run.best + step:
             run.best, run.best_t = run.progress, now
         elif now - run.best_t > p.progress_timeout:
-            return self.abort(f"no progress for {now - run.best_t:.1f} s{SLIPPED if run.slipped else ''}", exits.STALLED)
+            return self.abort(f"no progress for {now - run.best_t:.1f} s{SLIPPED if run.slipped else ''}", Exit.STALLED)
         return None
 
     def feedback(self, now: float) -> Feedback:
@@ -270,7 +263,7 @@ class GoalMachine(Steering):
             heading_error=run.heading_error,
             eta=eta,
             elapsed=now - run.start_t,
-            next_point=run.index if run.goal.state == FOLLOWING_PATH else None,
+            next_point=run.index if run.goal.state == State.FOLLOWING_PATH else None,
             cross_track_error=run.cross_track,
         )
 
@@ -293,15 +286,15 @@ class GoalMachine(Steering):
         self._run = None
         if stop:
             self._cmd = (0.0, 0.0)
-        self.state, self.result, self.exit, self.message = STOPPED, result, exit, message
+        self.state, self.result, self.exit, self.message = State.STOPPED, result, exit, message
         return End(self.goal_id, result, message, stop, exit)
 
     def _chained(self, run: Run, pose: PoseSample) -> tuple[tuple[float, float], End | None]:
         """A chained goal crossed its exit line: it succeeds at once, its last command held for chain_time."""
         self._coast = pose.t + self.params.chain_time
         dist, turn = final_error(run.goal, run.origin, pose)
-        off = f"{math.degrees(turn):.1f} deg" if run.goal.state == TURNING_TO_HEADING else f"{dist * 100:.1f} cm"
-        return self._cmd, self._end(SUCCEEDED, f"chained {off} from the target, at speed", stop=False, exit=exits.CHAINED)
+        off = f"{math.degrees(turn):.1f} deg" if run.goal.state == State.TURNING_TO_HEADING else f"{dist * 100:.1f} cm"
+        return self._cmd, self._end(GoalResult.SUCCEEDED, f"chained {off} from the target, at speed", stop=False, exit=Exit.CHAINED)
 
     def _held(self, t: float) -> tuple[float, float] | None:
         """No goal runs: a chained goal's last command until chain_time has passed, then zero once; else None."""
@@ -315,7 +308,7 @@ class GoalMachine(Steering):
         """The move ends at `pose` (run.exit says why): zero from now on, the error re-checked after rest_time."""
         run.settle_from, run.held, self._cmd = pose.t, pose.slipping, (0.0, 0.0)
         run.slipped = run.slipped or pose.slipping
-        run.exit = run.exit or exits.WITHIN_TOLERANCE
+        run.exit = run.exit or Exit.WITHIN_TOLERANCE
         run.remaining = 0.0 if run.remaining is not None else None
 
     def _retry(self, run: Run, pose: PoseSample) -> bool:
@@ -327,9 +320,9 @@ class GoalMachine(Steering):
         turning in place to face it (or to back onto it, whichever turn is smaller). Not a move that stopped with
         its wheels slipping: a wall or a robot held it, and moving again would push into it again.
         """
-        if run.exit not in (exits.WITHIN_TOLERANCE, exits.PASSED) or run.retries >= self.params.retries or run.held:
+        if run.exit not in (Exit.WITHIN_TOLERANCE, Exit.PASSED) or run.retries >= self.params.retries or run.held:
             return False
-        if run.goal.state == MOVING_STRAIGHT:
+        if run.goal.state == State.MOVING_STRAIGHT:
             return False
         run.retries += 1
         run.settle_from, run.exit, run.turning = None, None, False

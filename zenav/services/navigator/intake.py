@@ -10,16 +10,14 @@ import math
 from typing import Any, TypedDict, cast
 
 from zenav.common import messages as m
+from zenav.common.contract import State
 from zenav.common.geometry import wrap_angle
-from zenav.services.navigator import goals
+from zenav.common.goalschema import SLOWEST
 from zenav.services.navigator.controllers import PoseSample, check_polar_gains
 from zenav.services.navigator.goals import Goal
 from zenav.services.navigator.params import Params
 
 Resolved = tuple[Goal, dict[str, Any]]  # the goal, and its `goal` map of nav/state
-# [m/s] ([rad/s] for turns) the slowest speed a goal may ask for: 1 mm/s. Slower is no drive at all (a 1 m goal at 1e-14 m/s
-# would end after 3 million years: its eta would leave the contract's range), and is refused naming this bound.
-MIN_SPEED = 1e-3
 
 
 class Invalid(ValueError):
@@ -32,9 +30,9 @@ def _speed(speed: float | None, cfg: Params) -> float:
 
 
 def _slowest(speed: float, unit: str) -> float:
-    """`speed` if it is MIN_SPEED or more (its magnitude, signed for move_straight), else Invalid naming the bound."""
-    if abs(speed) < MIN_SPEED:
-        raise Invalid(f"speed: {speed:g} {unit} is under the slowest a goal drives, {MIN_SPEED:g} {unit}")
+    """`speed` if it is goalschema.SLOWEST or more (its magnitude, signed for move_straight), else Invalid naming the bound."""
+    if abs(speed) < SLOWEST:
+        raise Invalid(f"speed: {speed:g} {unit} is under the slowest a goal drives, {SLOWEST:g} {unit}")
     return speed
 
 
@@ -63,7 +61,7 @@ def move_to_point(req: m.MoveToPoint, cfg: Params) -> Resolved:
     """Drive to (x, y)."""
     speed, tol = _speed(req.speed, cfg), req.tolerance or cfg.tolerance
     chain, backwards, timeout = _chain(req, speed), not req.forwards, _timeout(req, cfg)
-    goal = Goal(goals.MOVING_TO_POINT, ((req.x, req.y),), speed=speed, tolerance=tol, timeout=timeout, backwards=backwards, **chain)
+    goal = Goal(State.MOVING_TO_POINT, ((req.x, req.y),), speed=speed, tolerance=tol, timeout=timeout, backwards=backwards, **chain)
     return goal, {"type": "move_to_point", "x": req.x, "y": req.y, "speed": speed, "tolerance": tol, "forwards": req.forwards, **chain}
 
 
@@ -78,7 +76,7 @@ def move_to_pose(req: m.MoveToPose, cfg: Params) -> Resolved:
     heading, heading_tol = wrap_angle(req.theta), req.heading_tolerance or cfg.heading_tolerance
     lead, chain = cfg.lead if req.lead is None else req.lead, _chain(req, speed)
     goal = Goal(
-        goals.MOVING_TO_POSE,
+        State.MOVING_TO_POSE,
         points=((req.x, req.y),),
         heading=heading,
         speed=speed,
@@ -120,7 +118,7 @@ def move_straight(req: m.MoveStraight, cfg: Params) -> Resolved:
     if req.speed == 0.0:
         raise Invalid("speed: must not be 0 (use nav/stop to stop)")
     speed = math.copysign(min(abs(_slowest(req.speed, "m/s")), cfg.max_speed), req.speed)
-    goal = Goal(goals.MOVING_STRAIGHT, speed=speed, distance=req.distance, tolerance=cfg.tolerance)
+    goal = Goal(State.MOVING_STRAIGHT, speed=speed, distance=req.distance, tolerance=cfg.tolerance)
     return goal, {"type": "move_straight", "speed": speed, "distance": req.distance}
 
 
@@ -143,7 +141,7 @@ def follow_path(req: m.FollowPath, cfg: Params) -> Resolved:
         points = tuple((p[0], p[1]) for p in pts)
         tols = tuple(p[2] if len(p) == 3 else through for p in pts[:-1]) + (pts[-1][2] if len(pts[-1]) == 3 else tol,)
     goal = Goal(
-        goals.FOLLOWING_PATH,
+        State.FOLLOWING_PATH,
         points=points,
         speed=speed,
         tolerance=tols[-1],
@@ -167,5 +165,5 @@ def _turn(
     speed = min(_slowest(req.speed or cfg.turn_speed, "rad/s"), cfg.max_turn_speed)
     tol, chain, way = req.tolerance or cfg.heading_tolerance, _chain(req, speed), TURN_WAYS[req.direction]
     timeout = _timeout(req, cfg)
-    goal = Goal(goals.TURNING_TO_HEADING, heading=heading, speed=speed, tolerance=tol, timeout=timeout, direction=way, pivot=pivot, **chain)
+    goal = Goal(State.TURNING_TO_HEADING, heading=heading, speed=speed, tolerance=tol, timeout=timeout, direction=way, pivot=pivot, **chain)
     return goal, {**info, "speed": speed, "tolerance": tol, "direction": req.direction, **chain}

@@ -10,7 +10,7 @@ Pos = Annotated[float, Meta(gt=0.0, le=1e3)]
 NonNeg = Annotated[float, Meta(ge=0.0, le=1e3)]
 Gain = Annotated[float, Meta(ge=-1e3, le=1e3)]
 Limit = Annotated[float, Meta(gt=0.0)]  # inf turns the check off
-Speed = Annotated[float, Meta(ge=1e-3, le=1e3)]  # [m/s] or [rad/s] a goal's speed: at least intake.MIN_SPEED
+Speed = Annotated[float, Meta(ge=1e-3, le=1e3)]  # [m/s] or [rad/s] a goal's speed: at least goalschema.SLOWEST
 
 ControllerName = Literal["pid", "polar", "proportional"]
 CONTROLLERS: tuple[str, ...] = get_args(ControllerName)

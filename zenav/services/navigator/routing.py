@@ -11,11 +11,12 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+from zenav.common.contract import State
 from zenav.common.field import Point
-from zenav.services.navigator.goals import FOLLOWING_PATH, MOVING_TO_POINT, MOVING_TO_POSE, Goal
+from zenav.services.navigator.goals import Goal
 from zenav.services.navigator.planner import NoPath, Planner
 
-PLANNED = (MOVING_TO_POINT, MOVING_TO_POSE, FOLLOWING_PATH)  # the goals whose points are planned between
+PLANNED = (State.MOVING_TO_POINT, State.MOVING_TO_POSE, State.FOLLOWING_PATH)  # the goals whose points are planned between
 
 
 class Blocked(ValueError):
@@ -28,7 +29,7 @@ def check_targets(goal: Goal, planner: Planner) -> None:
         for s in planner.shapes:
             gap = s.clearance(x, y)
             if gap < planner.clearance:
-                where = f"points[{i}]" if goal.state == FOLLOWING_PATH else "x, y"
+                where = f"points[{i}]" if goal.state == State.FOLLOWING_PATH else "x, y"
                 what = "inside" if gap < 0.0 else f"{gap:.3f} m from"
                 raise Blocked(
                     f"{where}: ({x:g}, {y:g}) is {what} {s.name}: the robot keeps {planner.clearance:.3f} m clear "
@@ -56,7 +57,7 @@ def route(goal: Goal, start: Point, radius: float, planner: Planner, corner_tole
         try:
             way = planner.plan(here, target)
         except NoPath as e:
-            where = f"points[{i}]" if goal.state == FOLLOWING_PATH else "x, y"
+            where = f"points[{i}]" if goal.state == State.FOLLOWING_PATH else "x, y"
             raise Blocked(f"{where}: {e}") from None
         points += way
         tolerances += [corner_tolerance] * (len(way) - 1) + [tols[i]]

@@ -32,6 +32,7 @@ from zenav.common import messages as m
 from zenav.common.bus import Bus, Query
 from zenav.common.clock import Clock
 from zenav.common.config import ConfigError, Settings
+from zenav.common.contract import ErrorCode, GoalResult, Reason
 from zenav.common.geometry import wrap_angle
 from zenav.common.runtime import QueryError, Service, on_liveliness, publish, query, reply_error, reply_ok, subscribe, timer
 from zenav.services.navigator import goals, intake, planner, routing
@@ -115,7 +116,7 @@ class Navigator(Service):
         """The lease grace, stale pose and progress checks, and the diag status."""
         p = self.requests.expired(now)
         if p is not None:
-            self._refuse(p, f"lease {p.lease} is not alive")
+            self._refuse(p, f"lease {p.lease} is not alive", Reason.LEASE_UNSEEN)
         end = self.machine.check(now)
         if end is not None:
             self._pose_wanted = self._pose_wanted or self.machine.refusal(now) is not None
@@ -251,7 +252,7 @@ class Navigator(Service):
     def stop_query(self, req: m.Empty, q: Query) -> m.StopReply:
         """Cancel the goal (and a goal waiting for its lease) and command zero, ahead of any queued input
         (on_priority commanded zero already, when the query arrived)."""
-        self._drop_pending("cancelled by nav/stop before its lease was seen")
+        self._drop_pending("cancelled by nav/stop before its lease was seen", Reason.STOPPED)
         end = self.machine.cancel("stopped")
         with self._cmd_lock:
             self._zero()
@@ -275,7 +276,7 @@ class Navigator(Service):
             result=self.machine.result,
             distance_remaining=fb.distance_remaining,
             pose=self._stamped(),
-            not_ready=self.machine.refusal(self.clock.now()) or "",
+            not_ready=self._not_ready(),
             exit=self.machine.exit,
             position_sigma=self._sigmas()[0],
             heading_sigma=self._sigmas()[1],
@@ -292,7 +293,7 @@ class Navigator(Service):
 
     def on_clock_reset(self) -> None:
         """The sim restarted: poses start again from t = 0, and the goal is void."""
-        self._drop_pending("the stack clock restarted")
+        self._drop_pending("the stack clock restarted", Reason.RESTARTED)
         end = self.machine.reset("the stack clock restarted")
         if end is not None:
             self._ended(end)
@@ -300,7 +301,7 @@ class Navigator(Service):
 
     def on_stop(self) -> None:
         """Shutting down: end the goal, answer every waiter, command zero."""
-        self._drop_pending("navigator shutting down")
+        self._drop_pending("navigator shutting down", Reason.SHUTTING_DOWN)
         end = self.machine.abort("navigator shutting down")
         if end is not None:
             self._ended(end, zero=False)
@@ -327,7 +328,7 @@ class Navigator(Service):
         if reason is not None:
             self._pose_wanted = True
             self._health(now)
-            raise QueryError("unavailable", reason)
+            raise QueryError(ErrorCode.UNAVAILABLE, reason.message, reason.reason)
         pose = self.machine.pose
         assert pose is not None  # no refusal: there is a pose
         return pose
@@ -337,16 +338,16 @@ class Navigator(Service):
         try:
             goal, info = resolve(req, self.cfg)
         except intake.Invalid as e:
-            raise QueryError("invalid_argument", str(e)) from None
+            raise QueryError(ErrorCode.INVALID_ARGUMENT, str(e)) from None
         if self._motor_gone:
-            raise QueryError("unavailable", "the motor service is gone: no goal can be driven")
+            raise QueryError(ErrorCode.UNAVAILABLE, "the motor service is gone: no goal can be driven", Reason.MOTOR_GONE)
         pose = self._pose_or_unavailable()
         out = goals.outside(goal, pose, self.area)
         if out is not None:
-            raise QueryError("invalid_argument", out)
+            raise QueryError(ErrorCode.INVALID_ARGUMENT, out)
         if self.query_arrival() < self._stopped_at:  # a stop came after it, however late (one held for its lease: stop_query)
             self.count("goals_voided")
-            raise QueryError("unavailable", "cancelled by nav/stop: the stop reached the navigator after this goal")
+            raise QueryError(ErrorCode.UNAVAILABLE, "cancelled by nav/stop: the stop reached the navigator after this goal", Reason.STOPPED)
         asked = len(goal.points)
         try:
             if getattr(req, "plan", False):
@@ -354,23 +355,23 @@ class Navigator(Service):
             else:
                 routing.check_targets(goal, self.planner)
         except routing.Blocked as e:
-            raise QueryError("invalid_argument", str(e)) from None
+            raise QueryError(ErrorCode.INVALID_ARGUMENT, str(e)) from None
         request = Request(goal, info, req.wait, q, detours=len(goal.points) - asked)
         if req.lease is None:
-            self._drop_pending("superseded by a newer goal before its lease was seen")
+            self._drop_pending("superseded by a newer goal before its lease was seen", Reason.SUPERSEDED)
             self._begin(request)
             return
         if len(req.lease) > LEASE_CHARS:
-            raise QueryError("invalid_argument", f"lease: {len(req.lease)} characters is over {LEASE_CHARS}")
+            raise QueryError(ErrorCode.INVALID_ARGUMENT, f"lease: {len(req.lease)} characters is over {LEASE_CHARS}")
         if any(c in req.lease for c in "*$?#"):
-            raise QueryError("invalid_argument", f"lease: {req.lease!r} must be a plain key, without wildcards")
+            raise QueryError(ErrorCode.INVALID_ARGUMENT, f"lease: {req.lease!r} must be a plain key, without wildcards")
         try:
             request.watch = self.watch(req.lease, lambda alive: self._on_lease(request, alive))
         except Exception as e:  # the key expression does not parse
-            raise QueryError("invalid_argument", f"lease: {req.lease!r} is not a valid key: {e}") from None
+            raise QueryError(ErrorCode.INVALID_ARGUMENT, f"lease: {req.lease!r} is not a valid key: {e}") from None
         old = self.requests.hold(request, req.lease, self.clock.now() + self.cfg.lease_grace)
         if old is not None:
-            self._refuse(old, "superseded by a newer goal before its lease was seen")
+            self._refuse(old, "superseded by a newer goal before its lease was seen", Reason.SUPERSEDED)
 
     def _on_lease(self, request: Request, alive: bool) -> None:
         """A token event of a request's lease (in the worker, like any input)."""
@@ -393,7 +394,7 @@ class Navigator(Service):
             preempted = self.machine.start(request.goal, self.clock.now())
         except Refused as e:
             self._pose_wanted = True
-            self._refuse(request, str(e))
+            self._refuse(request, str(e), e.reason)
             return
         if preempted is not None:
             self._ended(preempted)
@@ -430,15 +431,20 @@ class Navigator(Service):
         )
         self.publish("nav/plan", msg)
 
-    def _refuse(self, request: Request, message: str) -> None:
-        """Answer a request that will not start `unavailable`, and release its lease watch."""
+    def _refuse(self, request: Request, message: str, reason: Reason) -> None:
+        """Answer a request that will not start `unavailable` for `reason`, and release its lease watch."""
         self._unwatch(request)
-        reply_error(request.reply_to, "unavailable", message)
+        reply_error(request.reply_to, ErrorCode.UNAVAILABLE, message, reason=reason)
 
-    def _drop_pending(self, message: str) -> None:
+    def _drop_pending(self, message: str, reason: Reason) -> None:
         p = self.requests.take_pending()
         if p is not None:
-            self._refuse(p, message)
+            self._refuse(p, message, reason)
+
+    def _not_ready(self) -> str:
+        """Why a goal would be refused now ("": it would start)."""
+        refusal = self.machine.refusal(self.clock.now())
+        return "" if refusal is None else refusal.message
 
     def _unwatch(self, request: Request | None) -> None:
         if request is not None and request.watch is not None:
@@ -447,7 +453,7 @@ class Navigator(Service):
 
     def _ended(self, end: End, zero: bool = True) -> None:
         """A goal ended: answer its waiter, drop its lease, and command zero unless handed over."""
-        log = self.log.info if end.result != goals.ABORTED else self.log.warning
+        log = self.log.info if end.result != GoalResult.ABORTED else self.log.warning
         log("goal %d %s: %s", end.goal_id, end.result, end.message)
         done, waiter = self.requests.ended(end.goal_id)
         if done is not None and done.watch is not None and not end.stop and self.machine.coasting:
@@ -476,7 +482,7 @@ class Navigator(Service):
         if self._motor_gone:
             self.set_status("error", "motor service gone: goals cannot be driven")
         elif self._pose_wanted:
-            self.set_status("error", f"a goal is wanted but {refusal}")
+            self.set_status("error", f"a goal is wanted but {refusal.message if refusal else ''}")
         else:
             self.set_status("ok")
 

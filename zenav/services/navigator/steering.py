@@ -7,11 +7,11 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
+from zenav.common.contract import Exit, State
 from zenav.common.geometry import wrap_angle
-from zenav.common.navgoals import TURNING_TO_HEADING
-from zenav.services.navigator import controllers, exits
+from zenav.services.navigator import controllers
 from zenav.services.navigator.controllers import PoseSample, Target, Wheelbase
-from zenav.services.navigator.goal import MOVING_STRAIGHT, MOVING_TO_POSE, Run, aimed, final_error, left_of
+from zenav.services.navigator.goal import Run, aimed, final_error, left_of
 from zenav.services.navigator.params import Params
 from zenav.services.navigator.turning import profile_speed, turn_command
 
@@ -34,16 +34,16 @@ class Steering:
         may start past its target's line, and come round to cross it).
         """
         before, run.along = run.along, along
-        start = before is None and run.goal.state != MOVING_TO_POSE
+        start = before is None and run.goal.state != State.MOVING_TO_POSE
         if along <= run.goal.early_exit_range and (start or (before is not None and before > run.goal.early_exit_range)):
-            run.exit = exits.CHAINED
+            run.exit = Exit.CHAINED
             return True
         return False
 
     def _aim(self, run: Run, pose: PoseSample) -> None:
         """Target the current point: a fresh controller, and the old progress invalidated."""
         x, y = run.goal.points[run.index]
-        if run.goal.state == MOVING_TO_POSE and run.index + 1 == len(run.goal.points):  # a planned detour's corners: points
+        if run.goal.state == State.MOVING_TO_POSE and run.index + 1 == len(run.goal.points):  # a planned detour's corners: points
             run.target = Target(x, y, run.goal.heading, run.goal.speed, lead=run.goal.lead)
             run.controller = controllers.make(self.params.pose_controller)
         else:
@@ -57,9 +57,9 @@ class Steering:
     def _step(self, run: Run, pose: PoseSample) -> tuple[float, float] | None:
         """The command for this pose; None once the move ends (run.exit says why). Updates feedback and progress."""
         goal, p = run.goal, self.params
-        if goal.state == MOVING_STRAIGHT:
+        if goal.state == State.MOVING_STRAIGHT:
             return self._step_straight(run, pose)
-        if goal.state == TURNING_TO_HEADING:
+        if goal.state == State.TURNING_TO_HEADING:
             cmd = (
                 self._chained_turn(run, pose)
                 if goal.min_speed > 0.0
@@ -81,7 +81,7 @@ class Steering:
         settled = run.small.update(pose.t, holding and dist <= p.settle_error and turn <= p.settle_heading_error)
         near = run.big.update(pose.t, holding and dist <= p.big_error and turn <= p.big_heading_error)
         if settled or near:
-            run.exit = exits.SETTLED if settled else exits.BIG_ERROR
+            run.exit = Exit.SETTLED if settled else Exit.BIG_ERROR
             return None
         return cmd
 
@@ -116,9 +116,9 @@ class Steering:
             run.progress = -dist
             return self._through(run, pose, target, dist)
         if goal.min_speed > 0.0:
-            approach = goal.heading if goal.state == MOVING_TO_POSE else seg_heading
+            approach = goal.heading if goal.state == State.MOVING_TO_POSE else seg_heading
             along = (target.x - pose.x) * math.cos(approach) + (target.y - pose.y) * math.sin(approach)  # [m] before its line
-            if goal.state != MOVING_TO_POSE or dist > p.lock_distance or self._passing(run, pose, along):
+            if goal.state != State.MOVING_TO_POSE or dist > p.lock_distance or self._passing(run, pose, along):
                 run.progress = -dist
                 return self._chained_point(run, pose, target, along)
             run.goal = goal = replace(goal, min_speed=0.0)  # close, and it cannot pass through its pose at speed: it ends unchained
@@ -126,8 +126,8 @@ class Steering:
             return self._step_turn(run, pose, goal.heading, goal.heading_tolerance, p.turn_speed)
         run.progress = -dist
         if dist <= goal.tolerance and math.hypot(target.x - px, target.y - py) <= goal.tolerance:
-            if goal.state != MOVING_TO_POSE:
-                run.exit = exits.WITHIN_TOLERANCE
+            if goal.state != State.MOVING_TO_POSE:
+                run.exit = Exit.WITHIN_TOLERANCE
                 return None
             run.turning, run.best = True, None  # at the point: turn in place to the heading
             return self._step_turn(run, pose, goal.heading, goal.heading_tolerance, p.turn_speed)
@@ -168,7 +168,7 @@ class Steering:
             return None
         ahead = -1.0 if target.reverse else 1.0
         if math.hypot(target.x - pose.x, target.y - pose.y) <= p.lock_distance:
-            omega = p.prop_heading_gain * wrap_angle(goal.heading - pose.theta) if goal.state == MOVING_TO_POSE else 0.0
+            omega = p.prop_heading_gain * wrap_angle(goal.heading - pose.theta) if goal.state == State.MOVING_TO_POSE else 0.0
             return ahead * profile_speed(along - goal.early_exit_range, p.decel, goal.min_speed, goal.speed), omega
         assert run.controller is not None  # made with the target
         v, omega = run.controller(pose, target, p)
@@ -215,10 +215,10 @@ class Steering:
         if ahead * (run.sign * self._cmd[0] or along) <= 0.0:  # the stop is predicted at or past the point abeam: stop now
             lateral = left_of(pose.x, pose.y, pose.theta, target.x, target.y)  # [m]
             inside = math.hypot(ahead, lateral) <= goal.tolerance  # the predicted stop
-            if goal.state != MOVING_TO_POSE:
-                run.exit = exits.WITHIN_TOLERANCE if inside else exits.PASSED
+            if goal.state != State.MOVING_TO_POSE:
+                run.exit = Exit.WITHIN_TOLERANCE if inside else Exit.PASSED
                 return None
-            run.exit = None if inside else exits.PASSED
+            run.exit = None if inside else Exit.PASSED
             run.turning, run.best = True, None  # as close as it gets: the heading is still to be reached
             return self._step_turn(run, pose, goal.heading, goal.heading_tolerance, p.turn_speed)
         # Braking to reach the tolerance's edge at the speed whose coast ends on the point: the stop there lands close.
@@ -245,14 +245,14 @@ class Steering:
         rate = self._rate[1]  # [rad/s]
         ahead = err - rate * p.stop_lead  # [rad] predicted error at the stop
         run.heading_error, run.progress = err, -abs(err)
-        if run.goal.state == TURNING_TO_HEADING:
+        if run.goal.state == State.TURNING_TO_HEADING:
             run.remaining = abs(err)
         if abs(err) <= tolerance and abs(ahead) <= tolerance:
-            run.exit = run.exit or exits.WITHIN_TOLERANCE  # a move_to_pose that passed its point says so
+            run.exit = run.exit or Exit.WITHIN_TOLERANCE  # a move_to_pose that passed its point says so
             return None
         omega = turn_command(err, rate, speed, tolerance, p.turn_decel, p.min_turn_speed, p.stop_lead)
         if omega is None:  # the coast is predicted to reach the heading: within it, or past it
-            run.exit = run.exit or (exits.WITHIN_TOLERANCE if abs(ahead) <= tolerance else exits.PASSED)
+            run.exit = run.exit or (Exit.WITHIN_TOLERANCE if abs(ahead) <= tolerance else Exit.PASSED)
             return None
         return 0.0, omega
 
@@ -272,6 +272,6 @@ class Steering:
         run.remaining = max(left, 0.0)
         ahead = left - abs(self._rate[0]) * p.stop_lead  # [m] predicted left after the lead
         if ahead <= 0.0:
-            run.exit = exits.WITHIN_TOLERANCE if ahead >= -goal.tolerance else exits.PASSED
+            run.exit = Exit.WITHIN_TOLERANCE if ahead >= -goal.tolerance else Exit.PASSED
             return None
         return sign * profile_speed(ahead, p.decel, p.min_speed, abs(goal.speed)), omega

@@ -15,15 +15,15 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 from zenav.common.config import Field
-from zenav.services.navigator import exits
+from zenav.common.contract import Exit, State
 from zenav.services.navigator.controllers import PoseSample, Wheelbase
-from zenav.services.navigator.goal import FOLLOWING_PATH, MOVING_TO_POINT, MOVING_TO_POSE, End, Goal, Run, behind, path_rest
+from zenav.services.navigator.goal import End, Goal, Run, behind, path_rest
 from zenav.services.navigator.goals import GoalMachine
 from zenav.services.navigator.params import Params
 from zenav.services.navigator.traffic import Decision, Other, Traffic
 
 REPLAN = 0.2  # [s] after a detour or a wait, decided again this much later (planning costs milliseconds)
-STEERED = (MOVING_TO_POINT, MOVING_TO_POSE, FOLLOWING_PATH)
+STEERED = (State.MOVING_TO_POINT, State.MOVING_TO_POSE, State.FOLLOWING_PATH)
 
 Command = tuple[float, float]
 
@@ -80,7 +80,7 @@ class TrafficMachine(GoalMachine):
         if self._waited > self.wait_limit:
             why = self.why
             self.waiting, self.why, self._since = "", "", None
-            return (0.0, 0.0), self.abort(f"{why}: waited {self._waited:.1f} s, over robot_wait = {self.wait_limit:g} s", exits.STALLED)
+            return (0.0, 0.0), self.abort(f"{why}: waited {self._waited:.1f} s, over robot_wait = {self.wait_limit:g} s", Exit.STALLED)
         self._pause(run, pose)
         return (0.0, 0.0), None
 
