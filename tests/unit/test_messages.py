@@ -26,6 +26,8 @@ def sample_value(t):
         return "x"
     if isinstance(t, msgspec.inspect.BoolType):
         return True
+    if isinstance(t, msgspec.inspect.BytesType):
+        return b"\x00"
     if isinstance(t, msgspec.inspect.LiteralType):
         return t.values[0]
     if isinstance(t, (msgspec.inspect.VarTupleType, msgspec.inspect.ListType)):

@@ -78,7 +78,7 @@ def schema_name(typ: type) -> str:
 
 def _simplify(node: Any, defs: dict[str, Any]) -> Any:
     # Inline `$ref`s and turn Optional[X] (anyOf X, null) into X: Foxglove's JSON Schema
-    # reader wants one `type` per field. A null value still reads as null.
+    # reader wants one `type` per field (a string enum gets one). A null value still reads as null.
     if isinstance(node, list):
         return [_simplify(n, defs) for n in node]
     if not isinstance(node, dict):
@@ -91,7 +91,10 @@ def _simplify(node: Any, defs: dict[str, Any]) -> Any:
         if len(not_null) == 1:
             rest = {k: v for k, v in node.items() if k != "anyOf"}
             return {**_simplify(not_null[0], defs), **rest}
-    return {k: _simplify(v, defs) for k, v in node.items()}
+    out = {k: _simplify(v, defs) for k, v in node.items()}
+    if "enum" in out and "type" not in out and all(isinstance(v, str) for v in out["enum"]):
+        out["type"] = "string"  # a Literal of strings: its type too
+    return out
 
 
 def json_schema(typ: type) -> dict[str, Any]:
