@@ -5,7 +5,7 @@ import math
 
 from zenav.bench import crossing
 from zenav.common.config import Field, Obstacle
-from zenav.services.navigator.goals import SUCCEEDED
+from zenav.common.contract import GoalResult
 from zenav.services.navigator.params import Params
 from zenav.services.navigator.planner import Planner
 from zenav.services.navigator.traffic import Other, Traffic
@@ -87,7 +87,7 @@ def test_two_robots_on_each_others_goals_swap_without_waiting_for_robot_wait():
     a, b = (1.0, 1.0), (1.5, 1.0)
     robots = [("r1", a, b, 0.0), ("r2", b, a, math.pi)]
     runs, least, contacts = crossing.simulate(robots, 7, Params(robot_wait=20.0))
-    assert [r.done for r in runs] == [SUCCEEDED, SUCCEEDED]
+    assert [r.done for r in runs] == [GoalResult.SUCCEEDED, GoalResult.SUCCEEDED]
     assert contacts == 0 and least > 0.0
     assert max(r.t_end for r in runs) < 20.0  # simulated time: resolved long before robot_wait would end a goal
     assert runs[1].machine.counts["robot_asides"] == 1
