@@ -31,6 +31,8 @@ def test_a_robot_standing_on_the_way_is_driven_round_on_the_right():
     assert rep.result == "succeeded" and math.hypot(rig.x - 1.2, rig.y) < 0.01
     assert least >= REACH  # never closer than both footprints and the margin
     assert side < -REACH + 0.05  # passed it on the right (heading +x: right is -y)
+    c = rig.nav.counters.values
+    assert c["robot_detours"] >= 1 and c["robot_waits"] == 0 and c["robot_asides"] == 0
     rig.nav.close()
 
 
@@ -50,6 +52,26 @@ def test_a_robot_standing_on_the_goal_makes_it_wait_saying_why_then_give_up_afte
     assert "waiting for robot r0 to leave the goal" in rep.message and "robot_wait = 2" in rep.message
     assert "waiting for robot r0 to leave the goal" in why
     assert math.hypot(rig.x - 1.0, rig.y) >= REACH  # it stood clear of it
+    c = rig.nav.counters.values
+    assert c["robot_waits"] == 1 and c["robot_asides"] == 1  # stepped aside once (r0 may wait for it), then waited
+    rig.nav.close()
+
+
+def test_a_robot_crossing_the_way_slows_it_counted_and_said_on_nav_state():
+    rig = Rig()
+    rig.pose()
+    q = rig.query("nav/move_to_point", {"x": 1.5, "y": 0.0, "wait": True})
+    why, y = set(), -0.45
+    for _ in range(3000):
+        if q.replies:
+            break
+        y = min(y + 0.2 * 0.01, 1.0)  # r0 (the right of way) crosses the way 0.6 m ahead at 0.2 m/s, from below
+        body(rig, "r0", 0.6, y, v=0.2 if y < 1.0 else 0.0, theta=math.pi / 2)
+        rig.step()
+        why |= {s.traffic for s in rig.published("nav/state")}
+    assert reply(q).result == "succeeded"
+    assert "slowing for robot r0 to pass" in why
+    assert rig.nav.counters.values["robot_slowdowns"] >= 1
     rig.nav.close()
 
 

@@ -1,7 +1,17 @@
-"""traffic.py: who drives round whom, keeping right, and clear of where the robot with the right of way is going."""
+"""traffic.py: who drives round whom, keeping right, and clear of where the robot with the right of way is going;
+who slows to let a crossing robot pass; who steps aside for a robot on its goal."""
+
+import math
 
 from zenav.bench import crossing
+from zenav.common.config import Field, Obstacle
+from zenav.common.contract import GoalResult
+from zenav.services.navigator.params import Params
+from zenav.services.navigator.planner import Planner
 from zenav.services.navigator.traffic import Other, Traffic
+
+AREA = Field(x_min=0.0, x_max=3.0, y_min=0.0, y_max=3.0)
+CLEAR = 0.1 + 0.05  # [m] footprint and margin: how far the detour's points keep from the edges
 
 
 def test_two_robots_head_on_both_keep_right():
@@ -14,10 +24,12 @@ def test_two_robots_head_on_both_keep_right():
 
 
 def test_only_the_robot_without_the_right_of_way_clears_the_others_course():
-    across = Other("r1", 0.5, -0.6, 0.1, 0.0, 0.3)  # crossing the way ahead, 0.6 m off it, coming closer
-    assert Traffic("r2", 0.1, 0.05).decide((0.0, 0.0), [(1.0, 0.0)], [across]).detour is not None
-    mine = Other("r3", 0.5, -0.6, 0.1, 0.0, 0.3)
-    assert Traffic("r2", 0.1, 0.05).decide((0.0, 0.0), [(1.0, 0.0)], [mine]).driving  # r2 has the right of way: where r3 is
+    across = Other("r1", 0.5, -0.4, 0.1, 0.0, 0.3)  # crossing the way ahead, 0.4 m off it, coming closer
+    d = Traffic("r2", 0.1, 0.05).decide((0.0, 0.0), [(1.0, 0.0)], [across])
+    assert d.detour is not None or d.scale < 1.0  # round it, or slower to let it pass
+    mine = Other("r3", 0.5, -0.4, 0.1, 0.0, 0.3)
+    d = Traffic("r2", 0.1, 0.05).decide((0.0, 0.0), [(1.0, 0.0)], [mine])
+    assert d.driving and d.detour is None and d.scale == 1.0  # r2 has the right of way: r3 is seen where it is
 
 
 def test_a_robot_on_the_goal_is_waited_for():
@@ -28,3 +40,59 @@ def test_a_robot_on_the_goal_is_waited_for():
 def test_two_robots_swapping_places_arrive_without_contact():
     res = crossing.measure("2 swapping", 1, seed=1)
     assert res.succeeded == 1 and res.contact_runs == 0 and res.least > 0.05
+
+
+def test_a_detour_near_the_edge_goes_round_on_the_side_that_has_room_and_stays_inside_the_field():
+    edges = Planner(AREA, CLEAR)
+    # Heading +x along y = 0.25, right next to the lower edge: keeping right (-y) would leave the field.
+    d = Traffic("r2", 0.1, 0.05, edges).decide((0.5, 0.25), [(2.0, 0.25)], [Other("r1", 1.0, 0.25, 0.1)])
+    assert d.detour is not None
+    assert all(p[1] > 0.25 for p in d.detour[:-1])  # round on the left, where there is room
+    assert all(CLEAR - 1e-9 <= x <= 3.0 - CLEAR and CLEAR - 1e-9 <= y <= 3.0 - CLEAR for x, y in d.detour)
+
+
+def test_a_detour_round_a_robot_keeps_clear_of_the_fields_obstacles_near_it():
+    area = Field(x_min=0.0, x_max=3.0, y_min=0.0, y_max=3.0, obstacles=(Obstacle(name="post", circle=(1.0, 1.25, 0.1)),))
+    field = Planner(area, CLEAR)
+    d = Traffic("r2", 0.1, 0.05, field).decide((0.3, 1.5), [(2.0, 1.5)], [Other("r1", 1.0, 1.5, 0.1)])
+    assert d.detour is not None
+    legs = list(zip([(0.3, 1.5), *d.detour[:-1]], d.detour))
+    assert all(field.free(a, b) for a, b in legs)  # round the robot and clear of the post beside it
+
+
+def test_a_robot_crossing_the_way_with_the_right_of_way_is_let_pass_by_slowing():
+    # r1 comes up from below at 0.2 m/s and crosses the way 0.5 m ahead about when r2 would get there.
+    d = Traffic("r2", 0.1, 0.05).decide((0.0, 0.0), [(2.0, 0.0)], [Other("r1", 0.5, -0.4, 0.1, 0.0, 0.2)], speed=0.2)
+    assert d.driving and d.detour is None
+    assert 0.0 < d.scale < 1.0 and d.why == "slowing for robot r1 to pass"
+
+
+def test_a_crossing_robot_that_passes_well_ahead_slows_nothing():
+    d = Traffic("r2", 0.1, 0.05).decide((0.0, 0.0), [(2.0, 0.0)], [Other("r1", 0.9, -0.2, 0.1, 0.0, 0.2)], speed=0.2)
+    assert d.driving and d.detour is None and d.scale == 1.0  # it is past the way before r2 gets there
+
+
+def test_the_robot_without_the_right_of_way_steps_aside_for_one_standing_on_its_goal():
+    # Each stands on the other's goal, 0.5 m apart: r2 steps off the line between them; r1 waits for it.
+    r1, r2 = Other("r1", 1.0, 1.0, 0.1), Other("r2", 1.5, 1.0, 0.1)
+    d2 = Traffic("r2", 0.1, 0.05).decide((1.5, 1.0), [(1.0, 1.0)], [r1], aside=True)
+    assert d2.aside and d2.detour is not None and d2.detour[-1] == (1.0, 1.0)
+    step = d2.detour[0]
+    assert abs(step[0] - 1.5) < 1e-9 and step[1] > 1.0 + 0.28  # facing -x its right is +y, off the line by reach
+    assert Traffic("r2", 0.1, 0.05).decide((1.5, 1.0), [(1.0, 1.0)], [r1], aside=False).wait == "r1"  # once only
+    assert Traffic("r1", 0.1, 0.05).decide((1.0, 1.0), [(1.5, 1.0)], [r2], aside=True).wait == "r2"  # r1 has the right of way
+
+
+def test_two_robots_on_each_others_goals_swap_without_waiting_for_robot_wait():
+    a, b = (1.0, 1.0), (1.5, 1.0)
+    robots = [("r1", a, b, 0.0), ("r2", b, a, math.pi)]
+    runs, least, contacts = crossing.simulate(robots, 7, Params(robot_wait=20.0))
+    assert [r.done for r in runs] == [GoalResult.SUCCEEDED, GoalResult.SUCCEEDED]
+    assert contacts == 0 and least > 0.0
+    assert max(r.t_end for r in runs) < 20.0  # simulated time: resolved long before robot_wait would end a goal
+    assert runs[1].machine.counts["robot_asides"] == 1
+
+
+def test_four_robots_crossing_the_centre_arrive_without_contact():
+    res = crossing.measure("4 crossing the centre", 1, seed=1)
+    assert res.succeeded == 1 and res.contact_runs == 0 and res.least > 0.0

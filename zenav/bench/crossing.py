@@ -2,7 +2,7 @@
 
     zenav bench planning   # with the planner's tables (bench/planning.py)
 
-Each robot runs the navigator's goal machine among the others (traffic_machine.py: right of way by id, waiting, detours
+Each robot runs the navigator's goal machine among the others (traffic_machine.py: right of way by id, slowing, waiting, detours
 round robots) and the motor's guard under its commands, on its own world-model robot (the default scenario's motor
 lag, slip and wheel errors; the pose the truth), the robots' bodies kept out of each other by the sim's contacts,
 which are counted. On an open 3 m field. Each run perturbs the starts and goals (up to PERTURB in x and y), the
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import statistics
+from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -28,8 +29,9 @@ from zenav.services.motor.guard import Guard
 from zenav.services.navigator.controllers import PoseSample, Wheelbase
 from zenav.services.navigator.goals import Goal
 from zenav.services.navigator.params import Params
+from zenav.services.navigator.planner import Planner
 from zenav.services.navigator.traffic import Other, Traffic
-from zenav.services.navigator.traffic_machine import TrafficMachine
+from zenav.services.navigator.traffic_machine import COUNTERS, TrafficMachine
 from zenav.world.bodies import Disc
 from zenav.world.robot import State
 
@@ -57,8 +59,7 @@ class Crossing:
     contact_runs: int = 0  # runs with a contact between robots
     least: float = math.inf  # [m] the least gap between two footprints over every run
     ratios: list[float] = field(default_factory=list)  # the run's time / the longest alone
-    waits: int = 0
-    detours: int = 0
+    counts: Counter[str] = field(default_factory=Counter)  # the machines' traffic counters, summed over the runs
     failures: list[str] = field(default_factory=list)
 
 
@@ -93,10 +94,11 @@ def simulate(robots: list[tuple[str, Point, Point, float]], seed: int, params: P
     robot = Robot(ticks_per_rev=scenario.ticks_per_rev, radius=RADIUS)
     wheels = Wheelbase(robot.track_width, robot.wheel_radius, robot.max_wheel_speed)
     guard = Guard((), RADIUS, GUARD_GAP, GUARD_DECEL)
+    edges = Planner(AREA, RADIUS + AREA.margin)  # the open field: detours keep inside its edges
     runs = []
     for i, (name, a, b, heading) in enumerate(robots):
         trial = Trial(robot, scenario, seed * 100 + i, camera=False, x=a[0], y=a[1], theta=heading, others={})
-        machine = TrafficMachine(params, wheels, AREA, traffic=Traffic(name, RADIUS, AREA.margin))
+        machine = TrafficMachine(params, wheels, AREA, traffic=Traffic(name, RADIUS, AREA.margin, edges))
         goal = Goal(NavCode.MOVING_TO_POINT, points=(b,), speed=params.speed, tolerance=params.tolerance)
         runs.append(Robotrun(name, trial, machine, goal))
     for r in runs:
@@ -163,8 +165,8 @@ def measure(case: str, runs: int, seed: int, params: Params | None = None) -> Cr
         res.succeeded += ok
         res.contact_runs += contacts > 0
         res.least = min(res.least, least)
-        res.waits += sum(r.machine.waits for r in together)
-        res.detours += sum(r.machine.detours for r in together)
+        for r in together:
+            res.counts.update(r.machine.counts)
         if ok:
             res.ratios.append(max(r.t_end for r in together) / max(alone))
         else:
@@ -180,18 +182,23 @@ def tables(cases: list[Crossing]) -> list[str]:
         "every command; time: the last robot's arrival against the longest of the same goals driven alone.",
         "",
         "| case | runs | every robot arrived | runs with a contact | least gap between footprints [m] "
-        "| time / alone: mean, max | waits, detours per run |",
+        "| time / alone: mean, max | per run: detours, waits, slowdowns, steps aside |",
         "|---|---|---|---|---|---|---|",
     ]
     for c in cases:
         mean = statistics.fmean(c.ratios) if c.ratios else math.nan
         lines.append(
             f"| {c.name} | {c.runs} | {c.succeeded} | {c.contact_runs} | {c.least:.3f} "
-            f"| {mean:.2f}, {max(c.ratios, default=math.nan):.2f} | {c.waits / max(c.runs, 1):.1f}, {c.detours / max(c.runs, 1):.1f} |"
+            f"| {mean:.2f}, {max(c.ratios, default=math.nan):.2f} | {', '.join(per(c, n) for n in COUNTERS)} |"
         )
     for c in cases:
         lines += [f"- {f}" for f in c.failures[:10]]
     return lines
+
+
+def per(c: Crossing, name: str) -> str:
+    """A traffic counter per run, as text."""
+    return f"{c.counts[name] / max(c.runs, 1):.1f}"
 
 
 def report(runs: int = 50, seed: int = 1) -> list[str]:

@@ -31,9 +31,10 @@ class NoPath(ValueError):
 class Planner:
     """The visibility graph of one field for one clearance; `plan` answers each start and goal."""
 
-    def __init__(self, area: Field, clearance: float, arc_sides: int = ARC_SIDES) -> None:
+    def __init__(self, area: Field, clearance: float, arc_sides: int = ARC_SIDES, shapes: Sequence[Shape] | None = None) -> None:
+        """`shapes`: planned round in place of the field's obstacles (None: the field's)."""
         self.area, self.clearance = area, clearance  # [m] footprint radius + margin
-        self.shapes: tuple[Shape, ...] = area.shapes()
+        self.shapes: tuple[Shape, ...] = area.shapes() if shapes is None else tuple(shapes)
         pieces: list[Polygon] = [poly for s in self.shapes for poly in inflate(s, clearance, arc_sides)]
         self.pieces = pieces
         c = clearance

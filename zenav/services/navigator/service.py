@@ -41,7 +41,7 @@ from zenav.services.navigator.goals import End, Refused
 from zenav.services.navigator.params import Params
 from zenav.services.navigator.requests import LOST, START, Request, Requests
 from zenav.services.navigator.traffic import Other, Traffic
-from zenav.services.navigator.traffic_machine import TrafficMachine
+from zenav.services.navigator.traffic_machine import COUNTERS, TrafficMachine
 
 LEASE_CHARS = 256  # a lease key longer than this is refused (it shows in nav/state and the log)
 FIELD_PERIOD = 1.0  # [s] between two `field` messages
@@ -69,6 +69,8 @@ class Navigator(Service):
         traffic = Traffic(self.robot, r.radius, self.area.margin, self.planner) if cfg.avoid_robots else None
         self.machine = TrafficMachine(cfg, wheels, self.area, gated=False, traffic=traffic, wait_limit=cfg.robot_wait)
         self.robot_bodies: dict[str, tuple[float, Other]] = {}  # robot -> (clock time heard, its body)
+        for name in COUNTERS:
+            self.count(name, 0)
         self._doubt_told = False  # the warning that a goal drives on an uncertain pose (no vps) was logged
         self.requests = Requests()
         self.radius = r.radius  # [m] the footprint
@@ -95,6 +97,9 @@ class Navigator(Service):
         sample = PoseSample(msg.t, msg.x, msg.y, wrap_angle(msg.theta), msg.v, msg.omega, *sigmas(msg.cov), msg.slipping)
         why = self.machine.why
         cmd, end = self.machine.drive(sample, self._bodies())
+        for name, n in self.machine.counts.items():
+            self.count(name, n)
+        self.machine.counts.clear()
         if self.machine.why != why:
             if self.machine.why:
                 self.log.info("goal %d: %s", self.machine.goal_id, self.machine.why)

@@ -1,4 +1,4 @@
-"""Other robots on the way: drive round them, keeping right; keep clear of where one with the right of way is going.
+"""Other robots on the way: give way by slowing, drive round them keeping right, step aside, or wait.
 
 Pure: the robot's position, its way (the points it drives through next) and the other robots' bodies (position,
 footprint, velocity) come in as arguments. Another robot's centre is kept `reach` = both footprints plus [field]
@@ -8,12 +8,19 @@ margin plus BUFFER from this one's. Each pose:
    with the right of way that moves is seen where it is and where its velocity takes it within SWEEP (its swept
    disc); any other robot (without the right of way, or standing) where it is. So the robot without the right of way
    clears the other's course; the one with it only goes round where the other is: each pair agrees who gives way.
-2. When a robot (swept) lies within `reach` of the way's next LOOK_AHEAD metres, the robot takes a detour to the
-   first point of its way clear of every robot, planned by the visibility graph round the robots. Each robot's shape
-   is moved BIAS to the left of the line from this robot to it (and grown by 2 BIAS, so that it still holds it with
-   BIAS to spare): the way round it on the right is the shorter, and two robots meeting head-on both keep right.
-3. It waits (standing) when no detour exists (a robot stands on the goal, once within GOAL_NEAR of it; or the way round
-   is closed by the field's obstacles or edges); the caller bounds the wait ([navigator] robot_wait).
+2. When a robot (swept) lies within `reach` of the way's next LOOK_AHEAD metres and every such robot has the right of
+   way and moves (it crosses the way), the robot first tries to let it pass by slowing: the largest of SCALES of its
+   speed at which, driving along its way, it keeps `reach` from every robot (those with the right of way moving on
+   at their velocity) for HORIZON seconds. At full speed: it drives on.
+3. Else it takes a detour to the first point of its way clear of every robot, planned by the visibility graph round
+   the robots and the field's obstacles near it, inside the field's edges (moved in by the footprint and margin): a
+   robot near the edge goes round on the side that has room. Each robot's shape is moved BIAS to the left of the line
+   from this robot to it (and grown by 2 BIAS, so that it still holds it with BIAS to spare): the way round it on the
+   right is the shorter, and two robots meeting head-on both keep right.
+4. It waits (standing) when no detour exists (a robot stands on the goal, once within GOAL_NEAR of it; or the way round
+   is closed by the field's obstacles or edges); the caller bounds the wait ([navigator] robot_wait). A robot on the
+   goal that has the right of way and stands may be waiting for this one to leave its own goal: once per goal (when
+   the caller allows it) this robot steps aside, off the line between them, to let it pass.
 The motor's guard stays under every command: what this misses, it stops.
 """
 
@@ -25,17 +32,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from zenav.common.config import Field, Obstacle
-from zenav.common.field import Point, hull
+from zenav.common.config import Field
+from zenav.common.field import Point, Shape, circle_shape, hull, polygon_shape
 from zenav.services.navigator.planner import Planner
 
 BUFFER = 0.03  # [m] kept clear of another robot beyond both footprints and the margin (its pose's noise, its motion)
 BIAS = 0.03  # [m] each robot's disc moved left (and grown) by this for the detour: passing on the right is shorter
-SWEEP = 2.0  # [s] a moving robot with the right of way is kept clear of where it will be within this long
+SWEEP = 1.0  # [s] a moving robot with the right of way is kept clear of where it will be within this long
 LOOK_AHEAD = 1.0  # [m] of the way checked for robots in it
 MOVING = 0.03  # [m/s] a robot slower than this stands
 GOAL_NEAR = 0.6  # [m] a robot on the goal counts only once this close to the goal (two swapping robots: not at the start)
 DISC_SIDES = 8  # sides of the polygon a robot's disc is planned round as
+SCALES = (1.0, 0.8, 0.6, 0.45, 0.3, 0.15)  # [-] the speeds tried, as fractions of the goal's, to let a crossing robot pass
+HORIZON = 3.0  # [s] a slowed robot keeps clear of the others' predicted course for this long
+STEP = 0.1  # [s] the prediction's time step
+ASIDE = 0.1  # [m] a step aside goes this much farther than `reach` + BIAS off the line (its point may be passed early)
+NEARBY = 1.0  # [m] the field's obstacles this close to a detour's straight way are planned round with the robots
 
 
 @dataclass(frozen=True)
@@ -57,12 +69,14 @@ class Other:
 
 @dataclass(frozen=True)
 class Decision:
-    """What to do on this pose: drive on, wait for a robot, or take a detour round robots."""
+    """What to do on this pose: drive on (perhaps slower), wait for a robot, or take a detour round robots."""
 
     wait: str = ""  # the robot waited for ("": none)
-    why: str = ""  # why, as text for nav/state
+    why: str = ""  # why it waits or slows, as text for nav/state
     detour: tuple[Point, ...] | None = None  # the way round the robots, its last point the old way's point `rejoin`
     rejoin: int = 0  # the old way's point the detour ends on (the rest of the old way follows it)
+    scale: float = 1.0  # [-] the fraction of its speed to drive at (< 1: letting a crossing robot pass)
+    aside: bool = False  # the detour steps aside for a robot on the goal
 
     @property
     def driving(self) -> bool:
@@ -99,14 +113,14 @@ class Traffic:
 
     def __init__(self, robot: str, radius: float, margin: float, field: Planner | None = None) -> None:
         self.robot, self.radius, self.margin = robot, radius, margin  # [m] its footprint, the field's margin
-        self.field = field  # the field's planner: a detour's legs keep clear of its obstacles, its points inside its edges
+        self.field = field  # the field's planner: detours keep inside its edges and clear of its obstacles
 
     def reach(self, o: Other) -> float:
         """[m] how close the two centres may come."""
         return self.radius + o.radius + self.margin + BUFFER
 
-    def decide(self, here: Point, way: Sequence[Point], others: Sequence[Other]) -> Decision:
-        """What to do at `here` driving through `way` among `others`."""
+    def decide(self, here: Point, way: Sequence[Point], others: Sequence[Other], speed: float = 0.2, aside: bool = False) -> Decision:
+        """What to do at `here` driving through `way` at `speed` [m/s] among `others`; `aside`: it may step aside."""
         if not way or not others:
             return Decision()
         if math.dist(here, way[-1]) > GOAL_NEAR:  # far from the goal: a robot standing on it may well leave it first
@@ -122,15 +136,17 @@ class Traffic:
         k = next((i for i, ok in enumerate(clear) if ok), None)
         if k is None:
             taken = min(others, key=lambda o: math.dist(way[-1], (o.x, o.y)))
+            step = self._aside(here, taken, others) if aside and taken.name < self.robot and not taken.moving else None
+            if step is not None:
+                return Decision(detour=(step, way[-1]), rejoin=len(way) - 1, aside=True)
             return Decision(taken.name, f"waiting for robot {taken.name} to leave the goal")
-        try:
-            planner = Planner(Field(enabled=False, obstacles=tuple(self._obstacle(here, o) for o in others)), self.radius, DISC_SIDES)
-            points = planner.plan(here, way[k])
-        except ValueError:  # NoPath; or two shapes the same (FieldError)
-            return Decision(first.name, f"waiting for robot {first.name}: no way round it")
-        if not self._on_field(here, points):
-            return Decision(first.name, f"waiting for robot {first.name}: no way round it clear of the field's obstacles and edges")
-        return Decision(detour=tuple(points), rejoin=k)
+        if all(o.name < self.robot and o.moving for o in near):
+            scale = self._slowed(here, way, others, speed)
+            if scale == 1.0:
+                return Decision()
+            if scale is not None:
+                return Decision(why=f"slowing for robot {first.name} to pass", scale=scale)
+        return self._detour(here, way, k, others, first)
 
     def swept(self, o: Other) -> list[Point]:
         """Where another robot will be: a robot with the right of way that moves, along its velocity for SWEEP [s]
@@ -139,31 +155,68 @@ class Traffic:
             return [(o.x, o.y)]
         return [(o.x + o.vx * SWEEP * s, o.y + o.vy * SWEEP * s) for s in (0.0, 0.25, 0.5, 0.75, 1.0)]
 
-    def _obstacle(self, here: Point, o: Other) -> Obstacle:
-        """Another robot as an obstacle to plan round: its disc (swept: the hull of its discs along its velocity), moved
-        BIAS left of the line from `here` to it and grown by both the margin, BUFFER and 2 BIAS."""
+    def _slowed(self, here: Point, way: Sequence[Point], others: Sequence[Other], speed: float) -> float | None:
+        """The largest of SCALES at which the robot keeps `reach` from every other for HORIZON [s] (those with the right
+        of way that move going on at their velocity, the rest standing), or None."""
+        ts = np.arange(0.0, HORIZON + STEP / 2, STEP)
+        course = [(o, self.reach(o), o.vx if o.name < self.robot else 0.0, o.vy if o.name < self.robot else 0.0) for o in others]
+        for scale in SCALES:
+            if all(
+                math.dist(along(here, way, scale * speed * t), (o.x + vx * t, o.y + vy * t)) >= r
+                for t in ts.tolist()
+                for o, r, vx, vy in course
+            ):
+                return scale
+        return None
+
+    def _detour(self, here: Point, way: Sequence[Point], k: int, others: Sequence[Other], first: Other) -> Decision:
+        """The way round the robots (and the field's obstacles near it) to the way's point k, or a wait for `first`."""
+        area = self.field.area if self.field is not None else Field(enabled=False)
+        shapes = [self._shape(here, o) for o in others]
+        if self.field is not None:
+            shapes += [s for s in self.field.shapes if s.segment_clearance(here, way[k]) < NEARBY]
+        try:
+            points = Planner(area, self.radius + self.margin, DISC_SIDES, shapes).plan(here, way[k])
+        except ValueError:  # NoPath: walled in by robots, obstacles and edges
+            return Decision(first.name, f"waiting for robot {first.name}: no way round it")
+        if self.field is not None and not all(self.field.free(a, b) for a, b in zip([here, *points[:-1]], points)):
+            return Decision(first.name, f"waiting for robot {first.name}: no way round it clear of the field's obstacles")
+        return Decision(detour=tuple(points), rejoin=k)
+
+    def _shape(self, here: Point, o: Other) -> Shape:
+        """Another robot as a shape to plan round (the planner adds this robot's footprint and the margin): its disc
+        (swept: the hull of its discs along its velocity), moved BIAS left of the line from `here` to it and grown by
+        BUFFER and 2 BIAS."""
         dx, dy = o.x - here[0], o.y - here[1]
         n = math.hypot(dx, dy) or 1.0
         sx, sy = -dy / n * BIAS, dx / n * BIAS  # left of the line to it
-        r = o.radius + self.margin + BUFFER + 2.0 * BIAS
+        r = o.radius + BUFFER + 2.0 * BIAS
         swept = self.swept(o)
         if len(swept) == 1:
-            return Obstacle(name=f"robot {o.name}", circle=(o.x + sx, o.y + sy, r))
+            return circle_shape(f"robot {o.name}", (o.x + sx, o.y + sy, r))
         ring = [(r * math.cos(a), r * math.sin(a)) for a in np.linspace(0.0, 2.0 * math.pi, DISC_SIDES, endpoint=False)]
-        pts = hull([(x + sx + u, y + sy + v) for x, y in (swept[0], swept[-1]) for u, v in ring])
-        return Obstacle(name=f"robot {o.name}", polygon=pts)
+        return polygon_shape(f"robot {o.name}", hull([(x + sx + u, y + sy + v) for x, y in (swept[0], swept[-1]) for u, v in ring]))
 
-    def _on_field(self, here: Point, points: Sequence[Point]) -> bool:
-        """Whether a detour keeps clear of the field's obstacles, its corners within its edges."""
-        f = self.field
-        if f is None:
-            return True
-        box = f.box
-        if box is not None and not all(box[0] <= x <= box[2] and box[1] <= y <= box[3] for x, y in points[:-1]):
-            return False
-        return all(f.free(a, b) for a, b in zip([here, *points[:-1]], points))
+    def _aside(self, here: Point, o: Other, others: Sequence[Other]) -> Point | None:
+        """Where to step off the line from `o` to here (to the right facing it, else to the left) so that it can drive
+        through here: `reach` + BIAS + ASIDE off the line, inside the field's edges, clear of its obstacles and of the others."""
+        dx, dy = here[0] - o.x, here[1] - o.y
+        n = math.hypot(dx, dy) or 1.0
+        d = self.reach(o) + BIAS + ASIDE
+        for side in (1.0, -1.0):  # facing o (heading -d), its right is (-dy, dx) / n
+            p = (here[0] - side * dy / n * d, here[1] + side * dx / n * d)
+            if any(math.dist(p, (q.x, q.y)) < self.reach(q) for q in others):
+                continue
+            f = self.field
+            box = f.box if f is not None else None
+            if box is not None and not (box[0] <= p[0] <= box[2] and box[1] <= p[1] <= box[3]):
+                continue
+            if f is None or f.free(here, p):
+                return p
+        return None
 
-    def clear(self, here: Point, way: Sequence[Point], others: Sequence[Other]) -> bool:
-        """Whether the way's next LOOK_AHEAD metres keep clear of every other robot."""
-        legs = prefix(here, way, LOOK_AHEAD)
-        return not legs or all(min(segment_distance((o.x, o.y), a, b) for a, b in legs) >= self.reach(o) for o in others)
+
+def along(here: Point, way: Sequence[Point], length: float) -> Point:
+    """The point `length` [m] along the way from `here` (its last point past its end)."""
+    legs = prefix(here, way, length)
+    return legs[-1][1] if legs else here

@@ -1,16 +1,20 @@
-"""The goal machine among other robots: each pose, traffic.py decides whether the goal drives on, waits, or detours.
+"""The goal machine among other robots: each pose, traffic.py decides whether the goal drives on (perhaps slower),
+waits, steps aside or detours.
 
 Pure, like the machine it extends: the pose and the other robots' bodies come in as arguments. Only goals through
 points (move_to_point, move_to_pose, follow_path) are steered round robots, while they drive between their points
 (not while turning at the end or settling); turns and straights are left to the motor's guard. A robot waits standing
 (zero commanded, no progress expected, a fresh controller when it drives on) for at most `robot_wait` [s] in all
 before it drives again; then the goal aborts (stalled) saying whom it waited for. A detour replaces the way's next
-points up to where it rejoins them; its corners are passed within `waypoint_tolerance`.
+points up to where it rejoins them; its corners are passed within `waypoint_tolerance`. A slowed robot drives its
+commands' forward speed times the decision's scale. It steps aside for a robot on its goal once per goal.
+What it did is counted (`counts`, COUNTERS: the navigator's diag).
 """
 
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import replace
 
@@ -24,6 +28,8 @@ from zenav.services.navigator.traffic import Decision, Other, Traffic
 
 REPLAN = 0.2  # [s] after a detour or a wait, decided again this much later (planning costs milliseconds)
 STEERED = (State.MOVING_TO_POINT, State.MOVING_TO_POSE, State.FOLLOWING_PATH)
+# diag counters: detours round robots taken, stops to wait for one, slowdowns to let one pass, steps aside
+COUNTERS = ("robot_detours", "robot_waits", "robot_slowdowns", "robot_asides")
 
 Command = tuple[float, float]
 
@@ -45,8 +51,9 @@ class TrafficMachine(GoalMachine):
         self.wait_limit = wait_limit  # [s] of waiting in all, per goal
         self.waiting = ""  # the robot waited for now ("": none)
         self.why = ""  # why it waits, for nav/state ("": it does not)
-        self.detours = 0  # detours taken round robots (diag)
-        self.waits = 0  # times it stopped to wait (diag)
+        self.scale = 1.0  # [-] the fraction of the commanded forward speed driven now (< 1: letting a robot pass)
+        self.counts: Counter[str] = Counter()  # COUNTERS, since the machine was made
+        self._aside = False  # the running goal stepped aside already
         self._waited = 0.0  # [s] waited so far by the running goal
         self._since: float | None = None  # [s] pose t of the last pose waited on
         self._next = -math.inf  # [s] pose t from which to decide again
@@ -54,6 +61,7 @@ class TrafficMachine(GoalMachine):
     def start(self, goal: Goal, now: float) -> End | None:
         """Start a goal (GoalMachine.start), its waiting counted afresh."""
         self._waited, self._since, self.waiting, self.why, self._next = 0.0, None, "", "", -math.inf
+        self.scale, self._aside = 1.0, False
         return super().start(goal, now)
 
     def drive(self, pose: PoseSample, others: Sequence[Other]) -> tuple[Command | None, End | None]:
@@ -62,27 +70,37 @@ class TrafficMachine(GoalMachine):
         decision = Decision()
         if self.traffic is not None and run is not None and others and self._steered(run):
             if pose.t < self._next:  # decided a moment ago: as then (a wait goes on; a detour is driven)
-                decision = Decision(self.waiting, self.why)
+                decision = Decision(self.waiting, self.why, scale=self.scale)
             else:
-                decision = self.traffic.decide((pose.x, pose.y), run.goal.points[run.index :], others)
-                if decision.detour is not None or decision.wait:
+                way = run.goal.points[run.index :]
+                decision = self.traffic.decide((pose.x, pose.y), way, others, abs(run.goal.speed), not self._aside)
+                if decision.detour is not None or decision.wait or decision.scale < 1.0:
                     self._next = pose.t + REPLAN
         if run is not None and decision.detour is not None:
             self._reroute(run, pose, decision)
         if run is None or decision.driving:
-            self.waiting, self.why, self._since = "", "", None
-            return self.on_pose(pose)
+            return self._drive_on(pose, decision)
         if not self.waiting:
-            self.waits += 1
+            self.counts["robot_waits"] += 1
         if self._since is not None:
             self._waited += max(pose.t - self._since, 0.0)
-        self.waiting, self.why, self._since = decision.wait, decision.why, pose.t
+        self.waiting, self.why, self._since, self.scale = decision.wait, decision.why, pose.t, 1.0
         if self._waited > self.wait_limit:
             why = self.why
             self.waiting, self.why, self._since = "", "", None
             return (0.0, 0.0), self.abort(f"{why}: waited {self._waited:.1f} s, over robot_wait = {self.wait_limit:g} s", Exit.STALLED)
         self._pause(run, pose)
         return (0.0, 0.0), None
+
+    def _drive_on(self, pose: PoseSample, decision: Decision) -> tuple[Command | None, End | None]:
+        """The goal's command for this pose, its forward speed scaled as decided."""
+        if decision.scale < 1.0 and self.scale == 1.0:
+            self.counts["robot_slowdowns"] += 1
+        self.waiting, self.why, self._since, self.scale = "", decision.why, None, decision.scale
+        cmd, end = self.on_pose(pose)
+        if cmd is not None and end is None and self.scale < 1.0:
+            cmd = self._cmd = (cmd[0] * self.scale, cmd[1])
+        return cmd, end
 
     @staticmethod
     def _steered(run: Run) -> bool:
@@ -100,7 +118,8 @@ class TrafficMachine(GoalMachine):
     def _reroute(self, run: Run, pose: PoseSample, decision: Decision) -> None:
         """The way's next points up to `rejoin` replaced by the detour."""
         assert decision.detour is not None
-        self.detours += 1
+        self.counts["robot_asides" if decision.aside else "robot_detours"] += 1
+        self._aside = self._aside or decision.aside
         goal, i, k = run.goal, run.index, decision.rejoin
         tols = [self._point_tolerance(run, j) for j in range(len(goal.points))]
         corners = len(decision.detour) - 1
