@@ -3,6 +3,7 @@ speaking rmw_zenoh's layout as a ROS 2 node (rviz2, ros2 topic echo, teleop, an 
 
 from __future__ import annotations
 
+import functools
 import math
 import queue
 import threading
@@ -15,8 +16,11 @@ import zenoh
 import zenoh.ext
 
 from tests.support.rawclient import RawClient
+from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.bus import ZenohBus, zenoh_config
+from zenav.common.config import Camera
+from zenav.services.vps import frames
 from zenav.tools import ros2_msgs as rm
 from zenav.tools import ros2_types as rt
 from zenav.tools import ros2bridge as rb
@@ -26,6 +30,7 @@ pytestmark = pytest.mark.timeout(120)
 
 ODOMETRY, POSE_TYPE, TF = "nav_msgs/msg/Odometry", "geometry_msgs/msg/PoseWithCovarianceStamped", "tf2_msgs/msg/TFMessage"
 GRID = "nav_msgs/msg/OccupancyGrid"
+IMAGE, INFO = "sensor_msgs/msg/Image", "sensor_msgs/msg/CameraInfo"
 BOX = {"name": "box", "polygon": [[2.4, 2.4], [2.6, 2.4], [2.6, 2.6], [2.4, 2.6]]}  # out of the tests' way
 
 
@@ -93,7 +98,7 @@ def test_graph_tokens_for_ros_tools(rig):
     zid = str(bridge.bus.session.zid())
     assert f"@ros2_lv/3/{zid}/0/0/NN/%/%r1/zenav_bridge" in tokens
     kinds = {(t.split("/")[5], t.split("/")[9], t.split("/")[10]) for t in tokens if t != f"@ros2_lv/3/{zid}/0/0/NN/%/%r1/zenav_bridge"}
-    action = "%r1%navigate_to_pose%_action%"
+    action, waypoints = "%r1%navigate_to_pose%_action%", "%r1%follow_waypoints%_action%"
     assert kinds == {
         ("MP", "%r1%pose", "geometry_msgs::msg::dds_::PoseWithCovarianceStamped_"),
         ("MP", "%r1%odometry", "nav_msgs::msg::dds_::Odometry_"),
@@ -110,9 +115,14 @@ def test_graph_tokens_for_ros_tools(rig):
         ("SS", action + "get_result", "nav2_msgs::action::dds_::NavigateToPose_GetResult_"),
         ("MP", action + "feedback", "nav2_msgs::action::dds_::NavigateToPose_FeedbackMessage_"),
         ("MP", action + "status", "action_msgs::msg::dds_::GoalStatusArray_"),
+        ("SS", waypoints + "send_goal", "nav2_msgs::action::dds_::FollowWaypoints_SendGoal_"),
+        ("SS", waypoints + "cancel_goal", "action_msgs::srv::dds_::CancelGoal_"),
+        ("SS", waypoints + "get_result", "nav2_msgs::action::dds_::FollowWaypoints_GetResult_"),
+        ("MP", waypoints + "feedback", "nav2_msgs::action::dds_::FollowWaypoints_FeedbackMessage_"),
+        ("MP", waypoints + "status", "action_msgs::msg::dds_::GoalStatusArray_"),
     }
-    status = next(t for t in tokens if "%status/" in t)
-    assert status.endswith("/:1:,1:,:,:,,")  # transient local, depth 1, as rcl's action status QoS
+    for status in (t for t in tokens if "%status/" in t):
+        assert status.endswith("/:1:,1:,:,:,,")  # transient local, depth 1, as rcl's action status QoS
     latched_map = next(t for t in tokens if "%r1%map/" in t)
     assert latched_map.endswith("/:1:,1:,:,:,,")  # as a map server's
 
@@ -251,13 +261,14 @@ def goal_msg(wire: Wire, x: float, y: float, theta: float = 0.0, frame: str = "m
 
 
 class ActionClient:
-    """navigate_to_pose as rclpy's ActionClient uses it on rmw_zenoh: gets on the services, a subscription on feedback."""
+    """An action (navigate_to_pose unless told) as rclpy's ActionClient uses it on rmw_zenoh: gets on the services,
+    a subscription on feedback."""
 
-    def __init__(self, ros: zenoh.Session, wire: Wire) -> None:
+    def __init__(self, ros: zenoh.Session, wire: Wire, name: str = "navigate_to_pose", action: str = rt.NAVIGATE) -> None:
         self.ros, self.wire, self.seq = ros, wire, 0
-        self.base = "navigate_to_pose/_action/"
+        self.base = f"{name}/_action/"
         self.feedback: queue.Queue = queue.Queue()
-        fb = wire.endpoint("MS", self.base + "feedback", f"{rt.NAVIGATE}_FeedbackMessage")
+        fb = wire.endpoint("MS", self.base + "feedback", f"{action}_FeedbackMessage")
         self.sub = ros.declare_subscriber(wire.key(fb), lambda s: self.feedback.put(wire.deserialize(s.payload.to_bytes(), fb.ros_type)))
 
     def call(self, service: str, srv_type: str, request, timeout: float = 10.0):
@@ -329,3 +340,114 @@ def test_navigate_to_pose_cancelled(rig):
     waiter.join(30.0)
     assert results.get(timeout=1.0).status == 5  # CANCELED
     client.sub.undeclare()
+
+
+# ---------------------------------------------------------------- follow_waypoints
+WAYPOINTS = ((0.4, 0.0), (0.4, 0.4), (0.0, 0.4))
+
+
+def waypoints_goal(client: ActionClient, wire: Wire, points) -> tuple:
+    """Send a FollowWaypoints goal of `points` (x, y) in map; its goal id once accepted."""
+    goal_id = client.uuid()
+    goal = wire.types()[f"{rt.FOLLOW}_Goal"](number_of_loops=0, goal_index=0, poses=[goal_msg(wire, x, y) for x, y in points])
+    assert client.call("send_goal", f"{rt.FOLLOW}_SendGoal", {"goal_id": goal_id, "goal": goal}).accepted
+    return goal_id
+
+
+def test_follow_waypoints_succeeds_with_feedback(rig):
+    raw, wire, bridge, ros = rig
+    client = ActionClient(ros, wire, "follow_waypoints", rt.FOLLOW)
+    goal_id = waypoints_goal(client, wire, WAYPOINTS)
+    result = client.call("get_result", f"{rt.FOLLOW}_GetResult", {"goal_id": goal_id}, timeout=90.0)  # answered when it ends
+    assert result.status == 4, result  # SUCCEEDED
+    assert (list(result.result.missed_waypoints), result.result.error_code, result.result.error_msg) == ([], 0, "")
+    pose = raw.latest["pose"]
+    assert math.hypot(pose["x"] - WAYPOINTS[-1][0], pose["y"] - WAYPOINTS[-1][1]) < 0.06
+    seen = []
+    while not client.feedback.empty():  # every feedback came before the result
+        fb = client.feedback.get_nowait()
+        assert bytes(fb.goal_id.uuid) == bytes(goal_id.uuid)
+        seen.append(fb.feedback.current_waypoint)
+    assert seen == sorted(seen) and set(seen) == {0, 1, 2}, seen  # each waypoint in turn
+    assert bridge.counts["action_refused"] == 0
+    client.sub.undeclare()
+
+
+def test_follow_waypoints_cancelled(rig):
+    raw, wire, bridge, ros = rig
+    client = ActionClient(ros, wire, "follow_waypoints", rt.FOLLOW)
+    goal_id = waypoints_goal(client, wire, ((0.8, -0.5), (0.8, 0.5)))
+    raw.wait(lambda latest: latest.get("nav/state", {}).get("state") == "FOLLOWING_PATH", 10)
+    types = wire.types()
+    info = types["action_msgs/msg/GoalInfo"](goal_id=goal_id, stamp=rm.stamp(types, 0.0))
+    cancel = client.call("cancel_goal", rt.CANCEL, {"goal_info": info})
+    assert cancel.return_code == 0 and [bytes(g.goal_id.uuid) for g in cancel.goals_canceling] == [bytes(goal_id.uuid)]
+    result = client.call("get_result", f"{rt.FOLLOW}_GetResult", {"goal_id": goal_id}, timeout=30.0)
+    assert result.status == 5 and list(result.result.missed_waypoints) == [], result  # CANCELED
+    state = raw.wait(lambda latest: latest.get("nav/state", {}).get("result") is not None, 10)["nav/state"]
+    assert state["result"] == "cancelled"
+    client.sub.undeclare()
+
+
+def test_follow_waypoints_outside_the_field_aborts_saying_why(rig):
+    raw, wire, bridge, ros = rig
+    client = ActionClient(ros, wire, "follow_waypoints", rt.FOLLOW)
+    goal_id = waypoints_goal(client, wire, ((0.3, 0.0), (50.0, 0.0), (0.3, 0.3)))
+    result = client.call("get_result", f"{rt.FOLLOW}_GetResult", {"goal_id": goal_id})
+    assert result.status == 6 and result.result.error_code == rt.WAYPOINTS_UNKNOWN, result  # ABORTED, before it started
+    assert "outside the field ([field] x_max" in result.result.error_msg and "points[1]" in result.result.error_msg
+    assert list(result.result.missed_waypoints) == []
+    assert bridge.counts["action_refused"] == 1 and raw.latest["nav/state"]["state"] == "STOPPED"
+    client.sub.undeclare()
+
+
+# ---------------------------------------------------------------- camera frames
+CAMERA = Camera(width=64, height=48, fx=70.0, fy=71.0, cx=30.0, k1=-0.05, rate_hz=50.0)
+
+
+@pytest.fixture
+def image_rig(router):
+    """The bridge with --image's camera, no stack: the test sends the frames as `zenav camera stream` does."""
+    pytest.importorskip("cv2")
+    wire = Wire(domain=3, namespace="/r1")
+    bus = ZenohBus(zenoh.open(zenoh_config("client", router)))
+    bridge = rb.Bridge(bus, "r1", wire, CAMERA).start()
+    ros = zenoh.open(zenoh_config("client", router))
+    yield wire, bridge, ros
+    ros.close()
+    bridge.stop()
+    bus.close()
+
+
+def test_camera_frames_as_image_and_camera_info(image_rig):
+    wire, bridge, ros = image_rig
+    grey = np.add.outer(np.arange(48), np.arange(64)).astype(np.uint8) * 2
+    got: queue.Queue[tuple[str, zenoh.Sample]] = queue.Queue()
+    keys_ = {name: key_of(wire, name, ros_type) for name, ros_type in (("camera/image_raw", IMAGE), ("camera/camera_info", INFO))}
+    subs = [ros.declare_subscriber(key, functools.partial(lambda n, s: got.put((n, s)), name)) for name, key in keys_.items()]
+    frame_key = keys.field_key("camera/frame")
+    received: dict[str, zenoh.Sample] = {}
+    try:
+        for seq in range(40):  # a frame each 0.25 s at most until both messages came (the bridge's subscription takes a moment)
+            ros.put(frame_key, codec.encode(frames.encode(grey, time.time(), seq, encoding="png")))
+            try:
+                while len(received) < 2:
+                    name, sample = got.get(timeout=0.25)
+                    received[name] = sample
+                break
+            except queue.Empty:
+                continue
+    finally:
+        for sub in subs:
+            sub.undeclare()
+    img = wire.deserialize(received["camera/image_raw"].payload.to_bytes(), IMAGE)
+    assert (img.encoding, img.width, img.height, img.step, img.header.frame_id) == ("mono8", 64, 48, 64, "camera")
+    assert np.array_equal(np.asarray(img.data).reshape(48, 64), grey)  # PNG: lossless
+    assert abs(img.header.stamp.sec - time.time()) < 10
+    info = wire.deserialize(received["camera/camera_info"].payload.to_bytes(), INFO)
+    assert (info.width, info.height, info.distortion_model, info.header.frame_id) == (64, 48, "plumb_bob", "camera")
+    assert info.k.tolist() == [70.0, 0.0, 30.0, 0.0, 71.0, 24.0, 0.0, 0.0, 1.0]
+    assert info.d.tolist() == [-0.05, 0.0, 0.0, 0.0, 0.0]
+    ros.put(frame_key, b"\x93not a frame")  # dropped, counted (the bridge's subscription is there: images came)
+    wait_count(bridge, "image_bad_input", 1)
+    wait_count(bridge, "images", 1)  # counted once both are sent

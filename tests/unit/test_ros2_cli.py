@@ -34,6 +34,13 @@ def test_without_the_extra_it_says_which():
     assert done.returncode == EXIT_USAGE and "zenav[ros2]" in done.stderr and "Traceback" not in done.stderr
 
 
+def test_image_without_opencv_names_the_camera_extra():
+    code = "import sys; sys.modules['cv2'] = None; from zenav.cli.main import main; sys.exit(main(['ros2', '--image']))"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == EXIT_USAGE and "Traceback" not in done.stderr
+    assert done.stderr.strip() == "zenav ros2: --image needs OpenCV: pip install 'zenav[camera]'"
+
+
 def test_distro_from_the_environment(monkeypatch, capsys):
     monkeypatch.setenv("ROS_DISTRO", "foxy")
     assert main(["ros2", "--connect", f"tcp/127.0.0.1:{free_port()}"]) == EXIT_USAGE

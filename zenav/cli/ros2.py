@@ -1,9 +1,10 @@
 """`zenav ros2`: a ROS 2 node on rmw_zenoh for one robot, until Ctrl-C.
 
 Publishes odometry, the fused pose, the map -> odom -> base_link transforms and the
-navigator's state; takes cmd_vel, initialpose, goal_pose and NavigateToPose goals; through
-the router the stack and the ROS 2 nodes (RMW_IMPLEMENTATION=rmw_zenoh_cpp) both reach.
-Needs the `ros2` extra. Exit codes: 0 stopped, 2 bad arguments or the extra missing, 3 no router.
+navigator's state, with --image the camera's frames; takes cmd_vel, initialpose, goal_pose,
+NavigateToPose and FollowWaypoints goals; through the router the stack and the ROS 2 nodes
+(RMW_IMPLEMENTATION=rmw_zenoh_cpp) both reach. Needs the `ros2` extra (--image also `camera`).
+Exit codes: 0 stopped, 2 bad arguments, a bad config or an extra missing, 3 no router.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from zenav.cli.checks import Failed, fail
 from zenav.cli.main import EXIT_OK, EXIT_USAGE
 from zenav.cli.session import open_bus, robot_id
 from zenav.common import extras
-from zenav.common.app import connection_args, stop_on_signals
+from zenav.common.app import deployment_args, settings_from_args, stop_on_signals
+from zenav.common.config import Camera, ConfigError
 
 DISTROS = ("humble", "jazzy", "kilted")  # as tools/rmw_zenoh.py STORES (not imported here: it needs the extra)
 ROS_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")  # a ROS node name
@@ -26,7 +28,7 @@ NAMESPACE = re.compile(r"^/?([A-Za-z][A-Za-z0-9_]*/?)*$")  # a ROS namespace
 
 def add_arguments(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("ros2", help="a ROS 2 node on rmw_zenoh: odom, pose, /tf, nav state out; cmd_vel, initialpose, goals in")
-    connection_args(p)
+    deployment_args(p)
     p.add_argument(
         "--domain", type=int, default=os.environ.get("ROS_DOMAIN_ID") or "0", help="ROS domain id (env ROS_DOMAIN_ID; default 0)"
     )
@@ -37,6 +39,11 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--node", default="zenav_bridge", help="ROS node name (default zenav_bridge)")
     p.add_argument("--namespace", default="", help="ROS namespace of the node and its topics, e.g. /r1 (default none)")
+    p.add_argument(
+        "--image",
+        action="store_true",
+        help="also publish the overhead camera's frames on camera/image_raw, camera/camera_info ([camera] intrinsics; zenav[camera])",
+    )
     p.set_defaults(func=run)
 
 
@@ -56,11 +63,18 @@ def run(args: argparse.Namespace) -> int:
         if args.distro.lower() not in DISTROS:
             raise Failed(EXIT_USAGE, f"--distro (or ROS_DISTRO) {args.distro!r}: expected one of {', '.join(DISTROS)}")
         wire = Wire(args.domain, args.distro, args.node, args.namespace)
+        camera = None
+        if args.image:
+            extras.require("cv2", "--image", "camera")
+            try:
+                camera = settings_from_args(args).section("camera", Camera)
+            except ConfigError as e:
+                raise Failed(EXIT_USAGE, str(e)) from None
         bus = open_bus(args)
     except Failed as e:
         return fail("ros2", e)
     done = stop_on_signals()
-    bridge = Bridge(bus, robot, wire).start()
+    bridge = Bridge(bus, robot, wire, camera).start()
     try:
         for endpoint, key in bridge.keys().items():
             print(f"{endpoint:<44} {key}", file=sys.stderr)

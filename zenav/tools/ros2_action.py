@@ -1,17 +1,17 @@
-"""A nav2_msgs/action/NavigateToPose action server on rmw_zenoh's action keys, driving zenav's `nav/move_to_pose`.
+"""A ROS 2 action server on rmw_zenoh's action keys, driving one zenav goal per ROS goal.
 
 rcl builds an action `<name>` from three services and two topics, all under `<name>/_action/`:
 `send_goal`, `cancel_goal`, `get_result` (queryables here) and `feedback`, `status` (published).
+What a goal means in zenav is the action's Mapping (tools/ros2_nav2.py: NavigateToPose,
+FollowWaypoints); the protocol is here, the same for both:
 
-- send_goal: the goal's pose (frame `map`) becomes `nav/move_to_pose` (its yaw as theta). The
-  goal is accepted; if the navigator refuses it (outside the field, no pose yet, ...) or its
-  frame is not `map`, it is aborted at once with the reason as the result's `error_msg`.
-- feedback, for every `nav/state` of the goal: the newest fused pose, the time since the goal
-  started, the navigator's ETA, the distance remaining.
+- send_goal: the goal is accepted and the Mapping's zenav goal query sent; if the Mapping
+  or the navigator refuses it (another frame, outside the field, no pose yet, ...), it is
+  aborted at once with the reason in its result.
+- feedback, for every `nav/state` of its zenav goal (the Mapping's Feedback).
 - the result, when `nav/state` says the goal ended: `succeeded` SUCCEEDED, `cancelled`
-  CANCELED (cancel_goal, `nav/stop`, or preempted by a newer goal), `aborted` ABORTED; on
-  Jazzy and later with nav2's `error_code` (TIMEOUT when the move's timeout ran out, else
-  UNKNOWN) and `error_msg` (the navigator's message). Humble's result has no fields.
+  CANCELED (cancel_goal, `nav/stop`, or preempted by a newer goal), `aborted` ABORTED
+  (the Mapping's Result, from the final state and the navigator's message).
 - get_result for a goal still running is answered when it ends.
 - status: every accepted goal's status, on each change.
 
@@ -29,7 +29,7 @@ import time
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import zenoh
@@ -44,14 +44,14 @@ from zenav.tools.ros2_node import Node, request
 
 log = logging.getLogger("zenav.ros2")
 
-NAME = "navigate_to_pose"
 ACCEPTED, EXECUTING, CANCELING, SUCCEEDED, CANCELED, ABORTED = 1, 2, 3, 4, 5, 6  # action_msgs/msg/GoalStatus
 UNKNOWN_STATUS = 0
 TERMINAL = (SUCCEEDED, CANCELED, ABORTED)
 RESULTS: dict[str, int] = {GoalResult.SUCCEEDED: SUCCEEDED, GoalResult.CANCELLED: CANCELED, GoalResult.ABORTED: ABORTED}
 CANCEL_NONE, CANCEL_UNKNOWN_GOAL, CANCEL_TERMINATED = 0, 2, 3  # action_msgs/srv/CancelGoal return codes
 KEEP = 16  # finished goals kept for get_result and status
-MOVE_TO_POSE, STOP = "nav/move_to_pose", "nav/stop"
+STOP = "nav/stop"
+COUNTERS = ("action_goals", "action_refused", "action_bad_input")  # summed over the bridge's actions
 
 Submit = Callable[[Callable[[], None]], None]  # runs a job on the command thread (or counts it dropped)
 
@@ -62,34 +62,55 @@ class Goal:
 
     uuid: bytes
     stamp: float  # [s] wall time accepted
+    request: Any = None  # the action's Goal message
     status: int = ACCEPTED
     zenav_id: int | None = None
+    last: m.NavState | None = None  # the newest nav/state of its zenav goal
+    data: Any = None  # what the Mapping keeps of the goal
     result: Any = None  # the action's Result message once ended
     waiting: list[zenoh.Query] = field(default_factory=list)  # get_result requests to answer when it ends
 
 
-class NavigateToPose:
-    """The action server; counts go into the bridge's `counts`."""
+class Mapping(Protocol):
+    """What one action's goals are in zenav."""
 
-    def __init__(self, node: Node, client: Client, submit: Submit, counts: dict[str, int]) -> None:
-        self.node, self.client, self.submit, self.counts = node, client, submit, counts
-        wire = node.wire
-        rt.register(wire)
-        self.types = wire.types()
+    name: str  # the action's ROS name, e.g. navigate_to_pose
+    action: str  # its type, e.g. nav2_msgs/action/NavigateToPose
+
+    def start(self, goal: Goal) -> tuple[str, dict[str, Any]]:
+        """The zenav goal query and its request for `goal.request`; ValueError saying why it cannot be one."""
+
+    def observe(self, msg: Any) -> None:
+        """Another zenav message the bridge reads (a pose, a plan), in arrival order."""
+
+    def feedback(self, goal: Goal, state: m.NavState) -> Any:
+        """The action's Feedback for a running goal's nav/state."""
+
+    def result(self, goal: Goal, status: int, message: str, state: m.NavState | None) -> Any:
+        """The action's Result of an ended goal (its final nav/state; None when refused before it started)."""
+
+
+class ActionServer:
+    """The action server of one Mapping; counts go into the bridge's `counts`."""
+
+    def __init__(self, node: Node, client: Client, submit: Submit, counts: dict[str, int], mapping: Mapping) -> None:
+        self.node, self.client, self.submit, self.counts, self.mapping = node, client, submit, counts, mapping
+        self.name, self.action = mapping.name, mapping.action
+        rt.register(node.wire)
+        self.types = node.wire.types()
         self._goals: OrderedDict[bytes, Goal] = OrderedDict()
         self._ended: OrderedDict[int, m.NavState] = OrderedDict()  # zenav goal id -> its final state
-        self._pose: m.Pose | None = None
         self._lock = threading.Lock()
-        base = f"{NAME}/_action/"
-        self._feedback = node.publisher(base + "feedback", f"{rt.NAVIGATE}_FeedbackMessage")
+        base = f"{self.name}/_action/"
+        self._feedback = node.publisher(base + "feedback", f"{self.action}_FeedbackMessage")
         self._status = node.publisher(base + "status", "action_msgs/msg/GoalStatusArray", depth=1, durability=TRANSIENT_LOCAL)
         for service, srv_type, job in (
-            ("send_goal", f"{rt.NAVIGATE}_SendGoal", self._send_goal),
+            ("send_goal", f"{self.action}_SendGoal", self._send_goal),
             ("cancel_goal", rt.CANCEL, self._cancel_goal),
-            ("get_result", f"{rt.NAVIGATE}_GetResult", self._get_result),
+            ("get_result", f"{self.action}_GetResult", self._get_result),
         ):
             node.service(base + service, srv_type, functools.partial(self._on_query, job))
-        for name in ("action_goals", "action_refused", "action_bad_input"):
+        for name in COUNTERS:
             counts.setdefault(name, 0)
 
     def _on_query(self, job: Callable[[zenoh.Query], None], query: zenoh.Query) -> None:
@@ -115,33 +136,32 @@ class NavigateToPose:
             return None
 
     def _send_goal(self, query: zenoh.Query) -> None:
-        req = self._decode(query, f"{rt.NAVIGATE}_SendGoal_Request")
+        req = self._decode(query, f"{self.action}_SendGoal_Request")
         if req is None:
             return
-        goal = Goal(bytes(req.goal_id.uuid), time.time())
+        goal = Goal(bytes(req.goal_id.uuid), time.time(), req.goal)
         with self._lock:
             self._goals[goal.uuid] = goal
         self.counts["action_goals"] += 1
         try:
-            frame, x, y, heading = rm.goal(req.goal.pose)
-            reply = None if not rm.in_map(frame) else self.client.query(MOVE_TO_POSE, {"x": x, "y": y, "theta": heading})
-            reason = f"goal in frame {frame!r}: goals are in {rm.MAP!r}" if reply is None else ""
+            suffix, fields = self.mapping.start(goal)
+            reply, reason = self.client.query(suffix, fields), ""
         except (ZenavError, ValueError) as e:
             reply, reason = None, str(e)
-        response = self.types[f"{rt.NAVIGATE}_SendGoal_Response"](accepted=True, stamp=rm.stamp(self.types, goal.stamp))
-        self.node.reply(query, response, f"{rt.NAVIGATE}_SendGoal_Response")
+        response = self.types[f"{self.action}_SendGoal_Response"](accepted=True, stamp=rm.stamp(self.types, goal.stamp))
+        self.node.reply(query, response, f"{self.action}_SendGoal_Response")
         if reply is None:
             self.counts["action_refused"] += 1
-            log.warning("%s goal refused: %s", NAME, reason)
+            log.warning("%s goal refused: %s", self.name, reason)
             self._finish(goal, ABORTED, reason, None)
             return
-        log.info("%s goal: zenav goal %d to (%.3f, %.3f, %.3f)", NAME, reply.goal_id, x, y, heading)
+        log.info("%s goal: zenav goal %d %s", self.name, reply.goal_id, suffix)
         with self._lock:
             goal.zenav_id, goal.status = reply.goal_id, EXECUTING
             preempted = [g for g in self._goals.values() if g is not goal and g.status not in TERMINAL]
             ended = self._ended.get(reply.goal_id)
         for old in preempted:
-            self._finish(old, CANCELED, "preempted by a newer goal", None)
+            self._finish(old, CANCELED, "preempted by a newer goal", old.last)
         self._publish_status()
         if ended is not None:  # it ended before its id came back
             self.on_state(ended)
@@ -172,10 +192,10 @@ class NavigateToPose:
             try:
                 self.client.query(STOP)
             except ZenavError as e:
-                log.warning("%s cancel: %s failed: %s", NAME, STOP, e)
+                log.warning("%s cancel: %s failed: %s", self.name, STOP, e)
 
     def _get_result(self, query: zenoh.Query) -> None:
-        req = self._decode(query, f"{rt.NAVIGATE}_GetResult_Request")
+        req = self._decode(query, f"{self.action}_GetResult_Request")
         if req is None:
             return
         with self._lock:
@@ -183,13 +203,18 @@ class NavigateToPose:
             if goal is not None and goal.status not in TERMINAL:
                 goal.waiting.append(query)  # answered when it ends
                 return
-        status, result = (UNKNOWN_STATUS, self._result("", None)) if goal is None else (goal.status, goal.result)
-        self._answer(query, status, result)
+        if goal is None:
+            self._answer(query, UNKNOWN_STATUS, self.mapping.result(Goal(b"", 0.0), UNKNOWN_STATUS, "", None))
+        else:
+            self._answer(query, goal.status, goal.result)
 
     # ------------------------------------------------------------ the navigator (worker thread)
-    def on_pose(self, pose: m.Pose) -> None:
-        """The newest fused pose (the feedback's current pose)."""
-        self._pose = pose
+    def on_message(self, msg: Any) -> None:
+        """A zenav message the bridge read: a nav/state drives the goals; the Mapping sees the others."""
+        if isinstance(msg, m.NavState):
+            self.on_state(msg)
+        else:
+            self.mapping.observe(msg)
 
     def on_state(self, state: m.NavState) -> None:
         """A nav/state: feedback for the goal it is of, or its end."""
@@ -201,53 +226,37 @@ class NavigateToPose:
                     self._ended.popitem(last=False)
         if goal is None:
             return
+        goal.last = state
         if state.result is None:
-            self._feedback.put(self._feedback_message(goal, state))
+            feedback = self.mapping.feedback(goal, state)
+            self._feedback.put(self.types[f"{self.action}_FeedbackMessage"](goal_id=self._uuid(goal), feedback=feedback))
         else:
-            self._finish(goal, RESULTS.get(state.result, ABORTED), state.message, state.exit)
+            self._finish(goal, RESULTS.get(state.result, ABORTED), state.message, state)
 
     # ------------------------------------------------------------ messages
-    def _finish(self, goal: Goal, status: int, message: str, exit_: str | None) -> None:
+    def _finish(self, goal: Goal, status: int, message: str, state: m.NavState | None) -> None:
+        result = self.mapping.result(goal, status, message, state)
         with self._lock:
             if goal.status in TERMINAL:
                 return
-            goal.status, goal.result = status, self._result(message, exit_) if status != SUCCEEDED else self._result("", None)
+            goal.status, goal.result = status, result
             waiting, goal.waiting = goal.waiting, []
             while len(self._goals) > KEEP and next(iter(self._goals.values())).status in TERMINAL:
                 self._goals.popitem(last=False)
-        log.info("%s goal %s ended: status %d %s", NAME, goal.uuid.hex(), status, message)
+        log.info("%s goal %s ended: status %d %s", self.name, goal.uuid.hex(), status, message)
         for query in waiting:
-            self._answer(query, status, goal.result)
+            self._answer(query, status, result)
         self._publish_status()
 
-    def _result(self, message: str, exit_: str | None) -> Any:
-        result_type = self.types[f"{rt.NAVIGATE}_Result"]
-        if "error_code" not in result_type.__dataclass_fields__:  # Humble: std_msgs/Empty result
-            return result_type(result=self.types["std_msgs/msg/Empty"]())
-        code = rt.NONE if not message and exit_ is None else rt.TIMEOUT if exit_ == "timeout" else rt.UNKNOWN
-        return result_type(error_code=code, error_msg=message)
-
     def _answer(self, query: zenoh.Query, status: int, result: Any) -> None:
-        response = self.types[f"{rt.NAVIGATE}_GetResult_Response"](status=status, result=result)
-        self.node.reply(query, response, f"{rt.NAVIGATE}_GetResult_Response")
+        response = self.types[f"{self.action}_GetResult_Response"](status=status, result=result)
+        self.node.reply(query, response, f"{self.action}_GetResult_Response")
 
     def _uuid(self, goal: Goal) -> Any:
         return self.types["unique_identifier_msgs/msg/UUID"](uuid=np.frombuffer(goal.uuid, dtype=np.uint8).copy())
 
     def _info(self, goal: Goal) -> Any:
         return self.types["action_msgs/msg/GoalInfo"](goal_id=self._uuid(goal), stamp=rm.stamp(self.types, goal.stamp))
-
-    def _feedback_message(self, goal: Goal, state: m.NavState) -> Any:
-        pose = self._pose
-        xyt = (0.0, 0.0, 0.0) if pose is None else (pose.x, pose.y, pose.theta)
-        feedback = self.types[f"{rt.NAVIGATE}_Feedback"](
-            current_pose=rm.pose_stamped(self.types, time.time(), xyt),
-            navigation_time=rm.duration(self.types, state.elapsed),
-            estimated_time_remaining=rm.duration(self.types, state.eta or 0.0),
-            number_of_recoveries=0,
-            distance_remaining=float(state.distance_remaining or 0.0),
-        )
-        return self.types[f"{rt.NAVIGATE}_FeedbackMessage"](goal_id=self._uuid(goal), feedback=feedback)
 
     def _publish_status(self) -> None:
         with self._lock:

@@ -1,4 +1,4 @@
-"""nav2_msgs' NavigateToPose action as each distro defines it, registered into a Wire's type store.
+"""nav2_msgs' NavigateToPose and FollowWaypoints actions as each distro defines them, registered into a Wire's type store.
 
 rosbags ships the common ROS 2 messages (geometry_msgs, nav_msgs, tf2_msgs, action_msgs,
 unique_identifier_msgs) but not nav2_msgs: its goal, result and feedback are parsed here
@@ -15,6 +15,7 @@ from rosbags.typesys import get_types_from_msg
 from zenav.tools.rmw_zenoh import Wire
 
 NAVIGATE = "nav2_msgs/action/NavigateToPose"
+FOLLOW = "nav2_msgs/action/FollowWaypoints"
 CANCEL = "action_msgs/srv/CancelGoal"
 
 _FEEDBACK = """geometry_msgs/PoseStamped current_pose
@@ -30,13 +31,34 @@ NAVIGATE_TO_POSE = {
 }
 NAVIGATE_TO_POSE["kilted"] = NAVIGATE_TO_POSE["jazzy"]
 
+# (goal, result, feedback) of nav2_msgs/action/FollowWaypoints; Jazzy's result lists nav2_msgs/MissedWaypoint,
+# Kilted's nav2_msgs/WaypointStatus (WAYPOINT_MSGS)
+_WAYPOINTS_GOAL = "uint32 number_of_loops\nuint32 goal_index 0\ngeometry_msgs/PoseStamped[] poses"
+_ERROR = "\nuint16 error_code\nstring error_msg"
+FOLLOW_WAYPOINTS = {
+    "humble": ("geometry_msgs/PoseStamped[] poses", "int32[] missed_waypoints", "uint32 current_waypoint"),
+    "jazzy": (_WAYPOINTS_GOAL, "nav2_msgs/MissedWaypoint[] missed_waypoints" + _ERROR, "uint32 current_waypoint"),
+    "kilted": (_WAYPOINTS_GOAL, "nav2_msgs/WaypointStatus[] missed_waypoints" + _ERROR, "uint32 current_waypoint"),
+}
+WAYPOINT_MSGS = {
+    "humble": {},
+    "jazzy": {"nav2_msgs/msg/MissedWaypoint": "uint32 index\ngeometry_msgs/PoseStamped goal\nuint16 error_code"},
+    "kilted": {
+        "nav2_msgs/msg/WaypointStatus": "uint8 waypoint_status\nuint32 waypoint_index\ngeometry_msgs/PoseStamped waypoint_pose\n"
+        "uint16 error_code\nstring error_msg"
+    },
+}
+WAYPOINT_FAILED = 3  # WaypointStatus.FAILED
+
 CANCEL_GOAL = (
     "action_msgs/GoalInfo goal_info",
     "int8 return_code\naction_msgs/GoalInfo[] goals_canceling",
 )
 
-# nav2's result error codes (kilted's constants; jazzy defines only NONE, with the same field)
+# nav2's result error codes: NavigateToPose's (kilted's constants; jazzy defines only NONE, with the same field)
 NONE, UNKNOWN, TIMEOUT = 0, 9000, 9003
+# FollowWaypoints' (jazzy and kilted)
+WAYPOINTS_UNKNOWN, TASK_EXECUTOR_FAILED = 600, 601
 
 
 def register_action(wire: Wire, action: str, goal: str, result: str, feedback: str) -> None:
@@ -59,8 +81,11 @@ def register_action(wire: Wire, action: str, goal: str, result: str, feedback: s
 
 
 def register(wire: Wire) -> None:
-    """Register NavigateToPose (as `wire.distro` defines it) and action_msgs' CancelGoal service."""
+    """Register NavigateToPose and FollowWaypoints (as `wire.distro` defines them) and action_msgs' CancelGoal service."""
     register_action(wire, NAVIGATE, *NAVIGATE_TO_POSE[wire.distro])
+    for name, text in WAYPOINT_MSGS[wire.distro].items():
+        wire.register(get_types_from_msg(text, name))
+    register_action(wire, FOLLOW, *FOLLOW_WAYPOINTS[wire.distro])
     _register_service(wire, CANCEL, *CANCEL_GOAL)
 
 

@@ -8,12 +8,15 @@ To ROS it is a node (default `zenav_bridge`) with, by relative name (under its n
   goal, as `zenav teleop` does: the hand has the robot, not the goal); `initialpose`
   (geometry_msgs/PoseWithCovarianceStamped, frame `map`) -> `localizer/set_pose`;
   `goal_pose` (geometry_msgs/PoseStamped, frame `map`, rviz2's "2D Goal Pose") -> `nav/move_to_pose`;
-- the action `navigate_to_pose` (nav2_msgs/action/NavigateToPose; tools/ros2_action.py).
+- the actions `navigate_to_pose` and `follow_waypoints` (nav2_msgs/action/NavigateToPose and
+  FollowWaypoints: tools/ros2_action.py, tools/ros2_nav2.py);
+- with a [camera] given (`--image`): `camera/image_raw` and `camera/camera_info` (tools/ros2_image.py).
 
 Bad input (CDR that does not decode, non-finite values) is dropped, counted (`bad_input`)
 and logged; a message in another frame than `map`, or one the stack refuses, is counted
 `refused` and logged with the reason. Zenoh callbacks only enqueue: one worker converts
-and publishes zenav's topics, one command thread handles what ROS sends (in arrival order).
+and publishes zenav's topics, one command thread handles what ROS sends (in arrival order),
+one decodes camera frames.
 """
 
 from __future__ import annotations
@@ -25,14 +28,18 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
+from zenav.common import keys
 from zenav.common import messages as m
-from zenav.common.bus import ZenohBus
+from zenav.common.bus import Handle, ZenohBus
 from zenav.common.client import Client, Latest, ZenavError
+from zenav.common.config import Camera
 from zenav.common.contract import State
 from zenav.tools import ros2_msgs as rm
 from zenav.tools import ros2_out as ro
 from zenav.tools.rmw_zenoh import TRANSIENT_LOCAL, Wire
-from zenav.tools.ros2_action import NavigateToPose
+from zenav.tools.ros2_action import ActionServer
+from zenav.tools.ros2_image import CameraImages
+from zenav.tools.ros2_nav2 import FollowWaypoints, NavigateToPose
 from zenav.tools.ros2_node import Node
 
 log = logging.getLogger("zenav.ros2")
@@ -53,13 +60,15 @@ COUNTERS = ("goals", "cmd_vel", "initial_poses", "goals_stopped", "bad_input", "
 class Bridge:
     """Publishes one robot's state to ROS 2 and takes its commands; start() then stop()."""
 
-    def __init__(self, bus: ZenohBus, robot: str, wire: Wire) -> None:
-        self.bus, self.robot, self.wire = bus, robot, wire
+    def __init__(self, bus: ZenohBus, robot: str, wire: Wire, camera: Camera | None = None) -> None:
+        """`camera`: publish the camera's frames as images, with its intrinsics (None: no images)."""
+        self.bus, self.robot, self.wire, self.camera = bus, robot, wire, camera
         self.client = Client(robot, bus=bus)
         self.counts: dict[str, int] = dict.fromkeys((*ro.BRIDGED, *COUNTERS), 0)
         self.converter = ro.Converter(wire.types())
         self.node: Node | None = None
-        self.action: NavigateToPose | None = None
+        self.actions: list[ActionServer] = []
+        self._frames: Handle | None = None  # the camera frames' subscription
         self._pubs: dict[str, Any] = {}
         self._nav: Latest | None = None  # the newest nav/state, as it arrives (not behind the worker's queue)
         self._stopped_goal = 0  # the goal id a cmd_vel stopped last
@@ -83,12 +92,19 @@ class Bridge:
         for name, ros_types in SUBSCRIBED.items():
             for ros_type in ros_types:
                 node.subscription(name, ros_type, functools.partial(self._on_sample, handlers[name], ros_type))
-        self.action = NavigateToPose(node, self.client, self.submit, self.counts)
+        types = self.wire.types()
+        kinds = (NavigateToPose(types), FollowWaypoints(types))
+        self.actions = [ActionServer(node, self.client, self.submit, self.counts, kind) for kind in kinds]
         self._nav = self.client.latest("nav/state")
-        for suffix in ("clock", "odom", "pose", "nav/state", "field"):
+        for suffix in ("clock", "odom", "pose", "nav/state", "nav/plan", "field"):
             self.client.subscribe(suffix, self._enqueue)
-        for target in (self._work, self._run_jobs):
-            thread = threading.Thread(target=target, name=f"ros2-{target.__name__.strip('_')}", daemon=True)
+        loops: list[Callable[[], None]] = [self._work, self._run_jobs]
+        if self.camera is not None:
+            images = CameraImages(node, self.camera, self.converter.wall_time, self.counts)
+            self._frames = self.bus.subscribe(keys.field_key("camera/frame"), images.on_sample)
+            loops.append(functools.partial(images.run, self._stop))
+        for i, target in enumerate(loops):
+            thread = threading.Thread(target=target, name=f"ros2-{('work', 'jobs', 'images')[i]}", daemon=True)
             thread.start()
             self._threads.append(thread)
         return self
@@ -99,8 +115,10 @@ class Bridge:
         for thread in self._threads:
             thread.join(timeout=5.0)
         self.client.close()
-        if self.action is not None:
-            self.action.close()
+        if self._frames is not None:
+            self._frames.undeclare()
+        for action in self.actions:
+            action.close()
         if self.node is not None:
             self.node.close()
         self.counts["unstamped"] = self.converter.unstamped
@@ -135,11 +153,8 @@ class Bridge:
                 log.exception("could not bridge %s", type(msg).__name__)
 
     def _handle(self, msg: Any) -> None:
-        if self.action is not None:
-            if isinstance(msg, m.Pose):
-                self.action.on_pose(msg)
-            elif isinstance(msg, m.NavState):
-                self.action.on_state(msg)
+        for action in self.actions:
+            action.on_message(msg)
         for name, ros in self.converter.feed(msg):
             self._pubs[name].put(ros)
             self.counts[name] += 1
