@@ -75,13 +75,13 @@ class Vps(Service):
         if self.cfg.source == "camera":
             self.blocking = True  # a frame takes milliseconds to detect ...
             self.background = True  # ... and the control loop must not wait for a core meanwhile
-            from zenav.services.vps import calibration, detect
+            from zenav.services.vps import calibration_file, detect
             from zenav.services.vps.reader import Reader
             from zenav.world.camera import tag_pixels
 
             cam = self.settings.section("camera", CameraConfig)
             check_fits(cam, self.limits)
-            self.reader = Reader(cam, calibration.configured(cam), detect.make(self.cfg.detector, tag_pixels(cam)))
+            self.reader = Reader(cam, calibration_file.configured(cam), detect.make(self.cfg.detector, tag_pixels(cam)))
             self.link_delay = cam.link_delay  # [s]
             self.queues = {robot: DeliveryQueue() for robot in cam.robots}
             self.host = HostClock(cam, self.clock, self.bus, self.settings.deployment.seed)
