@@ -17,7 +17,7 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -43,7 +43,7 @@ DETECT_EPILOG = """exit codes: 0 tags found, 1 no tag found, 2 the file cannot b
 (missing, empty, not a picture), bad arguments or OpenCV not installed"""
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("camera", help="the overhead camera: calibrate, snapshot, stream, detect; a lens's intrinsics")
     verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
     d = verbs.add_parser(
@@ -121,7 +121,7 @@ def read_picture(path: str) -> np.ndarray:
     img = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_GRAYSCALE)
     if img is None:
         raise RuntimeError(f"cannot read {path}: not a picture OpenCV can decode (PNG, JPEG, ...)")
-    return img
+    return cast(np.ndarray, img)
 
 
 def grab(args: argparse.Namespace, cfg: Camera) -> np.ndarray:

@@ -11,6 +11,7 @@ a 6-DoF PnP pose is ambiguous; the plane homography gives x, y and yaw robustly.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -72,7 +73,7 @@ class Calibration:
         """Pixels as seen (N x 2, distorted) -> (x, y) [m] on the plane h [m] above the floor."""
         return _apply(self.plane(h) if h else self.floor, self.lens.undistort(px))
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         """The calibration as the file `zenav camera calibrate` writes."""
         return {
             "version": VERSION,
@@ -87,7 +88,7 @@ class Calibration:
         }
 
     @classmethod
-    def from_json(cls, d: dict) -> Calibration:
+    def from_json(cls, d: Any) -> Calibration:
         """The calibration `to_json` gave; ValueError, KeyError or TypeError when it is not one."""
         if not isinstance(d, dict):
             raise ValueError(f"a {type(d).__name__}, not an object")

@@ -12,7 +12,10 @@ from msgspec import Meta, Struct
 
 from zenav.common import codec, extras, keys
 from zenav.common import messages as m
+from zenav.common.bus import Bus
+from zenav.common.clock import Clock
 from zenav.common.config import Camera as CameraConfig
+from zenav.common.config import Settings
 from zenav.common.runtime import Duplicate, Service, timer
 from zenav.services.vps.clocks import SYNC_PERIOD, HostClock
 from zenav.services.vps.detect import Backend
@@ -60,8 +63,8 @@ class Vps(Service):
     config_type = VpsConfig
     health_period = 0.5  # [s] how often a silent input or an unseen tag is looked for
 
-    def __init__(self, *args) -> None:
-        super().__init__(*args)
+    def __init__(self, settings: Settings, bus: Bus, clock: Clock) -> None:
+        super().__init__(settings, bus, clock)
         if self.cfg.name:
             self.name = f"vps_{self.cfg.name}"  # a second camera's vps: its own presence, beside the robot's vps
         self.camera = Camera(self.settings.scenario, make_rng(self.settings.deployment.seed))
