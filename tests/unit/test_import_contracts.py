@@ -17,8 +17,11 @@ CORES = "the algorithm cores"  # how both core contracts' names begin
 IO_MODULES = {
     "zenav.services.driver.board",  # the serial port
     "zenav.services.sim.camera",  # a worker thread that renders and sends frames
+    "zenav.services.sim.onboard",  # the onboard camera's frames, sent by that worker
     "zenav.services.vps.calibration_file",  # the calibration file
+    "zenav.services.vps.clocks",  # the camera host's clock, synchronised over the bus
     "zenav.services.vps.frames",  # webcams, video files and streams
+    "zenav.services.vps.onboard_reader",  # the onboard camera's pipeline, timed with the wall clock
     "zenav.services.vps.reader",  # the camera pipeline, timed with the wall clock
 }
 
