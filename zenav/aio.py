@@ -28,8 +28,9 @@ from typing import Any
 from zenav.common import messages as m
 from zenav.common.client import QueryBus
 from zenav.common.goalschema import GoalSpec
+from zenav.common.roles import DRIVE_SERVICES
 from zenav.goalapi import GoalMethods
-from zenav.robot import CONNECT_TIMEOUT, DRIVE_PERIOD, DRIVE_SERVICES, POSE_TIMEOUT, QUERY_TIMEOUT, Result
+from zenav.robot import CONNECT_TIMEOUT, DRIVE_PERIOD, POSE_TIMEOUT, QUERY_TIMEOUT, Result
 from zenav.robot import Goal as SyncGoal
 from zenav.robot import Robot as SyncRobot
 

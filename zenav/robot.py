@@ -32,7 +32,7 @@ import uuid
 import weakref
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import zenoh
 
@@ -321,7 +321,7 @@ class Robot(GoalMethods[Goal]):
     def pose(self, timeout: float = POSE_TIMEOUT) -> m.Pose:
         """The newest pose (map frame: x, y [m], theta [rad], t, cov...); Unavailable if none comes in `timeout` s."""
         try:
-            return self._poses.wait(timeout=timeout)
+            return cast(m.Pose, self._poses.wait(timeout=timeout))
         except TimeoutError:
             raise Unavailable(f"no pose in {timeout} s: is the localizer running?") from None
 
@@ -331,11 +331,11 @@ class Robot(GoalMethods[Goal]):
         request = {k: v for k, v in {"x": x, "y": y, "theta": theta}.items() if v is not None}
         if not request:
             raise InvalidArgument(m.SET_POSE_EMPTY)
-        return self.client.query("localizer/set_pose", request, timeout=self.timeout)
+        return cast(m.PoseStamped, self.client.query("localizer/set_pose", request, timeout=self.timeout))
 
     def status(self) -> m.StatusReply:
         """The navigator's nav/status: state, goal, result, pose, and not_ready (why a goal would be refused)."""
-        return self.client.query("nav/status", timeout=self.timeout)
+        return cast(m.StatusReply, self.client.query("nav/status", timeout=self.timeout))
 
     def on_change(self, callback: Callable[[], None]) -> None:
         """Call `callback()` whenever a goal's state may have changed (on Zenoh's thread: it must not block)."""
@@ -373,7 +373,7 @@ class Robot(GoalMethods[Goal]):
         for attempt in range(RETRIES + 1):
             seen = self._poses.msg
             try:
-                return self.client.query(suffix, request, timeout=self.timeout)
+                return cast(m.GoalReply, self.client.query(suffix, request, timeout=self.timeout))
             except Unavailable as e:
                 if attempt == RETRIES or e.reason not in RETRYABLE:
                     raise

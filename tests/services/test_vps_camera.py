@@ -17,7 +17,7 @@ from zenav.common.config import Camera, Settings
 from zenav.common.runtime import Duplicate
 from zenav.services.sim.camera import FieldCamera, Shutter
 from zenav.services.sim.service import Sim
-from zenav.services.vps import calibration, detect
+from zenav.services.vps import calibration, calibration_file, detect
 from zenav.services.vps.calibration import CalibrationError
 from zenav.services.vps.frames import encode
 from zenav.services.vps.service import Vps
@@ -36,7 +36,7 @@ def renderer() -> Renderer:
 def cal_file(renderer, tmp_path_factory) -> str:
     tags = detect.make().detect(renderer.render(0.0, []))
     path = tmp_path_factory.mktemp("cal") / "camera.json"
-    calibration.calibrate(tags, Camera()).save(path)
+    calibration_file.save(calibration.calibrate(tags, Camera()), path)
     return str(path)
 
 

@@ -8,7 +8,7 @@ import pytest
 
 from zenav.common.config import Camera
 from zenav.common.geometry import wrap_angle
-from zenav.services.vps import calibration, detect, locate
+from zenav.services.vps import calibration, calibration_file, detect, locate
 from zenav.services.vps.calibration import Calibration, CalibrationError
 from zenav.world.camera import tag_pixels
 from zenav.world.render import Body, Renderer
@@ -104,17 +104,18 @@ def test_calibration_needs_fixed_tags(renderer, detector):
 
 def test_no_calibration_names_what_to_run(tmp_path):
     with pytest.raises(CalibrationError, match="run `zenav camera calibrate`"):
-        Calibration.load(tmp_path / "none.json")
+        calibration_file.load(tmp_path / "none.json")
     bad = tmp_path / "bad.json"
-    bad.write_text("{not json")
-    with pytest.raises(CalibrationError, match="unreadable"):
-        Calibration.load(bad)
+    for text in ("{not json", "[1, 2]", '{"version": 1}'):
+        bad.write_text(text)
+        with pytest.raises(CalibrationError, match="unreadable"):
+            calibration_file.load(bad)
 
 
 def test_a_calibration_file_round_trips(cal, tmp_path):
     path = tmp_path / "cal.json"
-    cal.save(path)
-    back = Calibration.load(path)
+    calibration_file.save(cal, path)
+    back = calibration_file.load(path)
     assert np.allclose(back.floor, cal.floor) and np.allclose(back.lens.K, cal.lens.K) and back.anchors == cal.anchors
     px = np.array([(100.0, 100.0), (500.0, 400.0)])
     assert np.allclose(back.to_plane(px, 0.12), cal.to_plane(px, 0.12))

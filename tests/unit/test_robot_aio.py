@@ -54,8 +54,8 @@ def test_wait_until_in_asyncio(world):
 
             world.hide_state = True  # no nav/state: only the pose that takes it past the mark can wake the program
             driver = asyncio.create_task(drive(lambda: goal.travelled >= 0.25))
-            async with asyncio.timeout(10):  # woken by that pose, long before its own timeout
-                assert await goal.wait_until(0.25, timeout=30) and not goal.done()
+            # woken by that pose, long before its own timeout
+            assert await asyncio.wait_for(goal.wait_until(0.25, timeout=30), 10) and not goal.done()
             await driver
             world.hide_state = False
             assert 0.25 <= goal.travelled < 0.26 and world.x == pytest.approx(goal.travelled, abs=0.01)

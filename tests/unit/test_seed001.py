@@ -9,17 +9,17 @@ import pytest
 
 from zenav.common import messages as m
 from zenav.common.config import Robot
+from zenav.services.localizer import averaging
 from zenav.services.localizer.base import LocalizerConfig
 from zenav.services.localizer.modes import make_mode
-from zenav.services.odometry import seed001 as s1
 
 
 def test_secant_rule_is_exact_for_a_constant_acceleration():
-    s = s1.imu_sample(s1.Inertial(), 0.0, 0.0, 0.5, 0.0, halted=False, still=False, bias_time=5.0)
+    s = averaging.imu_sample(averaging.Inertial(), 0.0, 0.0, 0.5, 0.0, halted=False, still=False, bias_time=5.0)
     for i in range(1, 101):
-        s = s1.imu_sample(s, i * 0.01, 0.0, 0.5, 0.0, halted=False, still=False, bias_time=5.0)
+        s = averaging.imu_sample(s, i * 0.01, 0.0, 0.5, 0.0, halted=False, still=False, bias_time=5.0)
     assert s.v == pytest.approx(0.5)  # [m/s] after 1 s at 0.5 m/s^2
-    s, gyro, travel, angle = s1.take(s)
+    s, gyro, travel, angle = averaging.take(s)
     assert travel == pytest.approx(0.25)  # a t^2 / 2
     assert gyro == 0.0 and angle == pytest.approx(0.0)
     assert (s.travel, s.angle, s.v) == (0.0, 0.0, pytest.approx(0.5))  # the speed carries over to the next step
@@ -27,30 +27,30 @@ def test_secant_rule_is_exact_for_a_constant_acceleration():
 
 def test_accelerometer_angle_is_the_heading_change_of_the_arc():
     v, omega, dt = 0.3, 1.0, 0.01  # [m/s], [rad/s], [s]
-    s = s1.Inertial(t=0.0, gyro=omega, v=v, ay=v * omega)
-    s = s1.imu_sample(s, dt, omega, 0.0, v * omega, halted=False, still=False, bias_time=5.0)
-    _, gyro, travel, angle = s1.take(s)
+    s = averaging.Inertial(t=0.0, gyro=omega, v=v, ay=v * omega)
+    s = averaging.imu_sample(s, dt, omega, 0.0, v * omega, halted=False, still=False, bias_time=5.0)
+    _, gyro, travel, angle = averaging.take(s)
     assert travel == pytest.approx(v * dt)
     assert gyro == pytest.approx(omega * dt)
     assert angle == pytest.approx(omega * dt, rel=1e-3)
 
 
 def test_no_forward_travel_leaves_the_accelerometer_angle_out():
-    _, _, travel, angle = s1.take(s1.Inertial(t=0.0, lateral=1e-4))
+    _, _, travel, angle = averaging.take(averaging.Inertial(t=0.0, lateral=1e-4))
     assert travel == 0.0 and angle is None
 
 
 def test_standing_still_learns_the_biases_and_zeroes_the_speed():
-    s = s1.Inertial(v=0.2)
+    s = averaging.Inertial(v=0.2)
     for i in range(200):
-        s = s1.imu_sample(s, i * 0.01, 0.01, 0.03, -0.02, halted=True, still=True, bias_time=5.0)
+        s = averaging.imu_sample(s, i * 0.01, 0.01, 0.03, -0.02, halted=True, still=True, bias_time=5.0)
     assert (s.bias_gyro, s.bias_ax, s.bias_ay) == (pytest.approx(0.01), pytest.approx(0.03), pytest.approx(-0.02))
     assert s.v == 0.0 and s.angle == 0.0
 
 
 def test_a_push_while_halted_is_not_taken_for_rest():
-    s = s1.Inertial(t=0.0)
-    s = s1.imu_sample(s, 0.01, 0.0, 2.0, 0.0, halted=True, still=False, bias_time=5.0)
+    s = averaging.Inertial(t=0.0)
+    s = averaging.imu_sample(s, 0.01, 0.0, 2.0, 0.0, halted=True, still=False, bias_time=5.0)
     assert s.v == pytest.approx(0.01)  # the motor's first push before the first encoder tick counts
 
 
@@ -58,7 +58,7 @@ def test_combine_is_the_weighted_average_of_the_six_estimates():
     theta, d_enc, d_acc = 0.3, 0.010, 0.012
     angles = (0.02, 0.01, 0.04)
     wd, wa = (1.0, 0.5), (1.0, 3.0, 0.5)
-    dx, dy, dth = s1.combine(theta, (d_enc, d_acc), angles, wd, wa)
+    dx, dy, dth = averaging.combine(theta, (d_enc, d_acc), angles, wd, wa)
     pairs = [(i * j, d, a) for i, d in zip(wd, (d_enc, d_acc)) for j, a in zip(wa, angles)]
     total = sum(w for w, _, _ in pairs)
     assert dx == pytest.approx(sum(w * d * math.cos(theta + a / 2) for w, d, a in pairs) / total)
@@ -67,11 +67,11 @@ def test_combine_is_the_weighted_average_of_the_six_estimates():
 
 
 def test_combine_leaves_missing_sensors_out():
-    assert s1.combine(0.0, (0.01, None), (0.02, None, None), (1.0, 1.0), (1.0, 1.0, 1.0)) == pytest.approx(
+    assert averaging.combine(0.0, (0.01, None), (0.02, None, None), (1.0, 1.0), (1.0, 1.0, 1.0)) == pytest.approx(
         (0.01 * math.cos(0.01), 0.01 * math.sin(0.01), 0.02)
     )
     # Every weight zero: the encoders alone.
-    assert s1.combine(0.0, (0.01, 0.5), (0.0, 0.3, 0.3), (0.0, 0.0), (0.0, 0.0, 0.0)) == pytest.approx((0.01, 0.0, 0.0))
+    assert averaging.combine(0.0, (0.01, 0.5), (0.0, 0.3, 0.3), (0.0, 0.0), (0.0, 0.0, 0.0)) == pytest.approx((0.01, 0.0, 0.0))
 
 
 def mode(**overrides: object):

@@ -16,6 +16,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import msgspec
 
@@ -52,7 +53,7 @@ class Spec:
     # robot's own camera's frames, the field's tags detected; camera+onboard: both cameras, each its own vps (in-process)
     vps: str = "synthetic"
 
-    def navigator(self) -> dict:
+    def navigator(self) -> dict[str, Any]:
         """The navigator's settings. Only the EKF modes carry a covariance the navigator's uncertainty
         checks can trust: dead reckoning never learns where the map is (its pose stays "unknown"), and
         the other comparison modes' sigmas are rules of thumb. Their runs drive with the checks off,
@@ -61,7 +62,7 @@ class Spec:
         ungated = {} if gated else {"max_position_sigma": math.inf, "max_heading_sigma": math.inf}
         return {"controller": self.controller, **ungated}
 
-    def settings(self, rtf: float, vps: dict | None = None) -> Settings:
+    def settings(self, rtf: float, vps: dict[str, Any] | None = None) -> Settings:
         return Settings.load(
             None,
             deployment={"scenario": self.scenario, "seed": self.seed},
@@ -71,7 +72,7 @@ class Spec:
             navigator=self.navigator(),
         )
 
-    def _camera(self) -> dict:
+    def _camera(self) -> dict[str, Any]:
         """The sim's settings for the camera VPS (it renders the frames; the onboard camera's whenever the vps reads them)."""
         cams = self.vps.split("+")
         return {"camera": True, **({"onboard_camera": True} if "onboard" in cams else {})} if "camera" in cams else {}

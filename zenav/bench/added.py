@@ -64,7 +64,10 @@ def measure(stack: Sequence[Sequence[float]], arm: Sequence[Sequence[float]], dr
         diffs[k] = np.percentile(ds, QS) - np.percentile(da, QS)
     tail = (1.0 - LEVEL) / 2.0 * 100.0
     low, high = np.percentile(diffs, tail, axis=0), np.percentile(diffs, 100.0 - tail, axis=0)
-    pair = lambda v: (float(v[0]), float(v[1]))  # noqa: E731
+
+    def pair(v: np.ndarray) -> tuple[float, float]:
+        return float(v[0]), float(v[1])
+
     return Added(len(stack), (len(pooled_s), len(pooled_a)), pair(ps), pair(pa), pair(ps - pa), pair(low), pair(high))
 
 

@@ -28,6 +28,7 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import zenoh
@@ -108,7 +109,7 @@ def play(connect: str, robots: list[str], duration: float) -> float:
     return pace
 
 
-def sink(connect: str, robots: list[str], timeout: float) -> dict:
+def sink(connect: str, robots: list[str], timeout: float) -> dict[str, Any]:
     """Subscribe as the services would; at the end marker, the probe's count and latencies [ms].
 
     The probe (every robot's PROBE topic on the first session) is a Python callback; the other
@@ -259,7 +260,7 @@ class Hosts:
                 raise RuntimeError(f"host {i + 1}'s router is not listening after {timeout} s")
             time.sleep(0.1)  # polling a port that is not open yet
 
-    def run(self, i: int, argv: list[str], log: Path) -> subprocess.Popen:
+    def run(self, i: int, argv: list[str], log: Path) -> subprocess.Popen[bytes]:
         """Start argv in host i's namespace (`ip netns exec` becomes the process: its pid is argv's); stdin a pipe."""
         with open(log, "w") as f:
             return subprocess.Popen(
@@ -315,7 +316,7 @@ def hosts(n: int = 3, phase: float = 3.0, log_dir: Path | None = None) -> HostsR
     watcher has heard every robot, and `phase` s later the watches end."""
     logs = log_dir or Path(tempfile.mkdtemp(prefix="zenav-fleet-"))
     robots = [f"h{i + 1}" for i in range(n)]
-    procs: list[subprocess.Popen] = []
+    procs: list[subprocess.Popen[bytes]] = []
     with Hosts(n) as net:
         eps = [f"tcp/{net.address(i)}:{PORT}" for i in range(n)]
         try:

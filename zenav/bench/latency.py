@@ -28,6 +28,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -141,7 +142,7 @@ def near_fix(arrivals: np.ndarray, fixes: np.ndarray) -> np.ndarray:
         return np.zeros(len(arrivals), dtype=bool)
     fixes = np.sort(fixes)
     last = np.searchsorted(fixes, arrivals, side="right") - 1  # the newest fix at or before each arrival
-    return (last >= 0) & (arrivals - fixes[np.maximum(last, 0)] < NEAR_FIX)
+    return cast(np.ndarray, (last >= 0) & (arrivals - fixes[np.maximum(last, 0)] < NEAR_FIX))
 
 
 def observe(connect: str, robot: str, mode: str) -> None:
@@ -176,7 +177,7 @@ class Observer:
         assert self.proc is not None, "start() first"
         out, _ = self.proc.communicate(timeout=60.0)
         self.proc = None
-        return json.loads(out)
+        return cast(dict[str, list[float]], json.loads(out))
 
     def close(self) -> None:
         """Stop it if it still runs (idempotent)."""

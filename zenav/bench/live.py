@@ -19,6 +19,7 @@ from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 from zenav.bench import chain, trials
 from zenav.bench.arm import Arm
@@ -213,9 +214,9 @@ def run(
 def _diag_after(latest: Latest, t: float) -> m.Diag:
     """The first diag from stack time t on, or the newest if none comes soon (a stack far behind)."""
     try:
-        return latest.wait(lambda msg: msg.t >= t, timeout=DIAG_WAIT)
+        return cast(m.Diag, latest.wait(lambda msg: msg.t >= t, timeout=DIAG_WAIT))
     except TimeoutError:
-        return latest.msg
+        return cast(m.Diag, latest.msg)
 
 
 def _increase(a: m.Diag, b: m.Diag) -> dict[str, int]:

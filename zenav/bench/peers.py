@@ -26,6 +26,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 from zenav.bench import accuracy
 from zenav.bench.scoring import WARMUP, Score, score
@@ -162,7 +163,7 @@ def compare(streams: Streams, robot: Robot, zenav: Score | None = None, sweep: S
     return Compared(zenav or run_zenav(streams, robot), default, best, tuning)
 
 
-def recorded(msgs: dict[str, list], fixes: list[tuple[float, m.VpsPose]]) -> Streams:
+def recorded(msgs: dict[str, list[Any]], fixes: list[tuple[float, m.VpsPose]]) -> Streams:
     """The streams of a live run's recording (bench/trials.py's Recorder): what the localizer was sent."""
     return Streams(
         truth=msgs["sim/truth"],
@@ -211,7 +212,7 @@ def live(
 
 def row(label: str, runs: Sequence[Compared]) -> str:
     """A markdown row: zenav's RMSE, WPILib's default and best [cm] (means over the runs), the ratio, the best tuning."""
-    mean = lambda xs: statistics.fmean(xs)  # noqa: E731
+    mean = statistics.fmean
     z, d, b = (mean([getattr(c, k).rmse for c in runs]) * 100 for k in ("zenav", "default", "best"))
     tunings = sorted({c.tuning.label() for c in runs})
     met = "yes" if b / z >= TARGET else "**no**"

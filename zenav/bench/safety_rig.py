@@ -120,9 +120,9 @@ class Rig:
         self.stack.stop()
 
 
-def read_lines(proc: subprocess.Popen) -> queue.Queue:
+def read_lines(proc: subprocess.Popen[str]) -> queue.Queue[str]:
     """The child's stdout lines, read by a thread (and closed at its end), to wait on with a timeout."""
-    lines: queue.Queue = queue.Queue()
+    lines: queue.Queue[str] = queue.Queue()
 
     def read() -> None:
         assert proc.stdout is not None
@@ -134,7 +134,7 @@ def read_lines(proc: subprocess.Popen) -> queue.Queue:
     return lines
 
 
-def end_child(proc: subprocess.Popen) -> None:
+def end_child(proc: subprocess.Popen[str]) -> None:
     """Kill a child (frozen or not) and close its stdin."""
     proc.kill()
     proc.wait()
@@ -142,7 +142,7 @@ def end_child(proc: subprocess.Popen) -> None:
         proc.stdin.close()
 
 
-def start_child(fn: Callable[..., None], *args: object) -> tuple[subprocess.Popen, queue.Queue]:
+def start_child(fn: Callable[..., None], *args: object) -> tuple[subprocess.Popen[str], queue.Queue[str]]:
     """`fn(*args)`, one of the child processes below, in a process of its own; and its stdout lines."""
     proc = subprocess.Popen(child.argv(fn, *args), stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     return proc, read_lines(proc)

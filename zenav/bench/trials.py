@@ -92,7 +92,7 @@ def wait_ready(bot: Robot, rtf: float, timeout: float = 60.0, names: Sequence[st
     bot.wait_ready(timeout, services=names)
 
 
-def _goal(bot: Robot, rtf: float, kind: str, send: Callable[[], Goal], target: tuple) -> GoalEnd:
+def _goal(bot: Robot, rtf: float, kind: str, send: Callable[[], Goal], target: tuple[float, ...]) -> GoalEnd:
     """Send a goal and wait for its end, GOAL_TIMEOUT of stack time at most; after a failure,
     wait for RECOVER of stack time of poses (the robot settles before the next goal)."""
     poses = bot.client.latest("pose")

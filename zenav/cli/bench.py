@@ -44,7 +44,7 @@ def _floods(text: str) -> int:
     return n
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "bench",
         help="measure accuracy, latency, cost and simulation speed; write a markdown report with plots",

@@ -39,7 +39,7 @@ VPS_SAMPLES = 5  # VPS poses averaged at each end of a square
 VPS_TIMEOUT = 5.0  # [s] for those
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("calibrate", help="UMBmark: drive squares both ways, fit the track width and wheel ratio into [robot]")
     deployment_args(p)
     p.add_argument("--side", type=finite, default=1.0, help="side of the square [m] (default 1.0)")

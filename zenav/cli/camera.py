@@ -17,7 +17,7 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -43,7 +43,7 @@ DETECT_EPILOG = """exit codes: 0 tags found, 1 no tag found, 2 the file cannot b
 (missing, empty, not a picture), bad arguments or OpenCV not installed"""
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("camera", help="the overhead camera: calibrate, snapshot, stream, detect; a lens's intrinsics")
     verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
     d = verbs.add_parser(
@@ -121,7 +121,7 @@ def read_picture(path: str) -> np.ndarray:
     img = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_GRAYSCALE)
     if img is None:
         raise RuntimeError(f"cannot read {path}: not a picture OpenCV can decode (PNG, JPEG, ...)")
-    return img
+    return cast(np.ndarray, img)
 
 
 def grab(args: argparse.Namespace, cfg: Camera) -> np.ndarray:
@@ -176,7 +176,7 @@ def detector_of(args: argparse.Namespace, cfg: Camera) -> Any:
 def run_calibrate(args: argparse.Namespace) -> int:
     cfg = _config(args)
     opencv()
-    from zenav.services.vps import calibration
+    from zenav.services.vps import calibration, calibration_file
     from zenav.services.vps.calibration import CalibrationError
 
     try:
@@ -192,7 +192,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
         print(f"zenav camera calibrate: {e}", file=sys.stderr)
         return EXIT_UNAVAILABLE
     path = args.output or (CALIBRATION_FILE if cfg.calibration == AUTO_CALIBRATION else cfg.calibration)
-    cal.save(path)
+    calibration_file.save(cal, path)
     residual = f"corner residual {cal.rms * 1000:.2f} mm rms"
     print(f"wrote {path}: fixed tags {list(cal.anchors)}, {residual}, camera {cal.camera_height():.3f} m above the floor")
     return EXIT_OK
@@ -201,7 +201,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
 def run_snapshot(args: argparse.Namespace) -> int:
     cfg = _config(args)
     cv2 = opencv()
-    from zenav.services.vps import calibration, locate, overlay
+    from zenav.services.vps import calibration, calibration_file, locate, overlay
     from zenav.services.vps.calibration import CalibrationError
 
     try:
@@ -216,7 +216,7 @@ def run_snapshot(args: argparse.Namespace) -> int:
     cal: Calibration | None = None
     found = None
     try:
-        cal = calibration.configured(cfg) or calibration.calibrate(tags, cfg)
+        cal = calibration_file.configured(cfg) or calibration.calibrate(tags, cfg)
         found = locate.locate(tags, cal, cfg.robots, {a.id for a in cfg.anchors}, cfg.tag_size, cfg.tag_height, cfg.corner_sigma)
     except CalibrationError as e:
         print(f"zenav camera snapshot: no grid or fixes drawn: {e}", file=sys.stderr)

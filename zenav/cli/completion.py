@@ -17,7 +17,7 @@ from zenav.cli.main import EXIT_OK, build_parser
 SHELLS = ("bash", "zsh")
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("completion", help="print a shell completion script: source <(zenav completion bash)", description=__doc__)
     p.add_argument("shell", choices=SHELLS)
     p.set_defaults(func=run)

@@ -25,7 +25,7 @@ from zenav.common import extras
 MAX_FRAMES = 100_000  # frames read from a video or webcam at most
 
 
-def add_verb(verbs: argparse._SubParsersAction) -> None:
+def add_verb(verbs: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """The `intrinsics` verb under `zenav camera`."""
     v = verbs.add_parser(
         "intrinsics",

@@ -60,7 +60,7 @@ def count(text: str) -> int:
     return value
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     key_help = "key relative to zenav/<robot>/ (pose, 'diag/*'), a field topic (sim/body) or absolute (zenav/r1/odom)"
     p = subcommand(sub, topics, "the robot's keys with publishers, their rates and types, and its liveliness tokens")
     p.add_argument("key", nargs="?", default="**", help=f"{key_help}; default '**', and the field's keys (zenav/field/**)")
@@ -80,7 +80,7 @@ def add_arguments(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--timeout", type=positive, default=5.0, help="seconds to wait for replies (default 5)")
 
 
-def subcommand(sub: argparse._SubParsersAction, body: Body, help: str) -> argparse.ArgumentParser:
+def subcommand(sub: argparse._SubParsersAction[argparse.ArgumentParser], body: Body, help: str) -> argparse.ArgumentParser:
     """The parser of a subcommand named after `body`, with the connection arguments, that runs it through `command`."""
     p = sub.add_parser(body.__name__, help=help)
     connection_args(p)

@@ -85,7 +85,7 @@ def check_angle(name: str, value: float | None, deg: bool) -> str | None:
     return f"{name} {value:g} rad is outside [-2 pi, 2 pi]: for degrees add --deg"
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     common = argparse.ArgumentParser(add_help=False)
     connection_args(common)
     common.add_argument("--timeout", type=positive, help=f"seconds to wait for the reply (default {QUERY_TIMEOUT:g})")

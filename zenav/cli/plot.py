@@ -15,7 +15,7 @@ from zenav.cli.checks import Failed, check_recording, check_robot, fail, note_un
 from zenav.cli.main import EXIT_FAILED, EXIT_OK
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("plot", help="plot truth, odom, fused pose and VPS fixes of a recording to a PNG")
     p.add_argument("input", metavar="IN.mcap", help="a recording made by `zenav record` (or its .part if the recorder died)")
     p.add_argument("-o", "--out", metavar="OUT.png", required=True, help="image to write")

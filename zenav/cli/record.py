@@ -22,7 +22,7 @@ from zenav.cli.session import open_bus
 from zenav.common.app import deployment_args, stop_on_signals
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("record", help="record a robot's topics to MCAP (Foxglove, mcap tools) until Ctrl-C")
     p.add_argument("out", metavar="OUT.mcap", help="file to write (replaced if it exists), as OUT.mcap.part until finished")
     deployment_args(p)

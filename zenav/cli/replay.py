@@ -16,7 +16,7 @@ from zenav.common import keys
 from zenav.common.app import deployment_args, stop_on_signals
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("replay", help="publish an MCAP recording back onto Zenoh (re-run services on recorded input)")
     p.add_argument("input", metavar="IN.mcap", help="a recording made by `zenav record` (or its .part if the recorder died)")
     deployment_args(p)

@@ -26,7 +26,7 @@ ROS_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")  # a ROS node name
 NAMESPACE = re.compile(r"^/?([A-Za-z][A-Za-z0-9_]*/?)*$")  # a ROS namespace
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("ros2", help="a ROS 2 node on rmw_zenoh: odom, pose, /tf, nav state out; cmd_vel, initialpose, goals in")
     deployment_args(p)
     p.add_argument(

@@ -9,7 +9,7 @@ import sys
 from zenav.stack.router import DEFAULT_LISTEN, MAX_MESSAGE, exposed, serve
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("router", help="run a Zenoh router until Ctrl-C")
     p.add_argument("--listen", default=DEFAULT_LISTEN, help=f"endpoint(s), comma-separated (default {DEFAULT_LISTEN})")
     p.add_argument(

@@ -15,7 +15,7 @@ from zenav.common.app import connection_args
 from zenav.common.client import Client, ZenavError
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("status", help="services, rates, counters and navigation state of a running stack")
     connection_args(p)
     p.add_argument("--timeout", type=positive, default=2.0, help="seconds to collect diag (default 2; diag is 1 Hz)")

@@ -16,6 +16,7 @@ import sys
 import termios
 import time
 import tty
+from typing import cast
 
 from zenav.cli.checks import Failed, fail
 from zenav.cli.keymap import Drive, command, press, split_keys
@@ -33,7 +34,7 @@ STOP_TIMEOUT = 1.0  # [s] for the navigator to answer the nav/stop of a key that
 HELP = "arrows/WASD drive, space stops, q quits"
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("teleop", help=f"drive from the keyboard through cmd_vel ({HELP})", description=__doc__)
     connection_args(p)
     p.add_argument("--speed", type=positive, default=0.2, help="forward speed of up/down [m/s] (default 0.2)")
@@ -84,7 +85,7 @@ class Override:
             self.client.query("nav/stop", timeout=STOP_TIMEOUT)
         except ZenavError:
             return None  # no navigator to answer: nothing drives but the keys
-        return st.goal_id
+        return cast(int | None, st.goal_id)
 
 
 def drive_loop(bus: ZenohBus, key: str, drive: Drive, fd: int, override: Override) -> None:

@@ -13,13 +13,13 @@ from pathlib import Path
 import zenoh
 
 from zenav import services
-from zenav.cli.router import exposed, warn_if_open
+from zenav.cli.router import warn_if_open
 from zenav.cli.screen import render
 from zenav.common import extras, keys
 from zenav.common import messages as m
 from zenav.common.app import deployment_args, settings_from_args, stop_on_signals
 from zenav.common.bus import ZenohBus, zenoh_config
-from zenav.common.client import Client, Latest, ZenavError
+from zenav.common.client import Client, Latest, Sampled, ZenavError
 from zenav.common.config import ConfigError, Settings
 from zenav.common.contract import GoalResult, State
 from zenav.common.roles import ESSENTIAL
@@ -28,7 +28,7 @@ from zenav.robot import Goal, Result, Robot
 from zenav.services.sim.service import SimConfig
 from zenav.stack.launcher import CRASH_WINDOW, MAX_CRASHES, Launcher, service_argv
 from zenav.stack.logs import LOG_BYTES, LOG_FILES
-from zenav.stack.router import DEFAULT_LISTEN, open_router
+from zenav.stack.router import DEFAULT_LISTEN, exposed, open_router
 
 READY_STEP = 2.0  # [s] the demo asks whether the navigator is ready, saying why not, this often
 FIELD_LISTEN = 1.0  # [s] `zenav up --connect` listens this long for camera frames from another robot's sim
@@ -37,7 +37,7 @@ HANG_AFTER = 3.0  # [s] wall without a service's diag (at rtf >= 1) before it is
 GAVE_UP_ESSENTIAL = 3  # exit status of `zenav up` that stopped because an essential service could not run
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("up", help="start a router and every service, show live status; Ctrl-C stops all")
     deployment_args(p)
     p.add_argument("--listen", default=DEFAULT_LISTEN, help=f"endpoint of the embedded router (default {DEFAULT_LISTEN})")
@@ -116,7 +116,7 @@ def child_args(args: argparse.Namespace, endpoint: str) -> list[str]:
     return out
 
 
-def navigator_ready(bot: Robot, done: threading.Event, say=lambda line: None) -> bool:
+def navigator_ready(bot: Robot, done: threading.Event, say: Callable[[str], None] = lambda line: None) -> bool:
     """Wait until the navigator would take a goal (False if stopped first); says why it
     waits whenever the reason changes (services not alive, no pose yet, too uncertain...)."""
     why = ""
@@ -165,7 +165,7 @@ class DemoGate:
         return self.busy_at is None or now - self.busy_at >= self.quiet
 
 
-def demo_loop(bot: Robot, done: threading.Event, say, now=time.monotonic) -> None:
+def demo_loop(bot: Robot, done: threading.Event, say: Callable[[str], None], now: Callable[[], float] = time.monotonic) -> None:
     """Drive the square corner by corner until `done`, each goal to its end; while someone
     else drives (a goal the demo did not send, or cmd_vel by hand), pause, and resume
     DEMO_QUIET after they stopped."""
@@ -206,7 +206,9 @@ def _wait(goal: Goal, done: threading.Event) -> Result | None:
     return None
 
 
-def _pause(client: Client, gate: DemoGate, state: Latest, done: threading.Event, say, now) -> None:
+def _pause(
+    client: Client, gate: DemoGate, state: Latest, done: threading.Event, say: Callable[[str], None], now: Callable[[], float]
+) -> None:
     """Wait until the gate lets the demo drive again, saying so; meanwhile cmd_vel by hand keeps it waiting
     (followed only here: while a goal runs, the navigator's own 100 Hz cmd_vel would be decoded for nothing)."""
     who = f" ({gate.who})" if gate.who else ""
@@ -394,7 +396,7 @@ def _beater(sup: Launcher, child: str) -> Callable[[m.Diag], None]:
     return lambda msg: sup.beat(child)
 
 
-def _wait_alive(client: Client, sup: Launcher, names: list[str], timeout: float, done: threading.Event):
+def _wait_alive(client: Client, sup: Launcher, names: list[str], timeout: float, done: threading.Event) -> set[str] | None:
     deadline = time.monotonic() + timeout
     while not done.is_set():
         if sup.poll():
@@ -409,7 +411,7 @@ def _wait_alive(client: Client, sup: Launcher, names: list[str], timeout: float,
     return None
 
 
-def _summary(topics: dict) -> str:
+def _summary(topics: dict[str, Sampled]) -> str:
     truth, pose, nav = topics["sim/truth"].msg, topics["pose"].msg, topics["nav/state"].msg
     parts = []
     if truth is not None:
@@ -421,7 +423,7 @@ def _summary(topics: dict) -> str:
     return "  ".join(parts) or "waiting for data"
 
 
-def _shutdown(client: Client, sup: Launcher, say, composed: Sequence[str] = ()) -> None:
+def _shutdown(client: Client, sup: Launcher, say: Callable[[str], None], composed: Sequence[str] = ()) -> None:
     """Navigator first, then a zero command, then the motor (zero wheels), the world last.
 
     The composed process stops at the place of its first service (it stops its own in order)."""

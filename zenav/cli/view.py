@@ -16,7 +16,7 @@ from zenav.cli.session import open_bus
 from zenav.common.app import deployment_args, stop_on_signals
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("view", help="serve a robot's truth, odom, fused pose, fixes, goal and state to the Foxglove app")
     deployment_args(p)
     p.add_argument("--host", help="address to listen on (default 127.0.0.1: loopback only)")

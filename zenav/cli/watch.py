@@ -26,7 +26,7 @@ TRUTH_KEEP = 500  # truth samples kept to match a pose's t (5 s at 100 Hz)
 CLEAR = "\x1b[H\x1b[2J"  # cursor home, clear screen
 
 
-def add_arguments(sub: argparse._SubParsersAction) -> None:
+def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("watch", help="live view: nav state, pose vs truth, latest VPS fix, service rates")
     deployment_args(p)
     p.add_argument("--period", type=float, default=0.5, help="refresh period [s] (default 0.5)")
@@ -43,7 +43,7 @@ class View:
             s: client.latest(s) for s in ("nav/state", "localizer/fixes", *(f"diag/{n}" for n in services.ALL))
         }
         self.latest["pose"] = client.newest("pose")  # 100 Hz: read as the view is drawn
-        self.truths: deque = deque(maxlen=TRUTH_KEEP)  # in arrival order, which is t order
+        self.truths: deque[Any] = deque(maxlen=TRUTH_KEEP)  # in arrival order, which is t order
         self.alive: set[str] = set()
         client.subscribe("sim/truth", self.truths.append)
         client.bus.watch_tokens(client.key("alive/*"), self._on_token)

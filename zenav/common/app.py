@@ -10,6 +10,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import zenoh
 
@@ -81,9 +82,9 @@ def deployment_args(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def parse_sets(items: Sequence[str]) -> dict[str, dict]:
+def parse_sets(items: Sequence[str]) -> dict[str, dict[str, Any]]:
     """`["sim.rtf=5", 'odometry.integrator="arc"']` -> {"sim": {"rtf": 5}, ...}; ConfigError if malformed."""
-    out: dict[str, dict] = {}
+    out: dict[str, dict[str, Any]] = {}
     for item in items:
         name, sep, value = item.partition("=")
         section, dot, key = name.strip().partition(".")
@@ -97,7 +98,7 @@ def parse_sets(items: Sequence[str]) -> dict[str, dict]:
     return out
 
 
-def settings_from_args(args: argparse.Namespace, **overrides: dict) -> Settings:
+def settings_from_args(args: argparse.Namespace, **overrides: dict[str, Any]) -> Settings:
     """Settings from the config file, with the deployment options applied."""
     dep = {"robot": args.robot, "connect": args.connect, "zenoh_mode": args.zenoh_mode, "scenario": args.scenario, "seed": args.seed}
     dep = {k: (int(v) if k == "seed" and v is not None else v) for k, v in dep.items()}

@@ -106,7 +106,7 @@ class Bus(Protocol):
 
 # ------------------------------------------------------------------ in memory
 class _MemHandle:
-    def __init__(self, table: list, entry: tuple) -> None:
+    def __init__(self, table: list[Any], entry: tuple[Any, ...]) -> None:
         self._table, self._entry = table, entry
 
     def undeclare(self) -> None:
@@ -297,15 +297,15 @@ def zenoh_config(
         conf.insert_json5("transport/link/rx/max_message_size", json.dumps(max_message))
     if listen:
         conf.insert_json5("listen", json.dumps({"endpoints": [e for e in listen.split(",") if e]}))
-    return conf
+    return cast(zenoh.Config, conf)
 
 
-def _direct(fn: Callable) -> zenoh.handlers.Callback:
+def _direct(fn: Callable[[Any], None]) -> zenoh.handlers.Callback[Any]:
     """Run `fn` on Zenoh's network thread, in arrival order across all of a session's
     subscriptions. (Zenoh's default runs each callback on a thread of its own, so two
     topics from one publisher could be enqueued out of order.) Safe because zenav's
     callbacks are short and never block: they queue, or run one sample's handler."""
-    return zenoh.handlers.Callback(fn, indirect=False)
+    return cast("zenoh.handlers.Callback[Any]", zenoh.handlers.Callback(fn, indirect=False))
 
 
 _MSGPACK = zenoh.Encoding(MSGPACK)
@@ -356,7 +356,7 @@ class _ZQuery:
 
 
 class _ZNewest:
-    def __init__(self, sub: zenoh.Subscriber) -> None:
+    def __init__(self, sub: zenoh.Subscriber[Any]) -> None:
         self._sub = sub
 
     def take(self) -> bytes | None:
@@ -383,7 +383,7 @@ class ZenohBus:
         self._urgent: zenoh.Session | None = None
         self._pubs: dict[str, zenoh.Publisher] = {}
         self._lock = threading.Lock()
-        self._handles: list = []
+        self._handles: list[Any] = []
 
     @classmethod
     def open(

@@ -160,7 +160,7 @@ class Client:
         """The full key of a contract suffix for this robot."""
         return keys.key(self.robot, suffix)
 
-    def query(self, suffix: str, request: dict | None = None, timeout: float = 5.0) -> Any:
+    def query(self, suffix: str, request: dict[str, Any] | None = None, timeout: float = 5.0) -> Any:
         """Send a query; return the decoded reply or raise ZenavError.
 
         The request is checked against the contract first: a bad one raises

@@ -7,14 +7,14 @@ import json
 import math
 import re
 from collections.abc import Mapping
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 import msgspec
 
 T = TypeVar("T")
 
 _encoder = msgspec.msgpack.Encoder()
-_decoders: dict[type, msgspec.msgpack.Decoder] = {}
+_decoders: dict[type, msgspec.msgpack.Decoder[Any]] = {}
 
 
 class BadInput(ValueError):
@@ -65,7 +65,7 @@ def decode(data: bytes, typ: type[T]) -> T:
     if dec is None:
         dec = _decoders[typ] = msgspec.msgpack.Decoder(typ)
     try:
-        return dec.decode(data)
+        return cast(T, dec.decode(data))
     except msgspec.ValidationError as e:
         raise BadInput(invalid(typ, e, _untyped(data))) from None
     except msgspec.DecodeError as e:

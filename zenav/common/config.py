@@ -29,7 +29,8 @@ from msgspec import Meta, Struct
 from zenav.common import codec, fieldtags, geometry
 from zenav.common import field as fieldmod
 from zenav.common import messages as m
-from zenav.common.keys import DEFAULT_CONNECT, SERVICES
+from zenav.common.keys import DEFAULT_CONNECT
+from zenav.common.roles import ALL as SERVICES
 from zenav.common.scenarios import Scenario, scenario
 
 T = TypeVar("T")
@@ -284,7 +285,7 @@ class Settings:
     deployment: Deployment
     robot: Robot
     scenario: Scenario
-    sections: dict[str, dict] = dataclasses.field(default_factory=dict)
+    sections: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
     path: str | None = None
     limits: Limits = Limits()
     field: Field = Field()
@@ -298,7 +299,7 @@ class Settings:
         return _convert(self.sections.get(name, {}), typ, name)
 
     @classmethod
-    def load(cls, path: str | None = None, **overrides: dict) -> Settings:
+    def load(cls, path: str | None = None, **overrides: dict[str, Any]) -> Settings:
         """Read `path` (or only defaults), then apply per-section overrides.
 
         `Settings.load(None, deployment={"robot": "r2"}, sim={"rtf": 5.0})`.

@@ -88,12 +88,12 @@ class Dispatch:
         if kind != "clock":
             self.counters.served(suffix, time.perf_counter() - start)
 
-    def _publish_result(self, fn: Callable, out: Any) -> None:
+    def _publish_result(self, fn: Callable[..., Any], out: Any) -> None:
         target = getattr(fn, "_zenav_pub", None)
         if target is not None and out is not None:
             self.publish(target, out)
 
-    def _dispatch_query(self, fn: Callable, exact: str | None, typ: type, q: Query, arrival: int) -> None:
+    def _dispatch_query(self, fn: Callable[..., Any], exact: str | None, typ: type, q: Query, arrival: int) -> None:
         self.counters.inc("queries")
         if exact is not None and q.key != exact:
             self.counters.inc("wildcard_refused")

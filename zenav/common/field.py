@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 Point = tuple[float, float]
 Polygon = tuple[Point, ...]
@@ -111,7 +112,7 @@ def circle_shape(name: str, circle: Sequence[float]) -> Shape:
 
 def check_layout(shapes: Sequence[Shape], bounds: tuple[float, float, float, float] | None) -> None:
     """Raise FieldError for an obstacle wholly outside `bounds` (x_min, y_min, x_max, y_max), or one given twice."""
-    seen: dict[tuple, str] = {}
+    seen: dict[tuple[Any, ...], str] = {}
     for s in shapes:
         if bounds is not None:
             x0, y0, x1, y1 = s.bounds()

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -25,7 +25,7 @@ def rotation(yaw: float, pitch: float = 0.0, roll: float = 0.0) -> np.ndarray:
     rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
     ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
     rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
-    return rz @ ry @ rx
+    return cast(np.ndarray, rz @ ry @ rx)
 
 
 def euler(w: float, x: float, y: float, z: float) -> tuple[float, float, float]:
@@ -46,7 +46,7 @@ LOCAL_CORNERS = np.array([[0.0, -1.0, 1.0], [0.0, 1.0, 1.0], [0.0, 1.0, -1.0], [
 
 def corners(size: float, x: float, y: float, z: float, yaw: float, pitch: float = 0.0, roll: float = 0.0) -> np.ndarray:
     """4 x 3 [m] map points of a tag's black square: top-left, top-right, bottom-right, bottom-left as seen facing it."""
-    return np.array([x, y, z]) + (rotation(yaw, pitch, roll) @ (LOCAL_CORNERS * size).T).T
+    return cast(np.ndarray, np.array([x, y, z]) + (rotation(yaw, pitch, roll) @ (LOCAL_CORNERS * size).T).T)
 
 
 def wpilib_tags(raw: Any, size: float | None, where: str) -> list[dict[str, float]]:

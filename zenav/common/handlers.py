@@ -28,7 +28,7 @@ class Queryable(NamedTuple):
     acts: bool  # served on its exact key only
 
 
-def subscribe(suffix: str, typ: type | None = None, *, after: str | None = None, latest: bool = False) -> Callable:
+def subscribe(suffix: str, typ: type | None = None, *, after: str | None = None, latest: bool = False) -> Callable[[Any], Any]:
     """Run the method for every message on `zenav/<robot>/<suffix>`, decoded as `typ`.
 
     `after`: a periodic topic this service subscribes to; while it flows, each message is
@@ -42,7 +42,7 @@ def subscribe(suffix: str, typ: type | None = None, *, after: str | None = None,
     return deco
 
 
-def publish(suffix: str) -> Callable:
+def publish(suffix: str) -> Callable[[Any], Any]:
     """Publish the method's return value (unless None) on `suffix`."""
 
     def deco(fn: Any) -> Any:
@@ -52,7 +52,7 @@ def publish(suffix: str) -> Callable:
     return deco
 
 
-def timer(period: float | str) -> Callable:
+def timer(period: float | str) -> Callable[[Any], Any]:
     """Run the method every `period` seconds of the service clock.
 
     `period` is seconds, or the name of an attribute of the service holding them
@@ -66,7 +66,7 @@ def timer(period: float | str) -> Callable:
     return deco
 
 
-def query(suffix: str, typ: type | None = None, *, priority: bool = False, acts: bool = True) -> Callable:
+def query(suffix: str, typ: type | None = None, *, priority: bool = False, acts: bool = True) -> Callable[[Any], Any]:
     """Serve queries on `suffix`; the method returns a reply, or None to reply later.
 
     `priority`: taken before any other queued input, and served on a link of its own. `acts=False`: read-only, so a
@@ -80,7 +80,7 @@ def query(suffix: str, typ: type | None = None, *, priority: bool = False, acts:
     return deco
 
 
-def on_liveliness(service: str) -> Callable:
+def on_liveliness(service: str) -> Callable[[Any], Any]:
     """Run the method with `alive: bool` when `service`'s liveliness token appears or goes.
 
     A process that dies loses its token as soon as its socket closes: faster than any

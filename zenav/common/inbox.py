@@ -26,9 +26,12 @@ class Inbox:
 
     def __init__(self, max_items: int, max_bytes: int, ready: threading.Condition | None = None) -> None:
         self.max_items, self.max_bytes = max_items, max_bytes  # [items], [bytes] of the normal lane
-        self._lanes: tuple[deque, deque] = (deque(), deque())  # (priority, normal) of [item, size, latest key or None]
+        self._lanes: tuple[deque[list[Any]], deque[list[Any]]] = (
+            deque(),
+            deque(),
+        )  # (priority, normal) of [item, size, latest key or None]
         self._bytes = 0  # [bytes] queued in both lanes
-        self._latest: dict[Hashable, list] = {}  # key -> its queued entry (put_latest)
+        self._latest: dict[Hashable, list[Any]] = {}  # key -> its queued entry (put_latest)
         self._poked = False  # poke() since the worker last looked (idle)
         # Inboxes of services that share one worker share this condition: a put wakes that worker.
         self._ready = ready or threading.Condition(threading.Lock())
@@ -55,7 +58,7 @@ class Inbox:
             entry[0], entry[1] = item, size
             return "replaced"
 
-    def _append(self, entry: list, priority: bool) -> bool:
+    def _append(self, entry: list[Any], priority: bool) -> bool:
         """Append [item, size, latest key or None] to its lane unless it would pass a bound (the lock held)."""
         lane, size = self._lanes[0 if priority else 1], entry[1]
         if len(lane) >= self.max_items or (not priority and self._bytes + size > self.max_bytes):

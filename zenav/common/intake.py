@@ -113,7 +113,7 @@ class Intake:
             return
         self._take(Input("clock", self._on_clock, "clock", m.Clock, data), len(data), self._put)
 
-    def _enqueuer(self, fn: Callable, suffix: str, typ: type, latest: bool = False) -> Callable[[str, bytes], None]:
+    def _enqueuer(self, fn: Callable[..., Any], suffix: str, typ: type, latest: bool = False) -> Callable[[str, bytes], None]:
         limit, put = self.limits.max_payload, self._put_latest if latest else self._put
 
         def enqueue(key: str, data: bytes) -> None:
@@ -124,13 +124,13 @@ class Intake:
 
         return enqueue
 
-    def _token_enqueuer(self, fn: Callable) -> Callable[[str, bool], None]:
+    def _token_enqueuer(self, fn: Callable[..., Any]) -> Callable[[str, bool], None]:
         def enqueue(key: str, alive: bool) -> None:
             self._put(Input("live", fn, key, bool, alive), priority=True)
 
         return enqueue
 
-    def _query_enqueuer(self, fn: Callable, suffix: str, typ: type, priority: bool, acts: bool) -> Callable[[Query], None]:
+    def _query_enqueuer(self, fn: Callable[..., Any], suffix: str, typ: type, priority: bool, acts: bool) -> Callable[[Query], None]:
         lim, exact = self.limits, self.key(suffix) if acts else None
 
         def enqueue(q: Query) -> None:

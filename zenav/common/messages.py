@@ -9,7 +9,7 @@ so a typo (`tolerence`) is an error, not a silent default.
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, cast
 
 import msgspec
 from msgspec import Meta, Struct
@@ -391,4 +391,4 @@ class ErrorReply(Reply, frozen=True, kw_only=True):
 
 def to_builtins(msg: Struct) -> dict[str, Any]:
     """A message as a plain dict (for logs and views)."""
-    return msgspec.to_builtins(msg)
+    return cast(dict[str, Any], msgspec.to_builtins(msg))

@@ -104,7 +104,7 @@ class Service(Intake, Dispatch):
         self.limits = settings.limits
         self._inbox = Inbox(self.limits.queue_items, self.limits.queue_bytes)
         self._timers = Timers()  # @timer methods, diag, and call_at
-        self._handles: list = []
+        self._handles: list[Handle] = []
         self._token: Handle | None = None
         self._started_wall = time.monotonic()
         self._cpu = CpuMeter(self._started_wall)

@@ -3,7 +3,7 @@ differs from the nominal robot. Presets by name; any field can be overridden."""
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 import msgspec
 from msgspec import Meta, Struct
@@ -103,7 +103,7 @@ PRESETS: dict[str, Scenario] = {
 }
 
 
-def scenario(name: str, overrides: dict | None = None) -> Scenario:
+def scenario(name: str, overrides: dict[str, Any] | None = None) -> Scenario:
     """A preset by name, with field overrides; ValueError names a bad one."""
     if name not in PRESETS:
         raise ValueError(f"unknown scenario {name!r}; choose one of {', '.join(PRESETS)}")

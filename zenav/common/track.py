@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from typing import cast
 
 import numpy as np
 
@@ -30,7 +31,7 @@ class Track:
         """Which instants lie inside the track's time span."""
         if not len(self.t):
             return np.zeros(np.shape(t), dtype=bool)
-        return (t >= self.t[0]) & (t <= self.t[-1])
+        return cast(np.ndarray, (t >= self.t[0]) & (t <= self.t[-1]))
 
     def at_many(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(x, y, theta) at each instant of `t` (theta wrapped to (-pi, pi])."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 import importlib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 from zenav.common import roles
 from zenav.common.runtime import Service
@@ -80,4 +80,4 @@ def stop_order(names: Iterable[str] = NAMES) -> list[str]:
 def load(name: str) -> type[Service]:
     """The Service class of a service name (KeyError if there is none)."""
     module, cls = roles.BY_NAME[name].target.split(":")
-    return getattr(importlib.import_module(module), cls)
+    return cast(type[Service], getattr(importlib.import_module(module), cls))

@@ -108,7 +108,7 @@ class Child:
     name: str
     argv: list[str]
     log: RotatingLog
-    proc: subprocess.Popen | None = None
+    proc: subprocess.Popen[bytes] | None = None
     pump: threading.Thread | None = None
     started: float = 0.0
     restarts: int = 0

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import ipaddress
 import json
+from collections.abc import Callable
 
 import zenoh
 
@@ -69,7 +70,7 @@ def open_router(
 def serve(
     listen: str,
     config_file: str | None = None,
-    ready=lambda: None,
+    ready: Callable[[], None] = lambda: None,
     priority: int = 0,
     connect: str | None = None,
     max_message: int = MAX_MESSAGE,

@@ -23,6 +23,7 @@ import time
 import tty
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 from zenav.services.driver import protocol as p
 
@@ -311,7 +312,7 @@ class Emulator:
             os.unlink(self.link)
 
     @staticmethod
-    def _speed_attrs(fd: int, baud: int) -> list:
+    def _speed_attrs(fd: int, baud: int) -> list[Any]:
         attrs = termios.tcgetattr(fd)
         speed = getattr(termios, f"B{baud}", termios.B57600)
         attrs[4] = attrs[5] = speed
@@ -322,7 +323,7 @@ class Emulator:
         if self._slave is None:
             return False
         speed = termios.tcgetattr(self._slave)[5]
-        return speed == getattr(termios, f"B{self.board.baud}", None)
+        return bool(speed == getattr(termios, f"B{self.board.baud}", None))
 
     def _loop(self) -> None:
         while not self._stop:

@@ -30,7 +30,7 @@ import os
 import struct
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import msgspec
 from mcap.exceptions import McapError
@@ -103,7 +103,7 @@ def json_schema(typ: type) -> dict[str, Any]:
     schema = _simplify(raw, raw.get("$defs", {}))
     schema.pop("$defs", None)
     schema["title"] = schema_name(typ)
-    return schema
+    return cast(dict[str, Any], schema)
 
 
 @functools.cache

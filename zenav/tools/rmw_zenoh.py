@@ -32,8 +32,8 @@ import struct
 from dataclasses import dataclass
 from typing import Any
 
+from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_typestore
-from rosbags.typesys.base import Nodetype
 
 ADMIN_SPACE = "@ros2_lv"
 NO_HASH = "TypeHashNotSupported"  # what Humble's rmw_zenoh puts where the type hash goes

@@ -120,7 +120,7 @@ class Scene:
         self.trails = {"truth": Trail(), "odom": Trail(), "pose": Trail()}
         self.pose: m.Pose | None = None
         self.nav: m.NavState | None = None
-        self.fixes: deque[list] = deque(maxlen=FIXES_KEPT)  # [t, x, y, accepted or None]
+        self.fixes: deque[list[Any]] = deque(maxlen=FIXES_KEPT)  # [t, x, y, accepted or None]
         self.status: dict[str, str] = {}  # service -> diag status
         self.field: m.FieldMap | None = None
         self.plan: m.Plan | None = None

@@ -13,6 +13,7 @@ import queue
 import threading
 import time
 from collections.abc import Callable
+from typing import Any
 
 from zenav.common.bus import Bus, Handle
 
@@ -33,7 +34,7 @@ class Tap:
         self.tick, self.period = tick, period
         self.dropped = 0  # samples lost to a full queue
         self.errors = 0  # samples the handler failed on
-        self._queue: queue.Queue = queue.Queue(QUEUE_LIMIT)
+        self._queue: queue.Queue[Any] = queue.Queue(QUEUE_LIMIT)
         self._worker = threading.Thread(target=self._run, name=f"zenav-{name}", daemon=True)
         self._sub: Handle | None = None
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import cv2
 import numpy as np
@@ -73,7 +74,7 @@ def pixel_rays(lens: Lens, mount: Mount, u: np.ndarray, v: np.ndarray) -> np.nda
     pts = lens.undistort(np.stack([u.ravel(), v.ravel()], axis=1))
     ideal = np.linalg.solve(lens.K, np.vstack([pts.T, np.ones(len(pts))]))  # normalised camera coordinates
     rays = (mount.R.T @ ideal).T
-    return rays.reshape(*u.shape, 3)
+    return cast(np.ndarray, rays.reshape(*u.shape, 3))
 
 
 def plane_hits(mount: Mount, rays: np.ndarray, z: float) -> tuple[np.ndarray, np.ndarray]:

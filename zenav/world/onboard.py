@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import cast
 
 import cv2
 import numpy as np
@@ -111,7 +112,7 @@ class OnboardRenderer:
         k = lens(cfg).K
         ideal = np.stack([(pts[:, 0] - k[0, 2]) / k[0, 0], (pts[:, 1] - k[1, 2]) / k[1, 1], np.ones(len(pts))])
         up = (robot_to_camera(cfg)[0] @ ideal)[2].reshape(cfg.height, cfg.width)  # ray's rise, robot frame
-        return np.where(up < 0.0, FLOOR - 20.0 * np.tanh(-4.0 * up), WALL + 10.0 * np.tanh(4.0 * up)).astype(np.float32)
+        return cast(np.ndarray, np.where(up < 0.0, FLOOR - 20.0 * np.tanh(-4.0 * up), WALL + 10.0 * np.tanh(4.0 * up)).astype(np.float32))
 
     def _printed_tag(self, tag_id: int) -> np.ndarray:
         if tag_id not in self._printed:
@@ -128,7 +129,7 @@ class OnboardRenderer:
         if self.cfg.noise > 0.0:
             start = int(self.rng.integers(0, self.noise.size - img.size))
             img += self.noise[start : start + img.size].reshape(img.shape)
-        return np.clip(img, 0.0, 255.0).astype(np.uint8)
+        return cast(np.ndarray, np.clip(img, 0.0, 255.0).astype(np.uint8))
 
     def _draw(self, img: np.ndarray, cam: Mount, tag: FieldTag) -> None:
         """Warp one printed tag (its white border too) onto its outline in img."""

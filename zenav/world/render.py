@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -111,7 +111,7 @@ class Renderer:
         a = self.cfg.lighting
         g = 1.0 + a * (0.6 * math.sin(2 * math.pi * t / 7.3) + 0.4 * math.sin(2 * math.pi * t / 2.9 + 1.0))
         gx, gy = a * math.sin(2 * math.pi * t / 11.0), a * math.cos(2 * math.pi * t / 13.0)
-        return g * self.vignette * (1.0 + gx * self.ramp_x + gy * self.ramp_y)
+        return cast(np.ndarray, g * self.vignette * (1.0 + gx * self.ramp_x + gy * self.ramp_y))
 
     def render(self, t: float, bodies: Sequence[Body]) -> np.ndarray:
         """The frame whose exposure is centred on t [s] (H x W, uint8 grey levels)."""
@@ -122,7 +122,7 @@ class Renderer:
         if self.cfg.noise > 0.0:
             start = int(self.rng.integers(0, self.noise.size - img.size))
             img += self.noise[start : start + img.size].reshape(img.shape)
-        return np.clip(img, 0.0, 255.0).astype(np.uint8)
+        return cast(np.ndarray, np.clip(img, 0.0, 255.0).astype(np.uint8))
 
     def instants(self, b: Body) -> list[float]:
         """[s] the instants of the exposure, from its middle, a body is drawn at (more the faster it moves)."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import statistics
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from zenav.bench import camera as camera_bench
 from zenav.bench.accuracy import Summary
@@ -93,7 +93,7 @@ def _replay_intro(scenario: str, runs: Sequence[Summary]) -> str:
     )
 
 
-def _score_row(name: str, scores: Sequence[tuple], accepted: int | None = None, rejected: int | None = None) -> list[str]:
+def _score_row(name: str, scores: Sequence[tuple[Any, ...]], accepted: int | None = None, rejected: int | None = None) -> list[str]:
     rmse = [s[0] for s in scores]
     outage = [s[4] for s in scores if s[4] is not None]
     return [

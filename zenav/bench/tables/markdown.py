@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
+from typing import Any
 
 from zenav.bench.latency import Stats
 
@@ -27,7 +28,7 @@ def stats_row(name: str, values: Sequence[float]) -> list[str]:
     return [name, str(st.n), fmt(st.p50), fmt(st.p90), fmt(st.p99), fmt(st.max)]
 
 
-def failures(labelled) -> list[str]:
+def failures(labelled: Iterable[tuple[str, Any]]) -> list[str]:
     """A line per run with goals that did not succeed, and why."""
     out = [f"- {label}: {'; '.join(s.failures)}" for label, s in labelled if s.failures]
     return ["", "Goals that did not succeed:", *out] if out else []

@@ -129,7 +129,7 @@ class Board:
     def _fd(self) -> int:
         if self._ser is None:
             raise LinkLost(f"{self.port} is not open")
-        return self._ser.fileno()
+        return int(self._ser.fileno())
 
     def _discard(self, fd: int) -> None:
         """Read away whatever waits; count all but whitespace as garbage."""

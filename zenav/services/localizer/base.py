@@ -133,9 +133,9 @@ class Mode:
         self.t_accepted: float | None = None  # [s] arrival of the last accepted fix
         self.correction = (0.0, 0.0, 0.0)  # moved by fixes between the previous odom sample and the newest
         self._pending = [0.0, 0.0, 0.0]  # corrections since the newest odom sample
-        self._preset: tuple | None = None  # a set_pose that came before any odometry
+        self._preset: tuple[float | None, ...] | None = None  # a set_pose that came before any odometry
         self._latencies: deque[float] = deque(maxlen=cfg.latency_window)
-        self._recent_fixes: deque[tuple] = deque(maxlen=DUPLICATE_WINDOW)  # (t, x, y, theta) of recent fixes
+        self._recent_fixes: deque[tuple[float, float, float, float]] = deque(maxlen=DUPLICATE_WINDOW)  # (t, x, y, theta) of recent fixes
         self.latency_estimator = latency_estimator(cfg) if cfg.latency == "estimate" else None
         self.impacts = 0  # times the accelerometer found the wheels slipping (ekf)
 

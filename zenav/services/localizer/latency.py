@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from typing import NamedTuple
+from typing import NamedTuple, cast
 
 import numpy as np
 
@@ -115,7 +115,7 @@ class LatencyEstimator:
         ey -= np.median(ey, axis=1, keepdims=True)
         cost = (ex**2 + ey**2) / self.p.sigma_xy**2 + res_th**2 / self.p.sigma_theta**2
         kept = max(MIN_FIXES, math.ceil(KEEP * cost.shape[1]))
-        return np.sort(cost, axis=1)[:, :kept].sum(axis=1)
+        return cast(np.ndarray, np.sort(cost, axis=1)[:, :kept].sum(axis=1))
 
     def fit(self) -> tuple[float, float] | None:
         """(lag [s], sigma [s]) of the current window, or None when it does not show the lag.

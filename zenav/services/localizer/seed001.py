@@ -3,7 +3,7 @@
 Each odom increment gives the encoders' distance and angle change (the odometry's
 heading: from the encoders when [odometry] heading_source = "encoders"); the IMU gives
 the gyro's angle change and the accelerometer's distance and angle change
-(services/odometry/seed001.py). x and y move by the weighted average of the six
+(averaging.py). x and y move by the weighted average of the six
 (distance, angle) estimates, the heading by the weighted average of the angle changes.
 A fix moves x, y and the heading a fixed fraction of the way towards it, as the seed
 weights the camera in: it is not carried forward over its latency.
@@ -14,7 +14,7 @@ from __future__ import annotations
 from zenav.common import messages as m
 from zenav.common.config import Robot
 from zenav.common.geometry import Pose2, wrap_angle
-from zenav.services.odometry import seed001 as s1
+from zenav.services.localizer import averaging
 
 from .base import FixResult, LocalizerConfig
 from .simple import DeadReckoning
@@ -32,7 +32,7 @@ class Seed001(DeadReckoning):
 
     def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
         super().__init__(cfg, robot)
-        self.inertial = s1.Inertial()
+        self.inertial = averaging.Inertial()
         self.t_moved = 0.0  # [s] newest odom increment with motion
         self.t_forward = 0.0  # [s] newest odom increment with forward travel
 
@@ -43,7 +43,7 @@ class Seed001(DeadReckoning):
         known = self.odom is not None
         halted = known and imu.t - self.t_forward >= HALT_TIME
         still = known and imu.t - self.t_moved >= STILL_TIME
-        self.inertial = s1.imu_sample(s, imu.t, imu.gyro_z, imu.accel_x, imu.accel_y, halted, still, BIAS_TIME)
+        self.inertial = averaging.imu_sample(s, imu.t, imu.gyro_z, imu.accel_x, imu.accel_y, halted, still, BIAS_TIME)
         return None
 
     def _move(self, ds: float, dth: float, t0: float, t: float) -> None:
@@ -51,10 +51,10 @@ class Seed001(DeadReckoning):
             self.t_forward = t
         if ds != 0.0 or dth != 0.0:
             self.t_moved = t
-        self.inertial, gyro, travel, accel_angle = s1.take(self.inertial)
+        self.inertial, gyro, travel, accel_angle = averaging.take(self.inertial)
         fresh = self.inertial.t is not None and t - self.inertial.t <= IMU_GAP
         e = self.est
-        dx, dy, dtheta = s1.combine(
+        dx, dy, dtheta = averaging.combine(
             e.theta,
             (ds, travel if fresh else None),
             (dth, gyro if fresh else None, accel_angle if fresh else None),

@@ -7,6 +7,9 @@ from typing import Any
 
 from zenav.common import keys
 from zenav.common import messages as m
+from zenav.common.bus import Bus, Query
+from zenav.common.clock import Clock
+from zenav.common.config import Settings
 from zenav.common.contract import ErrorCode
 from zenav.common.runtime import QueryError, Service, publish, query, subscribe, timer
 
@@ -26,8 +29,8 @@ class Localizer(Service):
     cfg: LocalizerConfig
     health_period = 0.5  # [s] how often the diag status is re-evaluated
 
-    def __init__(self, *args) -> None:
-        super().__init__(*args)
+    def __init__(self, settings: Settings, bus: Bus, clock: Clock) -> None:
+        super().__init__(settings, bus, clock)
         self.mode = make_mode(self.cfg, self.settings.robot)
         self.newest_fix: float | None = None  # [s] latest capture time received
         self.outliers_in_row = 0  # fixes rejected as outliers since the last accepted one
@@ -101,7 +104,7 @@ class Localizer(Service):
         return rec
 
     @query("localizer/pose", acts=False)
-    def get_pose(self, req: m.Empty, q) -> m.LocalizerPoseReply:
+    def get_pose(self, req: m.Empty, q: Query) -> m.LocalizerPoseReply:
         """getPose: the newest estimate, its calibration and the measured VPS latency."""
         p = self.mode.get_pose()
         if p is None:
@@ -109,12 +112,12 @@ class Localizer(Service):
         return m.LocalizerPoseReply(t=p.t, x=p.x, y=p.y, theta=p.theta, cov=p.cov, calibration=p.calibration, vps_latency=self.mode.latency)
 
     @query("time/sync", acts=False)
-    def time_sync(self, req: m.Empty, q) -> m.ClockReply:
+    def time_sync(self, req: m.Empty, q: Query) -> m.ClockReply:
         """The stack's clock now, for a camera host that measures its own against it (the camera vps)."""
         return m.ClockReply(t=self.clock.now())
 
     @query("localizer/set_pose")
-    def set_pose(self, req: m.SetPose, q) -> m.PoseStamped:
+    def set_pose(self, req: m.SetPose, q: Query) -> m.PoseStamped:
         """setPose / setPosition / setHeading: any subset of x, y, theta but none, from now on."""
         if req.x is None and req.y is None and req.theta is None:
             raise QueryError(ErrorCode.INVALID_ARGUMENT, m.SET_POSE_EMPTY)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 
@@ -88,7 +89,7 @@ class Planner:
         leave = np.where(den > 0.0, ratio, np.inf)
         t0 = np.maximum(np.maximum.reduceat(enter, self._starts, axis=1), 0.0)
         t1 = np.minimum(np.minimum.reduceat(leave, self._starts, axis=1), 1.0)
-        return np.any(t0 < t1 - 1e-9, axis=1)
+        return cast(np.ndarray, np.any(t0 < t1 - 1e-9, axis=1))
 
     def free(self, a: Point, b: Point) -> bool:
         """Whether the straight way a-b keeps clear of every inflated obstacle."""
@@ -159,7 +160,7 @@ class Planner:
         b = self._next[js] - self.nodes[js]
         ca = d[:, 0] * a[:, 1] - d[:, 1] * a[:, 0]
         cb = d[:, 0] * b[:, 1] - d[:, 1] * b[:, 0]
-        return ca * cb >= -1e-12
+        return cast(np.ndarray, ca * cb >= -1e-12)
 
     def _reach(self, p: Point) -> list[tuple[int, float]]:
         """The nodes seen from p, with their distances."""

@@ -77,7 +77,7 @@ class Navigator(Service):
         self._plan: list[tuple[float, ...]] | None = None  # the newest goal's points as driven
         self._guard = ""  # what the motor's guard holds the commands back for now ("": nothing)
         self._info: dict[str, Any] | None = None  # the newest goal, as nav/state shows it
-        self._shown: tuple | None = None  # (state, goal_id, result) last published
+        self._shown: tuple[Any, ...] | None = None  # (state, goal_id, result) last published
         self._motor_gone = False  # the motor's token went (and has not come back)
         self._pose_wanted = False  # a goal was refused or aborted for want of a usable pose
         self._cmd_lock = threading.Lock()  # cmd_vel from the worker vs the zero of an arriving stop

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor, wait
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -90,7 +90,7 @@ class Shutter:
         # Drawing at a lower priority than the physics and the control loop's services (a real camera draws its
         # frames on its own hardware): on a shared computer they get the cores first.
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="zenav-sim-camera", initializer=background_thread)
-        self._last: Future | None = None
+        self._last: Future[Any] | None = None
         self.error = ""  # why the last frame failed ("" once one is sent)
         self.failed = 0  # frames that failed
 

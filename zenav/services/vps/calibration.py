@@ -10,14 +10,13 @@ a 6-DoF PnP pose is ambiguous; the plane homography gives x, y and yaw robustly.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
 
-from zenav.common.config import AUTO_CALIBRATION, Camera, ConfigError
+from zenav.common.config import Camera, ConfigError
 from zenav.services.vps.detect import Tag
 from zenav.world.camera import Lens
 
@@ -74,7 +73,7 @@ class Calibration:
         """Pixels as seen (N x 2, distorted) -> (x, y) [m] on the plane h [m] above the floor."""
         return _apply(self.plane(h) if h else self.floor, self.lens.undistort(px))
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         """The calibration as the file `zenav camera calibrate` writes."""
         return {
             "version": VERSION,
@@ -88,32 +87,18 @@ class Calibration:
             "camera_height_m": self.camera_height(),
         }
 
-    def save(self, path: str | Path) -> None:
-        """Write the calibration file."""
-        Path(path).write_text(json.dumps(self.to_json(), indent=2) + "\n")
-
     @classmethod
-    def load(cls, path: str | Path) -> Calibration:
-        """Read a calibration file; CalibrationError says what to run when there is none."""
-        p = Path(path)
-        if not p.is_file():
-            raise CalibrationError(f"no camera calibration at {p}: run `zenav camera calibrate` (it writes [camera] calibration)")
-        try:
-            d = json.loads(p.read_text())
-            if d.get("version") != VERSION:
-                raise ValueError(f"version {d.get('version')!r}, expected {VERSION}")
-            lens = Lens(np.array(d["camera_matrix"], float), np.array(d["distortion"], float), int(d["width"]), int(d["height"]))
-            floor = np.array(d["floor_homography"], float)
-            if lens.K.shape != (3, 3) or floor.shape != (3, 3) or lens.dist.shape != (5,):
-                raise ValueError("matrix shapes")
-            return cls(lens, floor, float(d["rms_m"]), tuple(int(a) for a in d["anchors"]))
-        except (OSError, ValueError, KeyError, TypeError) as e:
-            raise CalibrationError(f"camera calibration {p} is unreadable ({e}): run `zenav camera calibrate` again") from None
-
-
-def configured(cfg: Camera) -> Calibration | None:
-    """The calibration file [camera] names; None when it says "auto" (fit one to the frames' fixed tags)."""
-    return None if cfg.calibration == AUTO_CALIBRATION else Calibration.load(cfg.calibration)
+    def from_json(cls, d: Any) -> Calibration:
+        """The calibration `to_json` gave; ValueError, KeyError or TypeError when it is not one."""
+        if not isinstance(d, dict):
+            raise ValueError(f"a {type(d).__name__}, not an object")
+        if d.get("version") != VERSION:
+            raise ValueError(f"version {d.get('version')!r}, expected {VERSION}")
+        lens = Lens(np.array(d["camera_matrix"], float), np.array(d["distortion"], float), int(d["width"]), int(d["height"]))
+        floor = np.array(d["floor_homography"], float)
+        if lens.K.shape != (3, 3) or floor.shape != (3, 3) or lens.dist.shape != (5,):
+            raise ValueError("matrix shapes")
+        return cls(lens, floor, float(d["rms_m"]), tuple(int(a) for a in d["anchors"]))
 
 
 def calibrate(tags: list[Tag], cfg: Camera) -> Calibration:

@@ -238,7 +238,9 @@ def _gap(a: Sequence[float], b: Sequence[float]) -> float:
     return max(math.hypot(a[0] - b[0], a[1] - b[1]) / PRIOR_GATE[0], abs(wrap_angle(a[2] - b[2])) / PRIOR_GATE[1])
 
 
-def _by_estimate(a: tuple[float, float, float], b: tuple[float, float, float], estimate: tuple[float, float, float] | None):
+def _by_estimate(
+    a: tuple[float, float, float], b: tuple[float, float, float], estimate: tuple[float, float, float] | None
+) -> tuple[float, float, float] | None:
     """The candidate the estimate clearly points to (within its gate, the other PRIOR_MARGIN times farther), else None."""
     if estimate is None:
         return None

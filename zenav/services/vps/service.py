@@ -12,7 +12,10 @@ from msgspec import Meta, Struct
 
 from zenav.common import codec, extras, keys
 from zenav.common import messages as m
+from zenav.common.bus import Bus
+from zenav.common.clock import Clock
 from zenav.common.config import Camera as CameraConfig
+from zenav.common.config import Settings
 from zenav.common.runtime import Duplicate, Service, timer
 from zenav.services.vps.clocks import SYNC_PERIOD, HostClock
 from zenav.services.vps.detect import Backend
@@ -60,8 +63,8 @@ class Vps(Service):
     config_type = VpsConfig
     health_period = 0.5  # [s] how often a silent input or an unseen tag is looked for
 
-    def __init__(self, *args) -> None:
-        super().__init__(*args)
+    def __init__(self, settings: Settings, bus: Bus, clock: Clock) -> None:
+        super().__init__(settings, bus, clock)
         if self.cfg.name:
             self.name = f"vps_{self.cfg.name}"  # a second camera's vps: its own presence, beside the robot's vps
         self.camera = Camera(self.settings.scenario, make_rng(self.settings.deployment.seed))
@@ -75,13 +78,13 @@ class Vps(Service):
         if self.cfg.source == "camera":
             self.blocking = True  # a frame takes milliseconds to detect ...
             self.background = True  # ... and the control loop must not wait for a core meanwhile
-            from zenav.services.vps import calibration, detect
+            from zenav.services.vps import calibration_file, detect
             from zenav.services.vps.reader import Reader
             from zenav.world.camera import tag_pixels
 
             cam = self.settings.section("camera", CameraConfig)
             check_fits(cam, self.limits)
-            self.reader = Reader(cam, calibration.configured(cam), detect.make(self.cfg.detector, tag_pixels(cam)))
+            self.reader = Reader(cam, calibration_file.configured(cam), detect.make(self.cfg.detector, tag_pixels(cam)))
             self.link_delay = cam.link_delay  # [s]
             self.queues = {robot: DeliveryQueue() for robot in cam.robots}
             self.host = HostClock(cam, self.clock, self.bus, self.settings.deployment.seed)

@@ -1,4 +1,4 @@
-"""Seed 001's whole dead-reckoning scheme: every distance with every angle change, weighted-averaged.
+"""Seed 001's whole dead-reckoning scheme (the localizer's seed001 mode): every distance with every angle change, weighted-averaged.
 
 Distances of a step: the encoders' and the accelerometer's (forward acceleration
 integrated twice by the seed's secant rule). Angle changes: the encoders', the gyro's
