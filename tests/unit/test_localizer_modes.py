@@ -69,7 +69,7 @@ def test_overwrite_takes_the_fix_position_and_keeps_the_heading():
 
 
 def test_weighted_trusts_the_fix_less_at_speed():
-    slow, fast = mode("weighted"), mode("weighted")
+    slow, fast = mode("speed_weighted"), mode("speed_weighted")
     slow.on_odom(odom(0.0, 0.0, v=0.0))
     fast.on_odom(odom(0.0, 0.0, v=0.3))
     slow.on_fix(fix(0.0, 1.0), 0.3)
@@ -80,7 +80,7 @@ def test_weighted_trusts_the_fix_less_at_speed():
 
 
 def test_weighted_latency_carries_the_fix_along_the_path_since_capture():
-    w = mode("weighted_latency")
+    w = mode("speed_weighted_latency")
     for k in range(101):  # 1 s along x at 0.3 m/s, odometry 1 cm short of the truth
         t = k / 100
         w.on_odom(odom(t, 0.29 * t, v=0.0))  # v = 0: the fix is fully trusted
@@ -90,14 +90,14 @@ def test_weighted_latency_carries_the_fix_along_the_path_since_capture():
 
 
 def test_weighted_latency_drops_fixes_older_than_its_history():
-    w = mode("weighted_latency", history=0.5)
+    w = mode("speed_weighted_latency", history=0.5)
     for k in range(101):
         w.on_odom(odom(k / 100, 0.003 * k))
     assert w.on_fix(fix(0.2, 0.06), 1.0).reason == "too_old"
 
 
-def test_multisensor_pulls_heading_to_the_compass():
-    ms = mode("multisensor", multisensor_compass_weight=0.5)
+def test_complementary_pulls_heading_to_the_compass():
+    ms = mode("complementary", complementary_compass_weight=0.5)
     ms.on_odom(odom(0.0, 0.0))
     ms.on_compass(m.Compass(t=0.0, heading=0.4))
     assert ms.get_pose().theta == pytest.approx(0.2)

@@ -6,8 +6,8 @@ from zenav.common.config import Robot
 
 from .base import LocalizerConfig, Mode
 from .ekf import Ekf
-from .seed001 import Seed001
-from .simple import DeadReckoning, MultiSensor, Overwrite, Weighted, WeightedLatency
+from .estimate_average import EstimateAverage
+from .simple import Complementary, DeadReckoning, Overwrite, SpeedWeighted, SpeedWeightedLatency
 
 
 def make_mode(cfg: LocalizerConfig, robot: Robot) -> Mode:
@@ -17,9 +17,9 @@ def make_mode(cfg: LocalizerConfig, robot: Robot) -> Mode:
     classes = {
         "dead_reckoning": DeadReckoning,
         "overwrite": Overwrite,
-        "weighted": Weighted,
-        "weighted_latency": WeightedLatency,
-        "multisensor": MultiSensor,
-        "seed001": Seed001,
+        "speed_weighted": SpeedWeighted,
+        "speed_weighted_latency": SpeedWeightedLatency,
+        "complementary": Complementary,
+        "estimate_average": EstimateAverage,
     }
     return classes[cfg.mode](cfg, robot)
