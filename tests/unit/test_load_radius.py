@@ -1,4 +1,4 @@
-"""Seed 000's load-dependent wheel radius: payload schedule and load transfer in the world model."""
+"""The load-dependent wheel radius: payload schedule and load transfer in the world model."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The baseline modes (dead reckoning, seed 003's and seed 001's rules) and the scoring."""
+"""The baseline modes (dead reckoning, overwrite, speed-weighted, complementary) and the scoring."""
 
 import math
 

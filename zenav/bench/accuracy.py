@@ -46,7 +46,7 @@ class Spec:
     seed: int = 1
     mode: str = LocalizerConfig().mode  # localizer mode
     controller: str = Params().controller  # navigator controller
-    trial: str = "square"  # square: seed 003's, `laps` laps; path: seed 002's path, then the turn sweep
+    trial: str = "square"  # square: the square trial, `laps` laps; path: the path trial, then the turn sweep
     laps: float = 3.0  # square laps (a fraction: that many of its four goals)
     harness: str = "processes"  # processes, or in-process (one Zenoh session per service, one interpreter)
     # synthetic: the truth plus the scenario's VPS errors; camera: the sim's overhead frames, tags detected; onboard: the

@@ -126,7 +126,7 @@ def square(
     speed: float | None = None,
     tolerance: float | None = None,
 ) -> None:
-    """Seed 003's square (or `corners`): move_to_point around it back to the start, `laps` times (or until `stop`);
+    """The square trial (or `corners`): move_to_point around it back to the start, `laps` times (or until `stop`);
     speed [m/s] and tolerance [m] default to the navigator's."""
     for x, y in itertools.islice(itertools.cycle(corners), round(len(corners) * laps)):
         if stop is not None and stop.is_set():
@@ -135,7 +135,7 @@ def square(
 
 
 def path(bot: Robot, goals: list[GoalEnd], rtf: float) -> None:
-    """Seed 002's path trial: follow (1, 0) -> (1, 1) from the start."""
+    """The path trial: follow (1, 0) -> (1, 1) from the start."""
     goals.append(_goal(bot, rtf, "path", lambda: bot.follow_path(PATH), PATH[-1]))
 
 

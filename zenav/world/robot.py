@@ -1,6 +1,6 @@
 """The robot's true body: geometry from the scenario, motors (lag, deadband, saturation), slip, exact arcs.
 
-The wheel radii vary under load (seed 000: rubber tyres compress): with the payload
+The wheel radii vary under load (rubber tyres compress): with the payload
 the scenario schedules, and with the load transfer of the previous step's forward
 (both wheels) and centripetal (the outer wheel more, the inner less) acceleration,
 around the mean the scenario's radius errors give.
