@@ -9,7 +9,7 @@ import pytest
 
 from zenav import services
 from zenav.common.app import parse_sets
-from zenav.common.config import RENAMED_KEYS, RENAMED_VALUES, Camera, ConfigError, Deployment, Robot, Settings
+from zenav.common.config import RENAMED_KEYS, RENAMED_VALUES, Camera, ConfigError, Deployment, RobotConfig, Settings
 from zenav.common.keys import SERVICES
 from zenav.common.onboardcam import OnboardCamera
 from zenav.common.scenarios import PRESETS, Scenario
@@ -17,7 +17,7 @@ from zenav.common.scenarios import PRESETS, Scenario
 DEFAULT_TOML = Path(__file__).resolve().parents[2] / "zenav" / "data" / "default.toml"
 SECTION_TYPES = {
     "deployment": Deployment,
-    "robot": Robot,
+    "robot": RobotConfig,
     "camera": Camera,
     "onboard_camera": OnboardCamera,
     **{n: services.load(n).config_type for n in SERVICES},
@@ -165,3 +165,11 @@ def test_driver_section_refuses_bad_values(values, words):
     typ = services.load("driver").config_type
     with pytest.raises(ConfigError, match=rf"\[driver\].*{words}"):
         Settings.load(None, driver=values).section("driver", typ)
+
+
+def test_the_navigators_old_min_speed_key_is_its_crawl_speed(caplog):
+    typ = services.load("navigator").config_type
+    with caplog.at_level("WARNING", logger="zenav"):
+        cfg = Settings.load(None, navigator={"min_speed": 0.05}).section("navigator", typ)
+    assert cfg.crawl_speed == 0.05
+    assert any("`min_speed` is now called `crawl_speed`" in r.getMessage() for r in caplog.records)

@@ -8,7 +8,7 @@ import msgspec
 import pytest
 
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.services.localizer import averaging
 from zenav.services.localizer.base import LocalizerConfig
 from zenav.services.localizer.modes import make_mode
@@ -75,7 +75,7 @@ def test_combine_leaves_missing_sensors_out():
 
 
 def mode(**overrides: object):
-    return make_mode(msgspec.convert({"mode": "estimate_average", **overrides}, LocalizerConfig), Robot())
+    return make_mode(msgspec.convert({"mode": "estimate_average", **overrides}, LocalizerConfig), RobotConfig())
 
 
 def test_estimate_average_mode_averages_the_gyro_into_the_heading():

@@ -6,12 +6,12 @@ import pytest
 
 from zenav.bench.studies.localizer import drive_square, evaluate
 from zenav.common import messages as m
-from zenav.common.config import ConfigError, Robot, Settings
+from zenav.common.config import ConfigError, RobotConfig, Settings
 from zenav.common.scenarios import scenario
 from zenav.services.localizer.base import MODES, LocalizerConfig
 from zenav.services.localizer.modes import make_mode
 
-ROBOT = Robot(ticks_per_rev=360)
+ROBOT = RobotConfig(ticks_per_rev=360)
 
 
 def mode(name: str, **cfg):

@@ -77,7 +77,7 @@ def test_speed_near_the_goal_stays_above_the_minimum():
     target = controllers.Target(0.012, 0.0, 0.0, 0.2)
     for name in CONTROLLERS:
         v, _ = controllers.make(name)(PoseSample(0.0, 0.0, 0.0, 0.0), target, params)
-        assert v >= params.min_speed, name
+        assert v >= params.crawl_speed, name
 
 
 def test_stable_gains_pass_the_strong_condition():

@@ -24,7 +24,7 @@ from zenav import services
 from zenav.bench import trials
 from zenav.bench.scoring import Score, rms, score
 from zenav.bench.studies.localizer import evaluate
-from zenav.bench.trials import GoalEnd, Recorder, Trial
+from zenav.bench.trials import TrialGoal, Recorder, Trial
 from zenav.common.config import Settings
 from zenav.common.contract import GoalResult
 from zenav.robot import Robot
@@ -110,15 +110,15 @@ class Run:
         return score(self.trial.rec.series("odom"), self.trial.rec.series("sim/truth"))
 
     @property
-    def failures(self) -> list[GoalEnd]:
+    def failures(self) -> list[TrialGoal]:
         return [g for g in self.trial.goals if g.result != GoalResult.SUCCEEDED]
 
 
-def _drive(spec: Spec) -> Callable[[Robot, list[GoalEnd], float], None]:
+def _drive(spec: Spec) -> Callable[[Robot, list[TrialGoal], float], None]:
     if spec.trial == "square":
         return lambda bot, goals, rtf: trials.square(bot, goals, rtf, spec.laps)
 
-    def path_then_turns(bot: Robot, goals: list[GoalEnd], rtf: float) -> None:
+    def path_then_turns(bot: Robot, goals: list[TrialGoal], rtf: float) -> None:
         trials.path(bot, goals, rtf)
         trials.turns(bot, goals, rtf)
 

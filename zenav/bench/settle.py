@@ -25,7 +25,7 @@ import numpy as np
 
 from zenav.bench.studies.harness import Trial
 from zenav.bench.studies.navigator import HEADING_ARM, SETTLE, TIMEOUT, GoalDriver, PoseError
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.contract import GoalResult, State
 from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import PATH, PRESETS, SQUARE, Scenario
@@ -97,7 +97,7 @@ class Outcome:
 def run(move: Move, params: Params, scenario: Scenario, seed: int, sigma: float, heading_sigma: float | None = None) -> Outcome:
     """Drive one move on a fresh trial; measure it against the truth."""
     cfg = msgspec.structs.replace(params, **dict(move.overrides))
-    trial = Trial(Robot(ticks_per_rev=scenario.ticks_per_rev), scenario, seed, camera=False)
+    trial = Trial(RobotConfig(ticks_per_rev=scenario.ticks_per_rev), scenario, seed, camera=False)
     r = trial.bot.robot
     machine = GoalMachine(cfg, Wheelbase(r.track_width, r.wheel_radius, r.max_wheel_speed))
     driver = GoalDriver(machine, move.goal, PoseError(sigma, scenario.vps_rate_hz, seed, heading_sigma), trial)

@@ -65,7 +65,7 @@ class Deployment(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
             raise ValueError(f"compose: not a service: {', '.join(map(repr, unknown))} (the services: {', '.join(SERVICES)})")
 
 
-class Robot(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+class RobotConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """The robot's nominal geometry: what the stack believes, not what the world is."""
 
     wheel_diameter: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.0673  # [m] 2.65 in
@@ -278,6 +278,7 @@ RENAMED_KEYS: dict[tuple[str, str], str] = {  # [section] old key -> new key
     ("localizer", "seed001_angle_weights"): "estimate_average_angle_weights",
     ("localizer", "seed001_fix_weight"): "estimate_average_fix_weight",
     ("localizer", "seed001_fix_heading_weight"): "estimate_average_fix_heading_weight",
+    ("navigator", "min_speed"): "crawl_speed",  # a goal's min_speed (a chained goal) is another thing
 }
 RENAMED_VALUES: dict[tuple[str, str, str], str] = {  # [section] key = old value -> new value
     ("localizer", "mode", "weighted"): "speed_weighted",
@@ -319,7 +320,7 @@ class Settings:
     """A loaded configuration: deployment values, robot, scenario, and raw sections."""
 
     deployment: Deployment
-    robot: Robot
+    robot: RobotConfig
     scenario: Scenario
     sections: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
     path: str | None = None
@@ -365,7 +366,7 @@ class Settings:
             raise ConfigError(f"config [scenario]: {e}") from None
         except ValueError as e:
             raise ConfigError(f"config [deployment] scenario: {e}") from None
-        robot = _convert(raw.get("robot", {}), Robot, "robot")
+        robot = _convert(raw.get("robot", {}), RobotConfig, "robot")
         limits = _convert(raw.get("limits", {}), Limits, "limits")
         area = raw.get("field", {})
         if area.get("file"):

@@ -15,7 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import Scenario
 
@@ -55,7 +55,7 @@ class World(NamedTuple):
     load: Load = NO_LOAD  # radius changes under load, on top of radius_left / radius_right
 
 
-def world(robot: Robot, scen: Scenario) -> World:
+def world(robot: RobotConfig, scen: Scenario) -> World:
     """The true robot of a scenario around the nominal geometry."""
     r = robot.wheel_radius
     return World(

@@ -21,7 +21,7 @@ import numpy as np
 
 from zenav.bench.scoring import summary
 from zenav.bench.studies.harness import Command, Trial
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.contract import GoalResult, State
 from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import HEADINGS, PATH, PRESETS, SQUARE, Scenario
@@ -117,7 +117,7 @@ def drive(trial: Trial, machine: GoalMachine, goal: Goal, error: PoseError, time
 
 def _trial(scenario: Scenario, seed: int) -> Trial:
     """A trial of the nominal robot, with the scenario's encoders, without the camera."""
-    return Trial(Robot(ticks_per_rev=scenario.ticks_per_rev), scenario, seed, camera=False)
+    return Trial(RobotConfig(ticks_per_rev=scenario.ticks_per_rev), scenario, seed, camera=False)
 
 
 def _machine(params: Params, trial: Trial) -> GoalMachine:

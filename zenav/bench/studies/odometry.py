@@ -23,7 +23,7 @@ import msgspec
 
 from zenav.bench.studies.harness import Command, Trial, odometry_config
 from zenav.common import messages as m
-from zenav.common.config import Robot, Settings
+from zenav.common.config import RobotConfig, Settings
 from zenav.common.geometry import wrap_angle
 from zenav.services.localizer.base import LocalizerConfig
 from zenav.services.localizer.estimate_average import EstimateAverage
@@ -32,7 +32,7 @@ from zenav.services.odometry.service import OdometryConfig
 SPEED, TURN_RATE = 0.2, 1.0  # [m/s], [rad/s]
 
 
-def square(robot: Robot, laps: int = 3) -> list[tuple[float, float, float]]:
+def square(robot: RobotConfig, laps: int = 3) -> list[tuple[float, float, float]]:
     """Segments (duration [s], left, right wheel command [rad/s]) of `laps` 1 m squares."""
     r, half = robot.wheel_radius, robot.track_width / 2.0
     drive, turn = SPEED / r, TURN_RATE * half / r

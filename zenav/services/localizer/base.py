@@ -20,7 +20,7 @@ import numpy as np
 from msgspec import Meta, Struct
 
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.geometry import Pose2, wrap_angle
 
 from .latency import Estimate, LatencyEstimator, LatencyParams
@@ -128,7 +128,7 @@ class Mode:
 
     sensors: tuple[str, ...] = ()  # the sensor topics the mode reads besides odom and fixes (on_imu, on_compass)
 
-    def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
+    def __init__(self, cfg: LocalizerConfig, robot: RobotConfig) -> None:
         self.cfg, self.robot = cfg, robot
         self.odom: m.Odom | None = None  # newest odometry sample used
         self.t_set = -math.inf  # [s] fixes captured before the last set_pose are ignored

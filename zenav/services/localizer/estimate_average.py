@@ -12,7 +12,7 @@ weights the camera in: it is not carried forward over its latency.
 from __future__ import annotations
 
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.geometry import Pose2, wrap_angle
 from zenav.services.localizer import averaging
 
@@ -30,7 +30,7 @@ class EstimateAverage(DeadReckoning):
 
     sensors = ("sensors/imu",)
 
-    def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
+    def __init__(self, cfg: LocalizerConfig, robot: RobotConfig) -> None:
         super().__init__(cfg, robot)
         self.inertial = averaging.Inertial()
         self.t_moved = 0.0  # [s] newest odom increment with motion

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 
 from .base import LocalizerConfig, Mode
 from .ekf import Ekf
@@ -10,7 +10,7 @@ from .estimate_average import EstimateAverage
 from .simple import Complementary, DeadReckoning, Overwrite, SpeedWeighted, SpeedWeightedLatency
 
 
-def make_mode(cfg: LocalizerConfig, robot: Robot) -> Mode:
+def make_mode(cfg: LocalizerConfig, robot: RobotConfig) -> Mode:
     """The mode cfg.mode names."""
     if cfg.mode in ("ekf", "ekf_no_delay"):
         return Ekf(cfg, robot, delayed=cfg.mode == "ekf")

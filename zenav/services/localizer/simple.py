@@ -17,7 +17,7 @@ import math
 from collections import deque
 
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.geometry import Pose2, wrap_angle
 
 from .base import FixResult, LocalizerConfig, Mode
@@ -27,7 +27,7 @@ from .gyro import GyroIntegral
 class DeadReckoning(Mode):
     """Odometry only, placed in the map by set_pose."""
 
-    def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
+    def __init__(self, cfg: LocalizerConfig, robot: RobotConfig) -> None:
         super().__init__(cfg, robot)
         self.est = Pose2()
         self.sigma = [cfg.unknown_sigma_xy, math.pi]  # [m, rad] at the last reset of position, heading
@@ -96,7 +96,7 @@ class SpeedWeighted(DeadReckoning):
 class SpeedWeightedLatency(SpeedWeighted):
     """The speed-weighted average, with the fix carried forward along the path history."""
 
-    def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
+    def __init__(self, cfg: LocalizerConfig, robot: RobotConfig) -> None:
         super().__init__(cfg, robot)
         self.path: deque[tuple[float, float, float]] = deque()  # (t, total dx, total dy) dead-reckoned [s, m, m]
 
@@ -133,7 +133,7 @@ class Complementary(DeadReckoning):
 
     sensors = ("sensors/imu", "sensors/compass")
 
-    def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
+    def __init__(self, cfg: LocalizerConfig, robot: RobotConfig) -> None:
         super().__init__(cfg, robot)
         self.gyro = GyroIntegral(cfg.history, cfg.gyro_max_gap)
 

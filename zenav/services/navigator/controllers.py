@@ -119,7 +119,7 @@ class RotationPid:
         self.t = pose.t
         self.integral = _clamp(self.integral + err * dt, -params.pid_i_limit, params.pid_i_limit)
         omega = params.pid_kp * err + params.pid_ki * self.integral - params.pid_kd * pose.omega
-        v = _clamp(params.pid_speed_gain * dist, params.min_speed, target.speed)
+        v = _clamp(params.pid_speed_gain * dist, params.crawl_speed, target.speed)
         return v * max(0.0, 1.0 - abs(err) / params.pid_heading_limit), omega
 
 
@@ -134,14 +134,14 @@ def polar(pose: PoseSample, target: Target, params: Params) -> tuple[float, floa
     if v > target.speed:
         omega *= target.speed / v
         v = target.speed
-    v = max(v, params.min_speed)
+    v = max(v, params.crawl_speed)
     return (-v, omega) if target.reverse else (v, omega)
 
 
 def proportional(pose: PoseSample, target: Target, params: Params) -> tuple[float, float]:
     """Speed proportional to the distance, turn proportional to the bearing error."""
     dist, err = _bearing_error(pose, target)
-    v = _clamp(params.prop_speed_gain * dist, params.min_speed, target.speed)
+    v = _clamp(params.prop_speed_gain * dist, params.crawl_speed, target.speed)
     return v * max(0.0, math.cos(err)), params.prop_heading_gain * err
 
 
@@ -150,7 +150,7 @@ def boomerang(pose: PoseSample, target: Target, params: Params) -> tuple[float, 
     cx, cy = carrot(pose, target.x, target.y, target.theta, target.lead)
     dist = math.hypot(target.x - pose.x, target.y - pose.y)
     err = wrap_angle(math.atan2(cy - pose.y, cx - pose.x) - pose.theta)
-    v = _clamp(params.prop_speed_gain * dist, params.min_speed, target.speed)
+    v = _clamp(params.prop_speed_gain * dist, params.crawl_speed, target.speed)
     return v * max(0.0, math.cos(err)), params.prop_heading_gain * err
 
 

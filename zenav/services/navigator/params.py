@@ -26,7 +26,7 @@ class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     lead: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.6  # [-] boomerang: carrot distance behind the goal per metre to it
     speed: Speed = 0.2  # [m/s] forward speed of a goal that names none
     max_speed: Speed = 0.3  # [m/s] forward speed limit; faster requests are clamped
-    min_speed: NonNeg = 0.03  # [m/s] slowest forward command while moving (above the motor deadband)
+    crawl_speed: NonNeg = 0.03  # [m/s] slowest forward command while driving (above the motor deadband; not a goal's min_speed)
     decel: Pos = 0.5  # [m/s^2] braking into a goal point or the end of a straight
     turn_speed: Speed = 2.0  # [rad/s] turn rate of a turn that names none
     max_turn_speed: Speed = 3.0  # [rad/s] turn rate limit; faster requests are clamped
