@@ -79,7 +79,7 @@ def test_weighted_trusts_the_fix_less_at_speed():
     assert fast.get_pose().x == pytest.approx(1.0 - 0.3 / top)
 
 
-def test_weighted_latency_carries_the_fix_along_the_path_since_capture():
+def test_speed_weighted_latency_carries_the_fix_along_the_path_since_capture():
     w = mode("speed_weighted_latency")
     for k in range(101):  # 1 s along x at 0.3 m/s, odometry 1 cm short of the truth
         t = k / 100
@@ -89,7 +89,7 @@ def test_weighted_latency_carries_the_fix_along_the_path_since_capture():
     assert w.get_pose().x == pytest.approx(0.21 + 0.29 * 0.3, abs=1e-9)
 
 
-def test_weighted_latency_drops_fixes_older_than_its_history():
+def test_speed_weighted_latency_drops_fixes_older_than_its_history():
     w = mode("speed_weighted_latency", history=0.5)
     for k in range(101):
         w.on_odom(odom(k / 100, 0.003 * k))

@@ -24,7 +24,7 @@ from zenav import services
 from zenav.bench import trials
 from zenav.bench.scoring import Score, rms, score
 from zenav.bench.studies.localizer import evaluate
-from zenav.bench.trials import TrialGoal, Recorder, Trial
+from zenav.bench.trials import Recorder, Trial, TrialGoal
 from zenav.common.config import Settings
 from zenav.common.contract import GoalResult
 from zenav.robot import Robot
