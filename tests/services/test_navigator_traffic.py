@@ -58,7 +58,7 @@ def test_a_robot_standing_on_the_goal_makes_it_wait_saying_why_then_give_up_afte
 
 
 def test_a_robot_crossing_the_way_slows_it_counted_and_said_on_nav_state():
-    rig = Rig()
+    rig = NavigatorRig()
     rig.pose()
     q = rig.query("nav/move_to_point", {"x": 1.5, "y": 0.0, "wait": True})
     why, y = set(), -0.45
