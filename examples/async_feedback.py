@@ -7,7 +7,7 @@ stack (`zenav up`); ZENOH_CONNECT picks the router.
 
 import asyncio
 
-from zenav.aio import Robot
+from zenav.aio import AsyncRobot
 
 
 def number(value: float | None, unit: str) -> str:
@@ -15,7 +15,7 @@ def number(value: float | None, unit: str) -> str:
 
 
 async def main() -> int:
-    async with Robot() as bot:
+    async with AsyncRobot() as bot:
         await bot.wait_ready()
         results = []
         for x, y in [(0.5, 0.0), (0.0, 0.0)]:

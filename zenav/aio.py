@@ -1,10 +1,10 @@
 """The robot library for asyncio programs: `zenav.robot`'s methods as coroutines.
 
     import asyncio
-    from zenav.aio import Robot
+    from zenav.aio import AsyncRobot
 
     async def main() -> None:
-        async with Robot("r1") as bot:
+        async with AsyncRobot("r1") as bot:
             await bot.wait_ready()
             goal = await bot.move_to_point(1.0, 0.0)
             async for state in goal.updates():
@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import asyncio
 import functools
+import warnings
 from collections.abc import AsyncIterator, Awaitable, Callable, Coroutine, Generator, Iterable
 from typing import Any
 
@@ -34,7 +35,7 @@ from zenav.robot import CONNECT_TIMEOUT, DRIVE_PERIOD, POSE_TIMEOUT, QUERY_TIMEO
 from zenav.robot import Goal as SyncGoal
 from zenav.robot import Robot as SyncRobot
 
-__all__ = ["Goal", "Robot"]
+__all__ = ["AsyncRobot", "Goal"]
 
 
 async def _within(aw: Awaitable[object], timeout: float | None) -> bool:
@@ -49,7 +50,7 @@ async def _within(aw: Awaitable[object], timeout: float | None) -> bool:
 class Goal:
     """A goal the navigator took; `await goal` is `await goal.wait()`."""
 
-    def __init__(self, robot: Robot, goal: SyncGoal) -> None:
+    def __init__(self, robot: AsyncRobot, goal: SyncGoal) -> None:
         self.id, self.reply = goal.id, goal.reply
         self._robot, self._goal = robot, goal
 
@@ -125,7 +126,7 @@ class Goal:
         return self._goal.feedback() is not last or self._goal.done()
 
 
-class Robot(GoalMethods[Coroutine[Any, Any, Goal]]):
+class AsyncRobot(GoalMethods[Coroutine[Any, Any, Goal]]):
     """One robot's navigation and localization, for asyncio programs (see `zenav.robot.Robot`).
 
     The goal methods are zenav.robot.Robot's (zenav.goalapi): here each returns a coroutine of the Goal."""
@@ -148,13 +149,13 @@ class Robot(GoalMethods[Coroutine[Any, Any, Goal]]):
         self._sync: SyncRobot | None = None
         self._changed = asyncio.Event()  # replaced by a fresh one at each change
 
-    async def __aenter__(self) -> Robot:
+    async def __aenter__(self) -> AsyncRobot:
         return await self.open()
 
     async def __aexit__(self, *exc: object) -> None:
         await self.close()
 
-    async def open(self) -> Robot:
+    async def open(self) -> AsyncRobot:
         """Connect (Unavailable if no router answers within connect_timeout)."""
         if self._sync is None:
             loop = asyncio.get_running_loop()
@@ -178,7 +179,7 @@ class Robot(GoalMethods[Coroutine[Any, Any, Goal]]):
     def sync(self) -> SyncRobot:
         """The synchronous robot underneath."""
         if self._sync is None:
-            raise RuntimeError("the robot is not open: use `async with Robot(...)` or `await robot.open()`")
+            raise RuntimeError("the robot is not open: use `async with AsyncRobot(...)` or `await robot.open()`")
         return self._sync
 
     @property
@@ -244,3 +245,11 @@ class Robot(GoalMethods[Coroutine[Any, Any, Goal]]):
             if ready():
                 return
             await event.wait()
+
+
+def __getattr__(name: str) -> Any:
+    """`zenav.aio.Robot`, the name of earlier releases: AsyncRobot, with a DeprecationWarning."""
+    if name == "Robot":
+        warnings.warn("zenav.aio.Robot is now zenav.aio.AsyncRobot", DeprecationWarning, stacklevel=2)
+        return AsyncRobot
+    raise AttributeError(f"module 'zenav.aio' has no attribute {name!r}")

@@ -1,4 +1,4 @@
-"""The robot library's goal methods, declared once for `zenav.robot.Robot` and `zenav.aio.Robot`.
+"""The robot library's goal methods, declared once for `zenav.robot.Robot` and `zenav.aio.AsyncRobot`.
 
 Each method takes its goal's fields (common/goalschema.py: a test holds them equal) and hands them to the robot's
 `_send`, which the synchronous robot answers with a `Goal` and the asyncio one with a coroutine of its `Goal`.

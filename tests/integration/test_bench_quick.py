@@ -45,7 +45,7 @@ def test_a_tiny_bench_writes_the_report_with_its_sections(tmp_path):
     assert res.robots[0].cpu_per_robot > 0.0
     ekf = res.modes["ekf"]
     assert ekf.goals == 1 and ekf.pose.n > 100 and ekf.pose.rmse < 0.10
-    assert set(ekf.replay) >= {"ekf", "dead_reckoning", "overwrite", "weighted", "weighted_latency"}
+    assert set(ekf.replay) >= {"ekf", "dead_reckoning", "overwrite", "speed_weighted", "speed_weighted_latency"}
     assert res.paths[TINY.controllers[0]][0].goals == 7  # the path, then six turns
     assert [(r.harness, r.goals) for r in res.speed] == [("in-process", 7)]
     assert any("speed" in line for line in lines)

@@ -17,7 +17,7 @@ RTF = 1.0  # realtime: six services share one process (one GIL) here
 # a 3 cm default tolerance keeps these API tests about the API (the path trial checks the truth).
 NAV = {"stale_after": 2.0, "tolerance": 0.03}
 TRIAL = {"stale_after": 2.0}  # the path trial at the default tolerance
-PATH = [[1.0, 0.0], [1.0, 1.0]]  # seed 002's path trial from (0, 0, 0)
+PATH = [[1.0, 0.0], [1.0, 1.0]]  # the path trial from (0, 0, 0)
 
 
 @pytest.fixture
@@ -81,7 +81,7 @@ def test_cli_goto_wait_and_exit_codes(raw, router):
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_path_trial(make_stack, router, seed):
-    """Seed 002's trial in the `default` scenario; its real robot: 11.4 cm mean, 3.9 cm sd."""
+    """The path trial in the `default` scenario; its real robot (docs/provenance.md): 11.4 cm mean, 3.9 cm sd."""
     make_stack(["sim", "motor", "odometry", "vps", "localizer", "navigator"], sim={"rtf": RTF}, deployment={"seed": seed}, navigator=TRIAL)
     c = RawClient(router)
     try:

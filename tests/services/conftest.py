@@ -2,13 +2,13 @@
 
 import pytest
 
-from tests.support.navigator import Rig
+from tests.support.navigator import NavigatorRig
 
 
 @pytest.fixture
 def rig():
     """The navigator rig, its robot's first pose published."""
-    r = Rig()
+    r = NavigatorRig()
     r.pose()
     yield r
     r.nav.close()

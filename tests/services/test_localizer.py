@@ -37,7 +37,7 @@ def replay(rig, run, t_end, t_start=0.0, fixes=True):
 
 @pytest.mark.parametrize(
     "mode, read",
-    [("ekf", {"sensors/imu"}), ("dead_reckoning", set()), ("multisensor", {"sensors/imu", "sensors/compass"})],
+    [("ekf", {"sensors/imu"}), ("dead_reckoning", set()), ("complementary", {"sensors/imu", "sensors/compass"})],
 )
 def test_only_the_sensor_topics_its_mode_reads_are_taken(mode, read):
     rig = make(mode=mode)
@@ -155,7 +155,7 @@ def test_stale_odometry_is_counted_and_dropped():
     rig.close()
 
 
-@pytest.mark.parametrize("mode", ["dead_reckoning", "overwrite", "multisensor"])
+@pytest.mark.parametrize("mode", ["dead_reckoning", "overwrite", "complementary"])
 def test_other_modes_by_config(mode, run):
     rig = make(mode=mode)
     replay(rig, run, 3.0)

@@ -16,7 +16,7 @@ FIELD = {"obstacles": [{"name": "box", "polygon": BOX}]}
 RADIUS = 0.1  # [robot] radius, the default
 
 
-class Robot:
+class MotorRig:
     """The motor's rig and a robot that moves as its wheel commands say, its pose sent back every 10 ms."""
 
     def __init__(self, **sections):
@@ -39,7 +39,7 @@ class Robot:
 
 
 def test_a_raw_cmd_vel_at_the_box_stops_before_contact_and_says_why():
-    bot = Robot(field=FIELD)
+    bot = MotorRig(field=FIELD)
     box = polygon_shape("box", BOX)
     bot.step(0.3, 0.0, 300)  # 3 s at 0.3 m/s would take it 0.9 m, through the box
     gap = box.clearance(bot.x, bot.y) - RADIUS
@@ -58,7 +58,7 @@ def test_a_raw_cmd_vel_at_the_box_stops_before_contact_and_says_why():
 
 
 def test_reversing_into_the_box_stops_too():
-    bot = Robot(field=FIELD)
+    bot = MotorRig(field=FIELD)
     bot.x, bot.theta = 1.1, 0.0  # beyond the box, its back to it
     bot.step(-0.3, 0.0, 300)
     assert 0.0 < polygon_shape("box", BOX).clearance(bot.x, bot.y) - RADIUS < 0.03
@@ -66,7 +66,7 @@ def test_reversing_into_the_box_stops_too():
 
 
 def test_another_robot_on_the_field_topic_stops_it():
-    bot = Robot()
+    bot = MotorRig()
     body = m.Body(t=5.0, robot="r2", x=0.6, y=0.0, radius=0.1)  # stamped on its own clock
     for _ in range(40):  # the other robot keeps saying where it is, every 100 ms of the run below
         bot.rig.bus.publish(keys.field_key("robots"), codec.encode(body))
@@ -76,16 +76,16 @@ def test_another_robot_on_the_field_topic_stops_it():
 
 
 def test_the_edge_stops_it_only_with_guard_edges():
-    bot = Robot(field={"x_max": 0.5}, motor={"guard_edges": True})
+    bot = MotorRig(field={"x_max": 0.5}, motor={"guard_edges": True})
     bot.step(0.3, 0.0, 300)
     assert 0.5 - RADIUS - 0.03 < bot.x < 0.5 - RADIUS
-    bot = Robot(field={"x_max": 0.5})  # by default a robot may square up against the edge
+    bot = MotorRig(field={"x_max": 0.5})  # by default a robot may square up against the edge
     bot.step(0.3, 0.0, 300)
     assert bot.x > 0.5
 
 
 def test_it_sends_its_robots_body_and_passes_commands_it_cannot_judge():
-    bot = Robot(field=FIELD)
+    bot = MotorRig(field=FIELD)
     bot.rig.put("cmd_vel", m.CmdVel(t=0.0, v=0.3, omega=0.0))  # no pose yet: passed, counted
     assert bot.rig.got("motors/wheels")[-1].left == pytest.approx(0.3 / R)
     assert bot.rig.svc.counters.values["guard_blind"] == 1

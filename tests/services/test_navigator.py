@@ -5,7 +5,7 @@ import math
 import msgpack
 import pytest
 
-from tests.support.navigator import Rig, reply
+from tests.support.navigator import NavigatorRig, reply
 from zenav.common import codec
 from zenav.common import messages as m
 from zenav.common.app import main
@@ -242,7 +242,7 @@ def test_a_needed_service_going_aborts_the_goal(rig, service):
 
 
 def test_goal_without_pose_is_unavailable():
-    r = Rig()
+    r = NavigatorRig()
     err = reply(r.query("nav/move_to_point", {"x": 1.0, "y": 0.0}))
     assert err.error == "unavailable" and "no pose" in err.message
     r.nav.close()
@@ -342,7 +342,7 @@ def test_shutdown_answers_waiters_and_stops(rig):
 
 
 def test_liveliness_token():
-    r = Rig()
+    r = NavigatorRig()
     assert "zenav/r1/alive/navigator" in r.bus.alive()
     r.nav.close()
 
@@ -427,7 +427,7 @@ def test_stop_commands_zero_on_arrival_and_nothing_computed_before_it_follows(ri
 
 
 def test_a_stop_the_full_queue_refuses_still_commands_zero():
-    r = Rig()
+    r = NavigatorRig()
     r.pose()
     reply(r.query("nav/move_straight", {"speed": 0.2}))
     r.step(3)
@@ -452,7 +452,7 @@ def test_a_10k_point_path_is_followed_from_its_first_point(rig):
 
 
 def test_a_path_over_the_configured_length_is_refused_naming_the_limit():
-    r = Rig(max_path_points=100)
+    r = NavigatorRig(max_path_points=100)
     r.pose()
     err = reply(r.query("nav/follow_path", long_path(101)))
     assert err.error == "invalid_argument" and "max_path_points = 100" in err.message
@@ -488,7 +488,7 @@ def test_a_target_outside_the_field_is_refused_naming_the_bound(rig, suffix, pay
 
 
 def test_the_field_can_be_turned_off():
-    r = Rig(field={"enabled": False})
+    r = NavigatorRig(field={"enabled": False})
     r.pose()
     assert reply(r.query("nav/move_to_point", {"x": 30.0, "y": 0.0})).state == "MOVING_TO_POINT"
     r.nav.close()
@@ -518,7 +518,7 @@ def test_a_robot_stopped_past_the_edge_is_driven_back_in(rig):
 
 
 def test_move_straight_without_a_distance_ends_after_the_time_limit():
-    r = Rig(straight_max_time=2.0)
+    r = NavigatorRig(straight_max_time=2.0)
     r.pose()
     q = r.query("nav/move_straight", {"speed": 0.1, "wait": True})
     rep = r.run_until(q, max_s=3.0)
@@ -542,7 +542,7 @@ def test_diag_reports_error_while_the_motor_is_gone(rig):
 
 
 def test_diag_reports_error_while_a_goal_is_wanted_without_a_pose():
-    r = Rig()
+    r = NavigatorRig()
     assert reply(r.query("nav/move_to_point", {"x": 1.0, "y": 0.0})).error == "unavailable"
     r.step(10, poses=False)
     diag = r.nav.diag(r.clock.now())

@@ -5,7 +5,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tests.support.fuzz import FUZZ
-from tests.support.navigator import Rig, reply
+from tests.support.navigator import NavigatorRig, reply
 from zenav.common import messages as m
 from zenav.common.goalschema import SLOWEST as MIN_SPEED
 
@@ -46,7 +46,7 @@ def goal(draw):
 @given(goal())
 def test_nav_state_stays_inside_the_contract_whatever_legal_goal_runs(sent):
     suffix, request = sent
-    rig = Rig()
+    rig = NavigatorRig()
     try:
         rig.pose()
         q = rig.query(suffix, request)
@@ -74,7 +74,7 @@ def test_nav_state_stays_inside_the_contract_whatever_legal_goal_runs(sent):
 )
 def test_a_speed_under_the_slowest_is_refused_naming_the_bound(suffix, request_, unit, sign, speed):
     speed *= sign  # move_straight's is signed
-    rig = Rig()
+    rig = NavigatorRig()
     try:
         rig.pose()
         err = reply(rig.query(suffix, {**request_, "speed": speed}))

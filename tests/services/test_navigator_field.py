@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from tests.support.navigator import Rig, reply
+from tests.support.navigator import NavigatorRig, reply
 from zenav.common import codec
 from zenav.common import messages as m
 from zenav.common.field import polygon_shape
@@ -16,7 +16,7 @@ RADIUS = 0.1  # [robot] radius, the default
 
 @pytest.fixture
 def rig():
-    r = Rig(field=FIELD)
+    r = NavigatorRig(field=FIELD)
     r.pose()
     yield r
     r.nav.close()

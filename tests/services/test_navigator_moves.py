@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from tests.support.navigator import Rig, reply
+from tests.support.navigator import NavigatorRig, reply
 from zenav.common import messages as m
 from zenav.common.bus import MemoryBus
 from zenav.common.clock import ManualClock
@@ -52,7 +52,7 @@ def test_a_path_with_point_tolerances_passes_its_points_without_stopping(rig):
 
 def _drive(start_theta, suffix, request, **cfg):
     """Run one goal to its end from (0, 0, start_theta): (reply, final (x, y, theta), the commands)."""
-    rig = Rig(**cfg)
+    rig = NavigatorRig(**cfg)
     rig.theta = start_theta
     rig.pose()
     rep = rig.run_until(rig.query(suffix, {**request, "wait": True}))
@@ -91,7 +91,7 @@ def test_a_backwards_goal_is_the_forward_goal_driven_with_the_back_ahead(suffix,
 @pytest.mark.parametrize("controller", ["pid", "polar", "proportional"])
 @pytest.mark.parametrize("x, y", [(0.5, 0.0), (-0.4, 0.4), (0.3, -0.6)])
 def test_a_backwards_move_to_point_backs_onto_the_point_with_every_controller(controller, x, y):
-    rig = Rig(controller=controller)
+    rig = NavigatorRig(controller=controller)
     rig.pose()
     rep = rig.run_until(rig.query("nav/move_to_point", {"x": x, "y": y, "forwards": False, "wait": True}))
     assert rep.result == "succeeded", rep.message

@@ -2,7 +2,7 @@
 
 import math
 
-from tests.support.navigator import Rig, reply
+from tests.support.navigator import NavigatorRig, reply
 from zenav.common import codec, keys
 from zenav.common import messages as m
 
@@ -16,7 +16,7 @@ def body(rig, robot, x, y, v=0.0, theta=0.0):
 
 
 def test_a_robot_standing_on_the_way_is_driven_round_on_the_right():
-    rig = Rig()
+    rig = NavigatorRig()
     rig.pose()
     q = rig.query("nav/move_to_point", {"x": 1.2, "y": 0.0, "wait": True})
     least, side = math.inf, 0.0
@@ -37,7 +37,7 @@ def test_a_robot_standing_on_the_way_is_driven_round_on_the_right():
 
 
 def test_a_robot_standing_on_the_goal_makes_it_wait_saying_why_then_give_up_after_robot_wait():
-    rig = Rig(robot_wait=2.0)
+    rig = NavigatorRig(robot_wait=2.0)
     rig.pose()
     q = rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0, "wait": True})
     why = set()
@@ -58,7 +58,7 @@ def test_a_robot_standing_on_the_goal_makes_it_wait_saying_why_then_give_up_afte
 
 
 def test_a_robot_crossing_the_way_slows_it_counted_and_said_on_nav_state():
-    rig = Rig()
+    rig = NavigatorRig()
     rig.pose()
     q = rig.query("nav/move_to_point", {"x": 1.5, "y": 0.0, "wait": True})
     why, y = set(), -0.45
@@ -76,7 +76,7 @@ def test_a_robot_crossing_the_way_slows_it_counted_and_said_on_nav_state():
 
 
 def test_avoid_robots_false_leaves_them_to_the_guard():
-    rig = Rig(avoid_robots=False)
+    rig = NavigatorRig(avoid_robots=False)
     rig.pose()
     rig.query("nav/move_to_point", {"x": 1.2, "y": 0.0})
     for _ in range(300):

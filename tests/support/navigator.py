@@ -1,8 +1,8 @@
 """The navigator on the in-memory bus with a manual clock, driving the world's robot by its cmd_vel, for service tests.
 
-from tests.support.navigator import Rig, reply
+from tests.support.navigator import NavigatorRig, reply
 
-rig = Rig(field=None, **navigator_settings)
+rig = NavigatorRig(field=None, **navigator_settings)
 q = rig.query("nav/move_to_point", {"x": 0.5, "y": 0.0, "wait": True})  # -> the MemoryQuery, after draining
 rig.run_until(q)                                # step until it has its reply (bounded): the decoded reply
 rig.step(10)                                    # 10 pose periods: drive the robot, publish its pose
@@ -29,7 +29,7 @@ MAX_STEPS = 3000  # 30 s of robot time, the bound of a drive loop
 IDEAL = scenario("default", {"wheel_radius_err_left": 0.0, "wheel_radius_err_right": 0.0, "track_width_err": 0.0, "slip_sigma": 0.0})
 
 
-class Rig:
+class NavigatorRig:
     """A navigator and the world's robot (exact nominal geometry, no slip) driven by its cmd_vel."""
 
     def __init__(self, field=None, **cfg):
@@ -95,7 +95,7 @@ def reply(q, typ=m.GoalReply):
     return codec.decode(data, typ if ok else m.ErrorReply)
 
 
-class World(Rig):
+class World(NavigatorRig):
     """The rig as the QueryBus of the robot library: a query drains the navigator at once; `sent` keeps what the library asked."""
 
     def __init__(self) -> None:

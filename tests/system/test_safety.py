@@ -25,7 +25,7 @@ LOG_LINE = 400  # [characters] longest log line allowed (clipped lines are 200 p
 
 @pytest.fixture(scope="module")
 def rig(tmp_path_factory):
-    r = safety.Rig(tmp_path_factory.mktemp("safety"))
+    r = safety.StackRig(tmp_path_factory.mktemp("safety"))
     yield r
     r.close()
 

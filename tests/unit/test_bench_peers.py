@@ -14,14 +14,14 @@ from zenav.bench import peers
 from zenav.bench.studies.localizer import drive_square
 from zenav.common import extras
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.scenarios import scenario
 
 SECONDS = 12.0  # [s] of the square: past the warm-up and round a corner
 
 
 def test_wheel_travel_unwraps_the_counts_at_the_nominal_radius():
-    robot = Robot(ticks_per_rev=360)
+    robot = RobotConfig(ticks_per_rev=360)
     per_tick = 2.0 * math.pi * robot.wheel_radius / 360
     top = 2**31 - 1
     enc = [m.Encoders(t=0.0, left=top - 1, right=0), m.Encoders(t=0.01, left=-(2**31) + 1, right=-3)]
@@ -36,7 +36,7 @@ needs_wpimath = pytest.mark.skipif(not extras.installed("wpimath"), reason="robo
 @pytest.fixture(scope="module")
 def square():
     sc = scenario("default")
-    return drive_square(sc, 1, SECONDS), Robot(ticks_per_rev=sc.ticks_per_rev)
+    return drive_square(sc, 1, SECONDS), RobotConfig(ticks_per_rev=sc.ticks_per_rev)
 
 
 @needs_wpimath

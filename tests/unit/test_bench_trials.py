@@ -7,7 +7,7 @@ import math
 import pytest
 
 from zenav.bench.scoring import score
-from zenav.bench.trials import GoalEnd, Recorder, Trial
+from zenav.bench.trials import Recorder, Trial, TrialGoal
 from zenav.common import messages as m
 
 
@@ -45,10 +45,10 @@ def test_goal_errors_use_the_truth_when_the_goal_ended():
     trial = Trial(
         rec,
         [
-            GoalEnd("point", (0.5, 0.0), "succeeded", 0.0, 5.0),
-            GoalEnd("point", (9.0, 9.0), "aborted", 5.0, 6.0, "no progress"),
-            GoalEnd("turn", (0.5,), "succeeded", 6.0, 7.55),
-            GoalEnd("path", (1.0, 0.0), "succeeded", 0.0, 9.0),
+            TrialGoal("point", (0.5, 0.0), "succeeded", 0.0, 5.0),
+            TrialGoal("point", (9.0, 9.0), "aborted", 5.0, 6.0, "no progress"),
+            TrialGoal("turn", (0.5,), "succeeded", 6.0, 7.55),
+            TrialGoal("path", (1.0, 0.0), "succeeded", 0.0, 9.0),
         ],
     )
     assert trial.errors("point") == [pytest.approx(0.0, abs=1e-9)]

@@ -9,7 +9,7 @@ import pytest
 
 from zenav import services
 from zenav.common.app import parse_sets
-from zenav.common.config import Camera, ConfigError, Deployment, Robot, Settings
+from zenav.common.config import RENAMED_KEYS, RENAMED_VALUES, Camera, ConfigError, Deployment, RobotConfig, Settings
 from zenav.common.keys import SERVICES
 from zenav.common.onboardcam import OnboardCamera
 from zenav.common.scenarios import PRESETS, Scenario
@@ -17,7 +17,7 @@ from zenav.common.scenarios import PRESETS, Scenario
 DEFAULT_TOML = Path(__file__).resolve().parents[2] / "zenav" / "data" / "default.toml"
 SECTION_TYPES = {
     "deployment": Deployment,
-    "robot": Robot,
+    "robot": RobotConfig,
     "camera": Camera,
     "onboard_camera": OnboardCamera,
     **{n: services.load(n).config_type for n in SERVICES},
@@ -101,6 +101,33 @@ def test_a_retired_key_says_what_became_of_it():
         Settings.load(None, vps={"delivery_period": 0.005}).section("vps", typ)
 
 
+OLD_MODES = [("seed001", "estimate_average"), ("multisensor", "complementary"), ("weighted", "speed_weighted")]
+
+
+@pytest.mark.parametrize(("old", "new"), OLD_MODES)
+def test_a_config_file_with_an_old_mode_name_still_loads_and_says_the_new_one(tmp_path, caplog, old, new):
+    p = tmp_path / "old.toml"
+    p.write_text(f'[localizer]\nmode = "{old}"\nseed001_fix_weight = 0.2\n')
+    with caplog.at_level("WARNING", logger="zenav"):
+        cfg = Settings.load(str(p)).section("localizer", services.load("localizer").config_type)
+    assert cfg.mode == new and cfg.estimate_average_fix_weight == 0.2
+    lines = [r.getMessage() for r in caplog.records]
+    assert [line for line in lines if f'"{old}" is now called "{new}"' in line] != []
+    assert len([line for line in lines if "`seed001_fix_weight` is now called `estimate_average_fix_weight`" in line]) == 1
+
+
+def test_an_old_key_and_its_new_name_together_are_refused():
+    with pytest.raises(ConfigError, match=r"`multisensor_fix_weight` is the old name of `complementary_fix_weight`, and both are set"):
+        Settings.load(None, localizer={"multisensor_fix_weight": 0.1, "complementary_fix_weight": 0.2})
+
+
+def test_every_renamed_name_leads_to_a_setting_that_exists():
+    for (section, _old), new in RENAMED_KEYS.items():
+        assert new in {f.name for f in msgspec.structs.fields(SECTION_TYPES[section])}
+    for (section, key, _old), new in RENAMED_VALUES.items():
+        assert Settings.load(None, **{section: {key: new}}).section(section, SECTION_TYPES[section])
+
+
 def test_bad_file_is_a_config_error(tmp_path):
     p = tmp_path / "bad.toml"
     p.write_text("[sim\nrtf = 1")
@@ -138,3 +165,11 @@ def test_driver_section_refuses_bad_values(values, words):
     typ = services.load("driver").config_type
     with pytest.raises(ConfigError, match=rf"\[driver\].*{words}"):
         Settings.load(None, driver=values).section("driver", typ)
+
+
+def test_the_navigators_old_min_speed_key_is_its_crawl_speed(caplog):
+    typ = services.load("navigator").config_type
+    with caplog.at_level("WARNING", logger="zenav"):
+        cfg = Settings.load(None, navigator={"min_speed": 0.05}).section("navigator", typ)
+    assert cfg.crawl_speed == 0.05
+    assert any("`min_speed` is now called `crawl_speed`" in r.getMessage() for r in caplog.records)

@@ -33,7 +33,7 @@ def test_the_library_method_takes_the_goal_s_fields_with_their_defaults(spec):
 
 def test_both_robots_take_their_goal_methods_from_the_one_declaration():
     for name in GOALS:
-        assert getattr(robot.Robot, name) is getattr(aio.Robot, name) is getattr(goalapi.GoalMethods, name)
+        assert getattr(robot.Robot, name) is getattr(aio.AsyncRobot, name) is getattr(goalapi.GoalMethods, name)
 
 
 def test_a_request_sends_what_differs_from_the_defaults_and_refuses_a_name_that_is_no_field():

@@ -8,13 +8,13 @@ import pytest
 
 from zenav.bench.studies.localizer import drive_square, evaluate
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.geometry import Pose2, wrap_angle
 from zenav.common.scenarios import scenario
 from zenav.services.localizer.base import LocalizerConfig
 from zenav.services.localizer.ekf import Ekf
 
-ROBOT = Robot(ticks_per_rev=360)
+ROBOT = RobotConfig(ticks_per_rev=360)
 COV = (0.02**2, 0.0, 0.0, 0.0, 0.02**2, 0.0, 0.0, 0.0, 0.035**2)
 
 
@@ -71,7 +71,7 @@ def test_tracks_truth_on_default(default_scored):
 
 def test_tracks_truth_through_the_outage_on_harsh(harsh_run):
     r = harsh_run
-    robot = Robot(ticks_per_rev=16)
+    robot = RobotConfig(ticks_per_rev=16)
     s = evaluate(Ekf(LocalizerConfig(), robot), r.odom, r.fixes, r.truth, r.imu, outage=(20.0, 30.0))
     assert s.rmse < 0.025 and s.outage_end < 0.04 and s.outliers_accepted == 0
     no_imu = evaluate(Ekf(LocalizerConfig(), robot), r.odom, r.fixes, r.truth, outage=(20.0, 30.0))
@@ -215,7 +215,7 @@ def test_fixes_finer_than_a_tick_are_followed_through_coarse_encoders():
     re-acquisitions that followed were taken for slipping wheels."""
     sc = msgspec.structs.replace(scenario("coarse"), vps_noise_xy=0.001, vps_noise_theta_deg=0.2)
     r = drive_square(sc, 8)
-    ekf = Ekf(LocalizerConfig(), Robot(ticks_per_rev=sc.ticks_per_rev))
+    ekf = Ekf(LocalizerConfig(), RobotConfig(ticks_per_rev=sc.ticks_per_rev))
     s = evaluate(ekf, r.odom, r.fixes, r.truth, r.imu)
     assert s.fixes_rejected <= 0.02 * (s.fixes_accepted + s.fixes_rejected) and s.rmse < 0.004
     assert ekf.slip == (math.inf, -math.inf)  # never found slipping
@@ -268,7 +268,7 @@ def test_a_free_drive_is_no_impact(default_scored):
 
 
 def test_encoders_too_coarse_to_tell_an_impact_leave_the_accelerometer_unread():
-    assert Ekf(LocalizerConfig(), Robot(ticks_per_rev=16)).impact is None
+    assert Ekf(LocalizerConfig(), RobotConfig(ticks_per_rev=16)).impact is None
     assert Ekf(LocalizerConfig(), ROBOT).impact is not None
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.services.localizer.base import LocalizerConfig
 from zenav.services.localizer.latency import LatencyEstimator, LatencyParams
 from zenav.services.localizer.modes import make_mode
@@ -91,7 +91,7 @@ def test_an_odometry_restart_starts_the_history_again():
 
 def test_the_mode_uses_and_reports_the_estimate():
     cfg = msgspec.convert({"mode": "ekf", "latency": "estimate", "expected_latency": 0.3}, LocalizerConfig)
-    loc = make_mode(cfg, Robot())
+    loc = make_mode(cfg, RobotConfig())
     path = square_path(16.0)
     latency = 0.45
     arrivals = {round((i / FIX_RATE + latency) * RATE): i * RATE // FIX_RATE for i in range(len(path) * FIX_RATE // RATE)}
@@ -111,7 +111,7 @@ def test_the_mode_uses_and_reports_the_estimate():
 
 
 def test_stamped_fixes_carry_no_estimate():
-    loc = make_mode(LocalizerConfig(), Robot())
+    loc = make_mode(LocalizerConfig(), RobotConfig())
     loc.on_odom(m.Odom(t=1.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0))
     rec = loc.on_fix(m.VpsPose(t=0.8, x=0.0, y=0.0, theta=0.0), 1.1)
     assert rec.latency_estimate is None and rec.latency_sigma is None and rec.latency == pytest.approx(0.3)

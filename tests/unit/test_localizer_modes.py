@@ -1,4 +1,4 @@
-"""The baseline modes (dead reckoning, seed 003's and seed 001's rules) and the scoring."""
+"""The baseline modes (dead reckoning, overwrite, speed-weighted, complementary) and the scoring."""
 
 import math
 
@@ -6,12 +6,12 @@ import pytest
 
 from zenav.bench.studies.localizer import drive_square, evaluate
 from zenav.common import messages as m
-from zenav.common.config import ConfigError, Robot, Settings
+from zenav.common.config import ConfigError, RobotConfig, Settings
 from zenav.common.scenarios import scenario
 from zenav.services.localizer.base import MODES, LocalizerConfig
 from zenav.services.localizer.modes import make_mode
 
-ROBOT = Robot(ticks_per_rev=360)
+ROBOT = RobotConfig(ticks_per_rev=360)
 
 
 def mode(name: str, **cfg):
@@ -69,7 +69,7 @@ def test_overwrite_takes_the_fix_position_and_keeps_the_heading():
 
 
 def test_weighted_trusts_the_fix_less_at_speed():
-    slow, fast = mode("weighted"), mode("weighted")
+    slow, fast = mode("speed_weighted"), mode("speed_weighted")
     slow.on_odom(odom(0.0, 0.0, v=0.0))
     fast.on_odom(odom(0.0, 0.0, v=0.3))
     slow.on_fix(fix(0.0, 1.0), 0.3)
@@ -79,8 +79,8 @@ def test_weighted_trusts_the_fix_less_at_speed():
     assert fast.get_pose().x == pytest.approx(1.0 - 0.3 / top)
 
 
-def test_weighted_latency_carries_the_fix_along_the_path_since_capture():
-    w = mode("weighted_latency")
+def test_speed_weighted_latency_carries_the_fix_along_the_path_since_capture():
+    w = mode("speed_weighted_latency")
     for k in range(101):  # 1 s along x at 0.3 m/s, odometry 1 cm short of the truth
         t = k / 100
         w.on_odom(odom(t, 0.29 * t, v=0.0))  # v = 0: the fix is fully trusted
@@ -89,15 +89,15 @@ def test_weighted_latency_carries_the_fix_along_the_path_since_capture():
     assert w.get_pose().x == pytest.approx(0.21 + 0.29 * 0.3, abs=1e-9)
 
 
-def test_weighted_latency_drops_fixes_older_than_its_history():
-    w = mode("weighted_latency", history=0.5)
+def test_speed_weighted_latency_drops_fixes_older_than_its_history():
+    w = mode("speed_weighted_latency", history=0.5)
     for k in range(101):
         w.on_odom(odom(k / 100, 0.003 * k))
     assert w.on_fix(fix(0.2, 0.06), 1.0).reason == "too_old"
 
 
-def test_multisensor_pulls_heading_to_the_compass():
-    ms = mode("multisensor", multisensor_compass_weight=0.5)
+def test_complementary_pulls_heading_to_the_compass():
+    ms = mode("complementary", complementary_compass_weight=0.5)
     ms.on_odom(odom(0.0, 0.0))
     ms.on_compass(m.Compass(t=0.0, heading=0.4))
     assert ms.get_pose().theta == pytest.approx(0.2)

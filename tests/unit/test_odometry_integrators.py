@@ -79,7 +79,7 @@ def test_arc_is_continuous_through_the_straight_line_limit():
 
 
 def test_rk4_is_the_seed_formula():
-    """Seed 000's k00..k32 with its v, omega and t give the same step."""
+    """The Runge-Kutta paper's k00..k32 with its v, omega and t give the same step."""
     x, y, th, v, omega, t = 0.1, 0.2, 0.3, 0.25, 1.7, 0.05
     k00, k01, k02 = v * math.cos(th), v * math.sin(th), omega
     k10, k11, k12 = v * math.cos(th + t / 2 * k02), v * math.sin(th + t / 2 * k02), omega

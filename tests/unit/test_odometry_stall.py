@@ -4,7 +4,7 @@ import pytest
 
 from zenav.services.odometry import stall
 
-P = stall.params(ticks_per_rev=360, radius=0.03365, min_speed=2.0, min_ticks=5.0, min_time=0.3)
+P = stall.params(ticks_per_rev=360, radius=0.03365, stall_speed=2.0, min_ticks=5.0, min_time=0.3)
 DT = 0.01
 
 
@@ -38,7 +38,7 @@ def test_a_sample_that_says_nothing_was_commanded_is_never_silent():
 
 
 def test_a_coarse_encoder_gets_the_time_its_ticks_need():
-    coarse = stall.params(ticks_per_rev=16, radius=0.03365, min_speed=2.0, min_ticks=5.0, min_time=0.3)
+    coarse = stall.params(ticks_per_rev=16, radius=0.03365, stall_speed=2.0, min_ticks=5.0, min_time=0.3)
     w, silent_at = stall.Watch(), None
     for k in range(200):
         w, _, silent = stall.step(w, coarse, (k + 1) * DT, DT, (0, 0), (2.0, 2.0))

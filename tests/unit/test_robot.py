@@ -130,10 +130,10 @@ def test_chained_goals_hand_over_at_speed_as_lemlib_s_motion_chaining(world, bot
 
 def test_the_asyncio_robot_has_every_method_of_the_robot_with_the_same_parameters():
     for name in GOALS:  # one declaration (zenav.goalapi): the asyncio robot's returns a coroutine of its Goal
-        assert getattr(Robot, name) is getattr(aio.Robot, name), name
+        assert getattr(Robot, name) is getattr(aio.AsyncRobot, name), name
     for name in ("wait_ready", "stop", "is_moving", "pose", "set_pose", "status"):
-        assert inspect.iscoroutinefunction(getattr(aio.Robot, name)), name
-        assert list(inspect.signature(getattr(Robot, name)).parameters) == list(inspect.signature(getattr(aio.Robot, name)).parameters)
+        assert inspect.iscoroutinefunction(getattr(aio.AsyncRobot, name)), name
+        assert list(inspect.signature(getattr(Robot, name)).parameters) == list(inspect.signature(getattr(aio.AsyncRobot, name)).parameters)
 
 
 def test_updates_yield_each_new_state_until_the_end(world, bot):

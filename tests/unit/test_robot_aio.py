@@ -11,7 +11,7 @@ from zenav.robot import InvalidArgument
 
 def test_an_awaitable_goal_with_feedback(world):
     async def main():
-        async with aio.Robot("r1", bus=world) as bot:
+        async with aio.AsyncRobot("r1", bus=world) as bot:
             goal = await bot.move_to_point(0.2, 0.0)
 
             async def drive():
@@ -42,7 +42,7 @@ def test_an_awaitable_goal_with_feedback(world):
 
 def test_wait_until_in_asyncio(world):
     async def main():
-        async with aio.Robot("r1", bus=world) as bot:
+        async with aio.AsyncRobot("r1", bus=world) as bot:
             goal = await bot.move_to_point(0.4, 0.0)
 
             async def drive(until):
@@ -71,7 +71,7 @@ def test_wait_until_in_asyncio(world):
 
 def test_updates_time_out(world):
     async def main():
-        async with aio.Robot("r1", bus=world, lease=False) as bot:
+        async with aio.AsyncRobot("r1", bus=world, lease=False) as bot:
             goal = await bot.turn_to_heading(1.0)
             with pytest.raises(TimeoutError, match=f"goal {goal.id} did not end in 0.01 s"):
                 async for _ in goal.updates(timeout=0.01):
@@ -82,16 +82,16 @@ def test_updates_time_out(world):
 
 
 def test_a_robot_not_open_refuses_use(world):
-    bot = aio.Robot("r1", bus=world)
+    bot = aio.AsyncRobot("r1", bus=world)
     with pytest.raises(RuntimeError, match="not open"):
         bot.sync.pose()
 
 
 def test_arguments_the_robot_does_not_take_fail_at_once(world):
     with pytest.raises(TypeError, match="colour"):
-        aio.Robot("r1", bus=world, colour="red")
+        aio.AsyncRobot("r1", bus=world, colour="red")
     with pytest.raises(InvalidArgument, match="robot"):
-        asyncio.run(aio.Robot("no such robot!", bus=world).open())
+        asyncio.run(aio.AsyncRobot("no such robot!", bus=world).open())
 
 
 def test_drive_in_asyncio_commands_zero_when_done_and_when_cancelled(world):
@@ -101,7 +101,7 @@ def test_drive_in_asyncio_commands_zero_when_done_and_when_cancelled(world):
         return [(c.t, c.v, c.omega) for c in world.published("cmd_vel")]
 
     async def main():
-        async with aio.Robot("r1", bus=world) as bot:
+        async with aio.AsyncRobot("r1", bus=world) as bot:
             await bot.drive(0.1, 0.0, seconds=0.08)
             ours = [c for c in sent() if c != zero]
             assert len(ours) >= 2 and set(ours) == {(0.0, 0.1, 0.0)} and sent()[-1] == zero
@@ -119,3 +119,8 @@ def test_drive_in_asyncio_commands_zero_when_done_and_when_cancelled(world):
                 await bot.set_pose()
 
     asyncio.run(main())
+
+
+def test_the_old_name_zenav_aio_robot_still_works_and_warns():
+    with pytest.warns(DeprecationWarning, match="zenav.aio.AsyncRobot"):
+        assert aio.Robot is aio.AsyncRobot

@@ -6,7 +6,7 @@ import pytest
 
 from zenav.bench.studies.harness import Trial, odometry_config
 from zenav.bench.studies.localizer import pushed_table
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.scenarios import PRESETS, Fault, scenario
 from zenav.world.bodies import Disc
 
@@ -16,7 +16,7 @@ def forward(trial):
 
 
 def test_streams_at_their_rates_and_aligned():
-    trial = Trial(Robot(), PRESETS["default"], seed=1)
+    trial = Trial(RobotConfig(), PRESETS["default"], seed=1)
     assert not trial.run(forward, 2.0)
     s = trial.streams
     assert len(s.truth) == len(s.imu) == len(s.odom) == 201 and trial.t == pytest.approx(2.0)
@@ -30,18 +30,18 @@ def test_streams_at_their_rates_and_aligned():
 
 
 def test_controller_stops_the_trial():
-    trial = Trial(Robot(), PRESETS["default"], seed=1, camera=False)
+    trial = Trial(RobotConfig(), PRESETS["default"], seed=1, camera=False)
     assert trial.run(lambda tr: None if tr.t >= 0.5 else forward(tr), 2.0)
     assert trial.t == pytest.approx(0.5) and trial.streams.fixes == []
 
 
 def test_odometry_config_reaches_the_core():
-    trial = Trial(Robot(), PRESETS["default"], seed=1, odometry=odometry_config(heading_source="gyro"))
+    trial = Trial(RobotConfig(), PRESETS["default"], seed=1, odometry=odometry_config(heading_source="gyro"))
     assert trial.params.heading.source == "gyro"
 
 
 def test_same_seed_same_streams():
-    a, b, c = (Trial(Robot(), PRESETS["harsh"], seed) for seed in (4, 4, 5))
+    a, b, c = (Trial(RobotConfig(), PRESETS["harsh"], seed) for seed in (4, 4, 5))
     for trial in (a, b, c):
         trial.run(forward, 1.0)
     assert a.streams == b.streams and a.streams != c.streams
@@ -54,7 +54,7 @@ def test_scheduled_faults_act_on_the_streams():
         Fault(kind="encoder_frozen", start=1.0, duration=0.5),
     )
     sc = scenario("default", {"vps_drop": 0.0, "faults": faults})
-    trial = Trial(Robot(), sc, seed=1)
+    trial = Trial(RobotConfig(), sc, seed=1)
     trial.run(forward, 2.0)
     s = trial.streams
     assert not any(0.5 <= i.t < 1.0 for i in s.imu) and len(s.imu) == 201 - 50
@@ -65,7 +65,7 @@ def test_scheduled_faults_act_on_the_streams():
 
 
 def test_a_robot_in_the_way_holds_the_trials_robot_while_its_encoders_count_on():
-    trial = Trial(Robot(), PRESETS["default"], seed=1, others={"r2": Disc(0.5, 0.0, 0.1)})
+    trial = Trial(RobotConfig(), PRESETS["default"], seed=1, others={"r2": Disc(0.5, 0.0, 0.1)})
     assert not trial.run(forward, 3.0)  # 0.6 m at 0.2 m/s, but the other's body is 0.3 m ahead
     s = trial.streams
     assert s.truth[-1].x == pytest.approx(0.3, abs=0.005) and s.odom[-1].x > 0.5

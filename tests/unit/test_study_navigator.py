@@ -7,7 +7,7 @@ import pytest
 
 from zenav.bench.studies import navigator as study
 from zenav.bench.studies.harness import Trial
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.scenarios import PRESETS
 from zenav.services.navigator.params import CONTROLLERS, Params
 
@@ -15,7 +15,7 @@ DEFAULT = PRESETS["default"]
 
 
 def test_trial_robot_lag_deadband_and_encoders():
-    trial = Trial(Robot(ticks_per_rev=360), DEFAULT, seed=1, camera=False)
+    trial = Trial(RobotConfig(ticks_per_rev=360), DEFAULT, seed=1, camera=False)
     trial.step(*trial.bot.wheels(0.01, 0.0))  # 0.3 rad/s at the wheels: inside the deadband
     s = trial.bot.state
     assert (s.x, s.speed_left, s.speed_right) == (0.0, 0.0, 0.0)

@@ -5,12 +5,12 @@ import math
 import msgspec
 import pytest
 
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.scenarios import PRESETS
 from zenav.services.driver import umbmark as u
 from zenav.world.sim import SimRobot
 
-NOMINAL = Robot(wheel_diameter=0.0673, track_width=0.1156, ticks_per_rev=100_000)
+NOMINAL = RobotConfig(wheel_diameter=0.0673, track_width=0.1156, ticks_per_rev=100_000)
 GEOMETRY = u.Geometry(NOMINAL.track_width, NOMINAL.wheel_radius, NOMINAL.wheel_radius)
 DT = 0.005  # [s] sim step
 

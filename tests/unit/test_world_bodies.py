@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.world.bodies import Chassis, Disc, Walls, _corners, _nearest, block, chassis_inside, chassis_travel
 from zenav.world.robot import arc
 from zenav.world.sim import SimRobot
@@ -45,7 +45,7 @@ def test_a_step_away_from_a_body_it_overlaps_is_free_and_none_goes_deeper():
 
 
 def test_a_robot_that_drives_into_another_stops_there_while_its_wheels_turn_on():
-    free, held = (SimRobot(Robot(), IDEAL, seed=1, body_radius=0.1) for _ in range(2))
+    free, held = (SimRobot(RobotConfig(), IDEAL, seed=1, body_radius=0.1) for _ in range(2))
     for _ in range(200):  # 2 s at 0.2 m/s: 0.4 m
         free.drive(0.2, 0.0, 0.01)
         held.step(*held.wheels(0.2, 0.0), 0.01, OTHER)
@@ -54,7 +54,7 @@ def test_a_robot_that_drives_into_another_stops_there_while_its_wheels_turn_on()
     assert held.encoders() == free.encoders()  # the wheels slipped: the encoders counted the whole way
     held.step(*held.wheels(-0.2, 0.0), 0.01, OTHER)
     assert held.state.x == pytest.approx(0.298) and held.met == []  # backing away is free
-    ghost = SimRobot(Robot(), IDEAL, seed=1)  # no body of its own (body_radius 0): drives through
+    ghost = SimRobot(RobotConfig(), IDEAL, seed=1)  # no body of its own (body_radius 0): drives through
     for _ in range(200):
         ghost.step(*ghost.wheels(0.2, 0.0), 0.01, OTHER)
     assert ghost.state.x == pytest.approx(0.4)
@@ -77,8 +77,8 @@ def test_a_corner_holds_both_ways_and_a_robot_outside_may_come_back_in_but_not_g
 
 
 def test_a_robot_driven_at_a_wall_stops_there_while_its_wheels_turn_on_and_one_without_a_footprint_drives_through():
-    held = SimRobot(Robot(), IDEAL, seed=1, x=0.5, body_radius=0.1, walls=FIELD)
-    ghost = SimRobot(Robot(), IDEAL, seed=1, x=0.5, walls=FIELD)  # no footprint (body_radius 0): no walls either
+    held = SimRobot(RobotConfig(), IDEAL, seed=1, x=0.5, body_radius=0.1, walls=FIELD)
+    ghost = SimRobot(RobotConfig(), IDEAL, seed=1, x=0.5, walls=FIELD)  # no footprint (body_radius 0): no walls either
     for _ in range(300):  # 3 s at 0.2 m/s: 0.6 m, the last second against the wall
         held.drive(0.2, 0.0, 0.01)
         ghost.drive(0.2, 0.0, 0.01)
@@ -88,7 +88,7 @@ def test_a_robot_driven_at_a_wall_stops_there_while_its_wheels_turn_on_and_one_w
 
 
 CHASSIS = Chassis(0.16, 0.12)
-TRACK = 0.1156  # [m] Robot()'s track width
+TRACK = 0.1156  # [m] RobotConfig()'s track width
 
 
 def rooms(x: float, y: float, theta: float, walls: Walls = FIELD) -> list[float]:
@@ -179,7 +179,7 @@ def test_the_nearest_travel_keeps_every_bound_and_no_point_that_keeps_them_is_ne
     st.lists(st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)), max_size=2),
 )
 def test_a_chassis_among_walls_and_other_robots_never_goes_farther_past_a_wall(x, y, theta, commands, others):
-    bot = SimRobot(Robot(), IDEAL, 1, x, y, theta, body_radius=0.1, walls=FIELD, chassis=CHASSIS)
+    bot = SimRobot(RobotConfig(), IDEAL, 1, x, y, theta, body_radius=0.1, walls=FIELD, chassis=CHASSIS)
     bodies = {f"r{i}": Disc(ox, oy, 0.1) for i, (ox, oy) in enumerate(others, start=2)}
 
     def deepest(s) -> list[float]:

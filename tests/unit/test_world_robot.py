@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.scenarios import PRESETS
 from zenav.world import robot
 from zenav.world.robot import State, World
@@ -22,11 +22,11 @@ def drive(s, w, left, right, seconds, seed=1):
 
 
 def test_true_geometry_of_the_scenarios():
-    w = robot.world(Robot(), PRESETS["default"])
+    w = robot.world(RobotConfig(), PRESETS["default"])
     assert w.radius_left == pytest.approx(0.0673 / 2 * 1.003)
     assert w.radius_right == pytest.approx(0.0673 / 2 * 0.997)
     assert w.track == pytest.approx(0.1156 * 1.02)
-    harsh = robot.world(Robot(), PRESETS["harsh"])
+    harsh = robot.world(RobotConfig(), PRESETS["harsh"])
     assert harsh.radius_left == pytest.approx(0.0673 / 2 * (1 + 0.01 - 0.005))
     assert harsh.radius_right == pytest.approx(0.0673 / 2 * (1 - 0.01 - 0.005))
     assert (harsh.motor_lag, harsh.deadband, harsh.slip_sigma) == (0.08, 1.0, 0.03)
@@ -68,7 +68,7 @@ def test_unequal_wheels_drive_an_exact_circle():
 
 
 def test_true_errors_curve_the_path():
-    w = robot.world(Robot(), PRESETS["default"])._replace(slip_sigma=0.0)
+    w = robot.world(RobotConfig(), PRESETS["default"])._replace(slip_sigma=0.0)
     s = drive(State(), w, 5.0, 5.0, 2.0)
     assert s.theta < 0.0 and s.y < 0.0  # left wheel larger: veers right
 
@@ -120,7 +120,7 @@ def test_slip_statistics():
 
 
 def test_same_seed_same_path():
-    w = robot.world(Robot(), PRESETS["harsh"])
+    w = robot.world(RobotConfig(), PRESETS["harsh"])
     a, b, c = (drive(State(), w, 6.0, 4.0, 1.0, seed) for seed in (5, 5, 6))
     assert a == b and a != c
 

@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.scenarios import PRESETS, Fault, Scenario, scenario
 from zenav.world import faults, sensors
 from zenav.world.sim import SimRobot
@@ -16,18 +16,18 @@ IDEAL = Scenario(
 
 
 def test_drive_goes_through_the_nominal_geometry():
-    bot = SimRobot(Robot(), IDEAL, seed=1)
+    bot = SimRobot(RobotConfig(), IDEAL, seed=1)
     for _ in range(100):
         s = bot.drive(0.2, 0.0, 0.01)
     assert (s.x, s.y, s.v) == pytest.approx((0.2, 0.0, 0.2))
-    bot = SimRobot(Robot(), IDEAL, seed=1, x=1.0, theta=math.pi / 2)
+    bot = SimRobot(RobotConfig(), IDEAL, seed=1, x=1.0, theta=math.pi / 2)
     for _ in range(50):
         s = bot.drive(0.0, 1.0, 0.01)
     assert (s.x, s.y, s.theta, s.omega) == pytest.approx((1.0, 0.0, math.pi / 2 + 0.5, 1.0))
 
 
 def test_wheel_commands_saturate_keeping_the_curvature():
-    bot = SimRobot(Robot(max_wheel_speed=5.0), IDEAL, seed=1)
+    bot = SimRobot(RobotConfig(max_wheel_speed=5.0), IDEAL, seed=1)
     left, right = bot.wheels(1.0, 2.0)
     assert max(abs(left), abs(right)) == pytest.approx(5.0)
     assert (right - left) / (right + left) == pytest.approx(2.0 * 0.1156 / 2 / 1.0)
@@ -35,13 +35,13 @@ def test_wheel_commands_saturate_keeping_the_curvature():
 
 
 def test_deadband_of_the_true_motors_stops_slow_commands():
-    bot = SimRobot(Robot(ticks_per_rev=360), DEFAULT, seed=1)
+    bot = SimRobot(RobotConfig(ticks_per_rev=360), DEFAULT, seed=1)
     bot.drive(0.01, 0.0, 0.01)  # 0.3 rad/s at the wheels: inside the deadband
     assert (bot.state.x, bot.state.speed_left, bot.encoders()) == (0.0, 0.0, (0, 0))
 
 
 def test_sensors_read_the_state():
-    bot = SimRobot(Robot(), DEFAULT, seed=1, encoder_start=2**31 - 1)
+    bot = SimRobot(RobotConfig(), DEFAULT, seed=1, encoder_start=2**31 - 1)
     for _ in range(10):
         bot.step(5.0, 5.0, 0.01)
     left, right = bot.encoders()
@@ -52,7 +52,7 @@ def test_sensors_read_the_state():
 
 
 def test_seeded_and_reading_sensors_leaves_the_path_alone():
-    a, b, c = (SimRobot(Robot(), PRESETS["harsh"], seed) for seed in (5, 5, 6))
+    a, b, c = (SimRobot(RobotConfig(), PRESETS["harsh"], seed) for seed in (5, 5, 6))
     for _ in range(100):
         a.step(6.0, 4.0, 0.01)
         b.step(6.0, 4.0, 0.01)
@@ -65,7 +65,7 @@ def test_seeded_and_reading_sensors_leaves_the_path_alone():
 
 
 def test_teleport_keeps_the_encoders():
-    bot = SimRobot(Robot(), DEFAULT, seed=1)
+    bot = SimRobot(RobotConfig(), DEFAULT, seed=1)
     for _ in range(30):
         bot.step(6.0, 6.0, 0.01)
     ticks = bot.encoders()

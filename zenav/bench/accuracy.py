@@ -24,7 +24,7 @@ from zenav import services
 from zenav.bench import trials
 from zenav.bench.scoring import Score, rms, score
 from zenav.bench.studies.localizer import evaluate
-from zenav.bench.trials import GoalEnd, Recorder, Trial
+from zenav.bench.trials import Recorder, Trial, TrialGoal
 from zenav.common.config import Settings
 from zenav.common.contract import GoalResult
 from zenav.robot import Robot
@@ -46,7 +46,7 @@ class Spec:
     seed: int = 1
     mode: str = LocalizerConfig().mode  # localizer mode
     controller: str = Params().controller  # navigator controller
-    trial: str = "square"  # square: seed 003's, `laps` laps; path: seed 002's path, then the turn sweep
+    trial: str = "square"  # square: the square trial, `laps` laps; path: the path trial, then the turn sweep
     laps: float = 3.0  # square laps (a fraction: that many of its four goals)
     harness: str = "processes"  # processes, or in-process (one Zenoh session per service, one interpreter)
     # synthetic: the truth plus the scenario's VPS errors; camera: the sim's overhead frames, tags detected; onboard: the
@@ -110,15 +110,15 @@ class Run:
         return score(self.trial.rec.series("odom"), self.trial.rec.series("sim/truth"))
 
     @property
-    def failures(self) -> list[GoalEnd]:
+    def failures(self) -> list[TrialGoal]:
         return [g for g in self.trial.goals if g.result != GoalResult.SUCCEEDED]
 
 
-def _drive(spec: Spec) -> Callable[[Robot, list[GoalEnd], float], None]:
+def _drive(spec: Spec) -> Callable[[Robot, list[TrialGoal], float], None]:
     if spec.trial == "square":
         return lambda bot, goals, rtf: trials.square(bot, goals, rtf, spec.laps)
 
-    def path_then_turns(bot: Robot, goals: list[GoalEnd], rtf: float) -> None:
+    def path_then_turns(bot: Robot, goals: list[TrialGoal], rtf: float) -> None:
         trials.path(bot, goals, rtf)
         trials.turns(bot, goals, rtf)
 

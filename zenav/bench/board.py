@@ -77,7 +77,7 @@ def run(window: float, log_dir: Path, compose: tuple[str, ...] = ()) -> BoardRun
     names = services.PROFILES["robot"].services
     with tempfile.TemporaryDirectory(prefix="zenav-board-") as tmp, Emulator(f"{tmp}/board", ticks_per_rev=TICKS) as emu:
         stack = ProcStack(("r1",), names, log_dir, args(emu.link), compose=compose).start()
-        stop, goals = threading.Event(), list[trials.GoalEnd]()
+        stop, goals = threading.Event(), list[trials.TrialGoal]()
         try:
             with Robot("r1", stack.endpoint, lease=False) as bot:
                 bot.client.wait_alive(names, timeout=START_TIMEOUT)

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from zenav.bench.studies.harness import Trial
-from zenav.common.config import Field, Robot
+from zenav.common.config import Field, RobotConfig
 from zenav.common.contract import GoalResult
 from zenav.common.contract import State as NavCode
 from zenav.common.field import Point
@@ -91,7 +91,7 @@ def setup(case: str, run: int, seed: int) -> list[tuple[str, Point, Point, float
 def simulate(robots: list[tuple[str, Point, Point, float]], seed: int, params: Params) -> tuple[list[Robotrun], float, int]:
     """The robots driven together to their goals: each robot's run, the least gap between footprints [m], contacts."""
     scenario = PRESETS["default"]
-    robot = Robot(ticks_per_rev=scenario.ticks_per_rev, radius=RADIUS)
+    robot = RobotConfig(ticks_per_rev=scenario.ticks_per_rev, radius=RADIUS)
     wheels = Wheelbase(robot.track_width, robot.wheel_radius, robot.max_wheel_speed)
     guard = Guard((), RADIUS, GUARD_GAP, GUARD_DECEL)
     edges = Planner(AREA, RADIUS + AREA.margin)  # the open field: detours keep inside its edges

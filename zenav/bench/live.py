@@ -160,7 +160,7 @@ def run(
         if arm is not None:
             arm.start()
             Robot(arm.observer.robot, bus=bus, lease=False).client.latest("clock").wait(timeout=START_TIMEOUT)
-        goals: dict[str, list[trials.GoalEnd]] = {r: [] for r in ids}
+        goals: dict[str, list[trials.TrialGoal]] = {r: [] for r in ids}
         drivers = [trials.drive(b, goals[r], stop, rtf) for r, b in bots.items()]
         stop.wait(SETTLE)
         stack.check()

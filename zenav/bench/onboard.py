@@ -9,7 +9,7 @@ ambiguity, is the truth off by 2 cm and 1 deg). Errors against the truth, by tag
 accepted more than 5 cm off the truth and outside its own covariance's 99.9 % ellipse counts as a wrong one (a
 wrong ambiguity pick, a bad solve); one far off but saying so (a large covariance) does not.
 
-Drive: the whole stack on a real router driving seed 003's 1 m square `laps` times, the vps reading the
+Drive: the whole stack on a real router driving the 1 m square trial `laps` times, the vps reading the
 onboard camera alone (each service its own process, as `zenav up` runs them), then with the overhead camera's vps
 beside it (two vps, two latencies; in this process): the fused pose's RMSE against the truth, and the fixes the
 localizer accepted and rejected. Simulated.

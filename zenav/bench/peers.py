@@ -34,7 +34,7 @@ from zenav.bench.studies.harness import Streams, arrival
 from zenav.bench.studies.localizer import drive_square, evaluate
 from zenav.common import extras
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.scenarios import scenario
 from zenav.common.track import Track
 from zenav.services.localizer.base import LocalizerConfig
@@ -74,7 +74,7 @@ def wpimath() -> ModuleType:
     return extras.require("wpimath", "the WPILib comparison", extra="peers")
 
 
-def wheel_travel(encoders: Sequence[m.Encoders], robot: Robot) -> list[tuple[float, float, float]]:
+def wheel_travel(encoders: Sequence[m.Encoders], robot: RobotConfig) -> list[tuple[float, float, float]]:
     """(t [s], left [m], right [m]) of each sample: each wheel's travel since the first, at the nominal radius
     (counts unwrapped from signed 32 bits, as the odometry does)."""
     per_tick = 2.0 * math.pi * robot.wheel_radius / (robot.ticks_per_rev or 360)
@@ -90,7 +90,7 @@ def wheel_travel(encoders: Sequence[m.Encoders], robot: Robot) -> list[tuple[flo
     return out
 
 
-def run_wpilib(streams: Streams, robot: Robot, tuning: Tuning, warmup: float = WARMUP) -> Score:
+def run_wpilib(streams: Streams, robot: RobotConfig, tuning: Tuning, warmup: float = WARMUP) -> Score:
     """WPILib's estimator on the streams (encoders, IMU, fixes in arrival order), scored against their truth."""
     wpimath()
     from wpimath import estimator, geometry, kinematics
@@ -134,7 +134,7 @@ def run_wpilib(streams: Streams, robot: Robot, tuning: Tuning, warmup: float = W
     return score(poses, Track((s.t, s.x, s.y, s.theta) for s in streams.truth), warmup)
 
 
-def run_zenav(streams: Streams, robot: Robot) -> Score:
+def run_zenav(streams: Streams, robot: RobotConfig) -> Score:
     """zenav's localizer (its default config) on the same streams, scored the same way."""
     loc = make_mode(LocalizerConfig(), robot)
     return evaluate(loc, streams.odom, streams.fixes, streams.truth, streams.imu, streams.compass)
@@ -155,7 +155,7 @@ class Compared:
         return self.best.rmse / self.zenav.rmse
 
 
-def compare(streams: Streams, robot: Robot, zenav: Score | None = None, sweep: Sequence[Tuning] = SWEEP) -> Compared:
+def compare(streams: Streams, robot: RobotConfig, zenav: Score | None = None, sweep: Sequence[Tuning] = SWEEP) -> Compared:
     """WPILib on the streams with its defaults and over `sweep`, beside zenav's score (None: replayed on them)."""
     default = run_wpilib(streams, robot, DEFAULT)
     tried = [(run_wpilib(streams, robot, t), t) for t in sweep if t != DEFAULT]
@@ -182,7 +182,7 @@ def study(
     out: dict[str, list[Compared]] = {}
     for name in scenarios:
         sc = scenario(name)
-        robot = Robot(ticks_per_rev=sc.ticks_per_rev)
+        robot = RobotConfig(ticks_per_rev=sc.ticks_per_rev)
         out[name] = [compare(drive_square(sc, seed, duration), robot, sweep=sweep) for seed in seeds]
     return out
 

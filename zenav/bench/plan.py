@@ -29,8 +29,8 @@ class Plan:
     seeds: tuple[int, ...]  # accuracy seeds per scenario (every mode replayed on each)
     laps: float  # square laps of an accuracy run
     controllers: tuple[str, ...]
-    path_seeds: tuple[int, ...]  # seed 002's path trial (then the turn sweep) per controller
-    square_laps: float  # seed 003's square per controller (0: not run)
+    path_seeds: tuple[int, ...]  # the path trial (then the turn sweep) per controller
+    square_laps: float  # the square trial per controller (0: not run)
     kinematic_seeds: int  # the navigator's kinematic path trial per controller (bench/studies/navigator.py)
     latency_runs: int = 3  # latency runs per deployment, the deployments interleaved (bench/added.py pools them)
     compose: tuple[str, ...] = ("odometry", "localizer", "navigator", "motor")  # run again composed in one process (none: not)
@@ -48,7 +48,7 @@ class Plan:
     crossing_runs: int = 50  # perturbed runs of 2 robots swapping and of 4 crossing the centre (bench/crossing.py)
     camera_frames: int = 200  # frames rendered and read per camera (bench/camera.py)
     camera_scenarios: tuple[str, ...] = ("default", "harsh")  # the square with the camera VPS and with the synthetic, first seed
-    camera_path_seeds: tuple[int, ...] = (1, 2, 3)  # seed 002's path trial with the camera VPS and with the synthetic
+    camera_path_seeds: tuple[int, ...] = (1, 2, 3)  # the path trial with the camera VPS and with the synthetic
     # Realtime factor of those runs: the sim renders each frame in its own process, so faster than
     # realtime the rendering delays its steps on a small machine; 1 is how `zenav up` runs it.
     camera_rtf: float = 1.0

@@ -24,7 +24,7 @@ import numpy as np
 
 from zenav.bench.studies.harness import Trial
 from zenav.bench.studies.navigator import PoseError, drive
-from zenav.common.config import Field, Obstacle, Robot, Settings
+from zenav.common.config import Field, Obstacle, RobotConfig, Settings
 from zenav.common.contract import GoalResult, State
 from zenav.common.field import FieldError, Point, Shape, check_layout, circle_shape, polygon_shape
 from zenav.common.scenarios import PRESETS
@@ -36,7 +36,7 @@ from zenav.services.navigator.routing import route
 
 LAYOUTS = ("table", "arena", "random20")
 REFERENCE_SIDES = 128  # sides of the reference planner's circles
-RADIUS, MARGIN = Robot().radius, Field().margin  # [m] the defaults
+RADIUS, MARGIN = RobotConfig().radius, Field().margin  # [m] the defaults
 DRAW_LIMIT = 200  # draws per pair at most (a crowded layout rejects many)
 
 
@@ -169,7 +169,7 @@ def driven(name: str, n: int, seed: int) -> Drives:
     params = Params()
     res = Drives(name)
     scenario = PRESETS["default"]
-    robot = Robot(ticks_per_rev=scenario.ticks_per_rev)
+    robot = RobotConfig(ticks_per_rev=scenario.ticks_per_rev)
     for i, (a, b, _) in enumerate(p for p in pairs(area, n * 4, seed + 1, planner) if len(p[2]) > 1):
         if res.goals == n:
             break

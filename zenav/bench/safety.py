@@ -28,7 +28,7 @@ from typing import Any
 import zenoh
 
 from zenav.bench import child
-from zenav.bench.safety_rig import OPERATOR_GOAL, WAIT, Rig, big, end_child, flood, operator, read_lines, start_child
+from zenav.bench.safety_rig import OPERATOR_GOAL, WAIT, StackRig, big, end_child, flood, operator, read_lines, start_child
 from zenav.common import codec
 from zenav.common import messages as m
 from zenav.common.contract import State
@@ -53,7 +53,7 @@ class Freeze:
     message: str
 
 
-def frozen_operator(rig: Rig, cli: bool = False) -> Freeze:
+def frozen_operator(rig: StackRig, cli: bool = False) -> Freeze:
     """An operator process holding a Robot (or `zenav goto --wait`) sends a goal, is frozen (SIGSTOP) once the robot moves."""
     rig.ready()
     last = rig.nav.wait(timeout=WAIT).goal_id
@@ -88,7 +88,7 @@ class Flood:
     after: int  # of those, answered after the stop was
 
 
-def stop_under_flood(rig: Rig, goals: int = FLOOD_GOALS, points: int = FLOOD_POINTS) -> Flood:
+def stop_under_flood(rig: StackRig, goals: int = FLOOD_GOALS, points: int = FLOOD_POINTS) -> Flood:
     """A second process sends `goals` follow_path goals of `points` points at once; then nav/stop."""
     rig.ready()
     proc, lines = start_child(flood, rig.endpoint, goals, points)
@@ -122,7 +122,7 @@ class Burst:
     answered: float  # [s] stop sent -> answered
 
 
-def stop_after_a_burst(rig: Rig, goals: int = BURST_GOALS, points: int = FLOOD_POINTS) -> Burst:
+def stop_after_a_burst(rig: StackRig, goals: int = BURST_GOALS, points: int = FLOOD_POINTS) -> Burst:
     """A second process sends `goals` follow_path goals of `points` points at once; once they have all reached the
     navigator (safety_rig's `burst`), nav/stop; then what started, and what was commanded, for the rest of the burst."""
     rig.ready()
@@ -161,7 +161,7 @@ class Gap:
     count: int  # its value after
 
 
-def pose_gap(rig: Rig, what: str, service: str, counter: str, send: Callable[[], object]) -> Gap:
+def pose_gap(rig: StackRig, what: str, service: str, counter: str, send: Callable[[], object]) -> Gap:
     """Send one bad input; the longest pose gap around it and the counter that must have grown."""
     before = rig.counter(service, counter)
     t0 = time.monotonic()
@@ -171,7 +171,7 @@ def pose_gap(rig: Rig, what: str, service: str, counter: str, send: Callable[[],
     return Gap(what, rig.pose.max_gap(t0 - GAP_BEFORE, t0 + GAP_AFTER), f"{service}.{counter}", count)
 
 
-def bad_inputs(rig: Rig) -> list[Gap]:
+def bad_inputs(rig: StackRig) -> list[Gap]:
     """Each bad input once: a 200 kB selector parameter, a payload over max_payload, a clock at rtf 200 (as if from the
     clock's owner), a clock 5 s behind from another sender, an encoder 0.9 s ahead."""
     s = rig.session
@@ -231,7 +231,7 @@ class Edge:
     gap: float  # [s] the longest pose gap around it
 
 
-def oversize_at_the_edge(rig: Rig, size: int = BIG_PAYLOAD, query: bool = False) -> Edge:
+def oversize_at_the_edge(rig: StackRig, size: int = BIG_PAYLOAD, query: bool = False) -> Edge:
     """A child process puts `size` bytes on sensors/encoders (`query`: asks localizer/pose with them), then a
     malformed sample (query) on the same session: a link delivers in order, so once the service counts the
     malformed one, the big one would have come before it. (From a process of its own: sent on the session that
@@ -261,7 +261,7 @@ class Wildcard:
     pose_jump: float  # [m] largest step of the localizer's pose around the get
 
 
-def wildcard_get(rig: Rig) -> Wildcard:
+def wildcard_get(rig: StackRig) -> Wildcard:
     """Start a goal, ask `get zenav/r1/**`, and look at the goal, the sim and the localizer a second later."""
     rig.ready()
     rig.client.query("nav/move_to_point", {"x": -0.5, "y": 0.0}, timeout=WAIT)
@@ -284,7 +284,7 @@ def _steps(poses: list[Any]) -> float:
     return max((math.hypot(b.x - a.x, b.y - a.y) for a, b in zip(poses, poses[1:], strict=False)), default=0.0)
 
 
-def echoed_field(rig: Rig, chars: int = 500_000) -> int:
+def echoed_field(rig: StackRig, chars: int = 500_000) -> int:
     """[bytes] the error reply to a goal with an unknown field of `chars` characters (its decode error names it)."""
     payload = codec.encode({"x": 0.0, "y": 0.0, "a" * chars: 1})
     replies = rig.bus.get(rig.client.key("nav/move_to_point"), payload=payload, timeout=WAIT)
@@ -302,7 +302,7 @@ def _get(session: zenoh.Session, selector: str) -> list[bytes]:
 def measure(floods: int = 1) -> None:
     """Measure and print the figures: each once, the stop under a flood `floods` times."""
     with tempfile.TemporaryDirectory(prefix="zenav-safety-") as logs:
-        _measure(Rig(Path(logs)), floods)
+        _measure(StackRig(Path(logs)), floods)
 
 
 def _spread(values: list[float]) -> str:
@@ -310,7 +310,7 @@ def _spread(values: list[float]) -> str:
     return " / ".join(f"{v * 1000:.1f}" for v in (min(values), statistics.median(values), max(values)))
 
 
-def _measure(rig: Rig, floods: int) -> None:
+def _measure(rig: StackRig, floods: int) -> None:
     try:
         for cli in (False, True):
             f = frozen_operator(rig, cli)

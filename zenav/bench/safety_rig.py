@@ -67,7 +67,7 @@ class Arrivals:
         return max((b - a for a, b in zip(times, times[1:], strict=False)), default=end - start)
 
 
-class Rig:
+class StackRig:
     """A router and the whole stack as processes, and a client that records what they publish."""
 
     def __init__(self, log_dir: Path) -> None:

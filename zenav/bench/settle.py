@@ -25,7 +25,7 @@ import numpy as np
 
 from zenav.bench.studies.harness import Trial
 from zenav.bench.studies.navigator import HEADING_ARM, SETTLE, TIMEOUT, GoalDriver, PoseError
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.contract import GoalResult, State
 from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import PATH, PRESETS, SQUARE, Scenario
@@ -50,7 +50,7 @@ class Move:
 
 
 def moves(p: Params) -> list[Move]:
-    """The move types, short and long, at the default tolerances; seed 002's path at its own 5 cm threshold."""
+    """The move types, short and long, at the default tolerances; the path trial at its own 5 cm waypoint tolerance."""
     deg = math.radians
 
     def point(x: float, y: float) -> Goal:
@@ -65,7 +65,7 @@ def moves(p: Params) -> list[Move]:
     def path(points: tuple[tuple[float, float], ...], tol: float, speed: float) -> Goal:
         return Goal(State.FOLLOWING_PATH, points=points, speed=speed, tolerance=tol)
 
-    seed002 = path(PATH, 0.05, p.max_speed)
+    five_cm = path(PATH, 0.05, p.max_speed)
     other = next(c for c in POSE_CONTROLLERS if c != p.pose_controller)
     return [
         Move("point 0.3 m", point(0.3, 0.0)),
@@ -78,7 +78,7 @@ def moves(p: Params) -> list[Move]:
         Move("turn 170 deg", turn(deg(170))),
         Move("path (1,0) (1,1)", path(PATH, p.tolerance, p.speed)),
         Move("path square 4 m", path(SQUARE, p.tolerance, p.speed)),
-        Move(f"path (1,0) (1,1), seed 002's 5 cm, {p.max_speed:g} m/s", seed002, (("waypoint_tolerance", 0.05),)),
+        Move(f"path (1,0) (1,1), 5 cm waypoints, {p.max_speed:g} m/s", five_cm, (("waypoint_tolerance", 0.05),)),
     ]
 
 
@@ -97,7 +97,7 @@ class Outcome:
 def run(move: Move, params: Params, scenario: Scenario, seed: int, sigma: float, heading_sigma: float | None = None) -> Outcome:
     """Drive one move on a fresh trial; measure it against the truth."""
     cfg = msgspec.structs.replace(params, **dict(move.overrides))
-    trial = Trial(Robot(ticks_per_rev=scenario.ticks_per_rev), scenario, seed, camera=False)
+    trial = Trial(RobotConfig(ticks_per_rev=scenario.ticks_per_rev), scenario, seed, camera=False)
     r = trial.bot.robot
     machine = GoalMachine(cfg, Wheelbase(r.track_width, r.wheel_radius, r.max_wheel_speed))
     driver = GoalDriver(machine, move.goal, PoseError(sigma, scenario.vps_rate_hz, seed, heading_sigma), trial)

@@ -1,7 +1,7 @@
 """How fast the simulation may run: the same trials at several realtime factors, compared
 with realtime goal by goal.
 
-The trial is seed 002's path then the turn sweep: turns at 2 rad/s are where a late
+The trial is the path trial then the turn sweep: turns at 2 rad/s are where a late
 command shows first. Per goal: the truth heading error of each turn, the duration,
 and the fused pose's RMSE over it. A realtime factor is within noise of realtime
 when every goal succeeded, the sim never fell behind, and each of the three means

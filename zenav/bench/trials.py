@@ -55,7 +55,7 @@ class Recorder:
 
 
 @dataclass(frozen=True)
-class GoalEnd:
+class TrialGoal:
     """One goal of a trial: what was asked, how it ended, when (stack time [s])."""
 
     kind: str  # point, path or turn
@@ -71,7 +71,7 @@ class Trial:
     """The goals of a run, and its recording."""
 
     rec: Recorder
-    goals: list[GoalEnd] = field(default_factory=list)
+    goals: list[TrialGoal] = field(default_factory=list)
 
     def errors(self, kind: str) -> list[float]:
         """Truth error of each succeeded goal of a kind: [m] to the point, or [rad] to the heading."""
@@ -92,7 +92,7 @@ def wait_ready(bot: Robot, rtf: float, timeout: float = 60.0, names: Sequence[st
     bot.wait_ready(timeout, services=names)
 
 
-def _goal(bot: Robot, rtf: float, kind: str, send: Callable[[], Goal], target: tuple[float, ...]) -> GoalEnd:
+def _goal(bot: Robot, rtf: float, kind: str, send: Callable[[], Goal], target: tuple[float, ...]) -> TrialGoal:
     """Send a goal and wait for its end, GOAL_TIMEOUT of stack time at most; after a failure,
     wait for RECOVER of stack time of poses (the robot settles before the next goal)."""
     poses = bot.client.latest("pose")
@@ -113,12 +113,12 @@ def _goal(bot: Robot, rtf: float, kind: str, send: Callable[[], Goal], target: t
             poses.wait(lambda p: p.t >= since + RECOVER, timeout=GOAL_TIMEOUT / rtf)
         except TimeoutError:
             pass  # the next goal will say how things stand
-    return GoalEnd(kind, target, result, t_start, t_end, message)
+    return TrialGoal(kind, target, result, t_start, t_end, message)
 
 
 def square(
     bot: Robot,
-    goals: list[GoalEnd],
+    goals: list[TrialGoal],
     rtf: float,
     laps: float,
     stop: threading.Event | None = None,
@@ -126,7 +126,7 @@ def square(
     speed: float | None = None,
     tolerance: float | None = None,
 ) -> None:
-    """Seed 003's square (or `corners`): move_to_point around it back to the start, `laps` times (or until `stop`);
+    """The square trial (or `corners`): move_to_point around it back to the start, `laps` times (or until `stop`);
     speed [m/s] and tolerance [m] default to the navigator's."""
     for x, y in itertools.islice(itertools.cycle(corners), round(len(corners) * laps)):
         if stop is not None and stop.is_set():
@@ -134,12 +134,12 @@ def square(
         goals.append(_goal(bot, rtf, "point", partial(bot.move_to_point, x, y, speed=speed, tolerance=tolerance), (x, y)))
 
 
-def path(bot: Robot, goals: list[GoalEnd], rtf: float) -> None:
-    """Seed 002's path trial: follow (1, 0) -> (1, 1) from the start."""
+def path(bot: Robot, goals: list[TrialGoal], rtf: float) -> None:
+    """The path trial: follow (1, 0) -> (1, 1) from the start."""
     goals.append(_goal(bot, rtf, "path", lambda: bot.follow_path(PATH), PATH[-1]))
 
 
-def turns(bot: Robot, goals: list[GoalEnd], rtf: float, headings_deg: Sequence[float] = HEADINGS) -> None:
+def turns(bot: Robot, goals: list[TrialGoal], rtf: float, headings_deg: Sequence[float] = HEADINGS) -> None:
     """turn_to_heading to each heading in turn (map frame)."""
     for deg in headings_deg:
         heading = math.radians(deg)
@@ -148,7 +148,7 @@ def turns(bot: Robot, goals: list[GoalEnd], rtf: float, headings_deg: Sequence[f
 
 def drive(
     bot: Robot,
-    goals: list[GoalEnd],
+    goals: list[TrialGoal],
     stop: threading.Event,
     rtf: float,
     corners: Sequence[tuple[float, float]] = SQUARE,
@@ -163,6 +163,6 @@ def drive(
     return th
 
 
-def failed(goals: Sequence[GoalEnd]) -> list[str]:
+def failed(goals: Sequence[TrialGoal]) -> list[str]:
     """The goals that did not succeed (a stop's cancel aside): target, result, why."""
     return [f"{g.target}: {g.result}: {g.message}" for g in goals if g.result not in ENDED_WELL]

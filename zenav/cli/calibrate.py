@@ -28,7 +28,7 @@ from zenav.cli.nav import finite, point
 from zenav.common import messages as m
 from zenav.common.app import deployment_args, settings_from_args
 from zenav.common.client import Client, ZenavError
-from zenav.common.config import ConfigError, Robot
+from zenav.common.config import ConfigError, RobotConfig
 from zenav.services.driver import umbmark as u
 
 CONNECT_TIMEOUT = 3.0  # [s]
@@ -167,7 +167,7 @@ def set_keys(text: str, section: str, values: dict[str, float]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def drive_runs(client: Client, args: argparse.Namespace, robot: Robot, nominal: u.Geometry) -> list[u.Run]:
+def drive_runs(client: Client, args: argparse.Namespace, robot: RobotConfig, nominal: u.Geometry) -> list[u.Run]:
     """Drive the squares clockwise, then counter-clockwise; measure each end."""
     runs: list[u.Run] = []
     vps: queue.Queue[m.VpsPose] = queue.Queue()

@@ -177,7 +177,7 @@ def watch_parent(stop: Callable[[], None]) -> None:
     threading.Thread(target=loop, name="zenav-parent-watch", daemon=True).start()
 
 
-def open_bus(dep: Deployment, done: threading.Event, step: float = CONNECT_STEP, max_message: int | None = None) -> ZenohBus | None:
+def wait_for_router(dep: Deployment, done: threading.Event, step: float = CONNECT_STEP, max_message: int | None = None) -> ZenohBus | None:
     """A session to the deployment's router, waiting for it (a log line each `step` [s]
     without one) until `done` is set (then None): a service under a supervisor may start
     before its router, and Ctrl-C still stops it within `step`. `max_message` [bytes]: larger messages are dropped by Zenoh."""
@@ -210,7 +210,7 @@ def main(service_cls: type[Service], argv: Sequence[str] | None = None) -> int:
     # Before Zenoh's threads start, so that they take it; a refusal shows in diag (`realtime_refused`).
     refused = realtime(settings.deployment.realtime, f"zenav-{service_cls.name}") if service_cls.name in CONTROL_LOOP else None
     done = stop_on_signals()
-    bus = open_bus(settings.deployment, done, max_message=settings.limits.max_message())
+    bus = wait_for_router(settings.deployment, done, max_message=settings.limits.max_message())
     if bus is None:
         return 0
     try:

@@ -12,6 +12,7 @@ import dataclasses
 import difflib
 import functools
 import json
+import logging
 import os
 import re
 import sys
@@ -34,6 +35,7 @@ from zenav.common.roles import ALL as SERVICES
 from zenav.common.scenarios import Scenario, scenario
 
 T = TypeVar("T")
+_log = logging.getLogger("zenav")
 OWN_SECTIONS = ("deployment", "robot", "scenario", "limits", "field")  # the sections Settings reads itself
 
 
@@ -63,7 +65,7 @@ class Deployment(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
             raise ValueError(f"compose: not a service: {', '.join(map(repr, unknown))} (the services: {', '.join(SERVICES)})")
 
 
-class Robot(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+class RobotConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """The robot's nominal geometry: what the stack believes, not what the world is."""
 
     wheel_diameter: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.0673  # [m] 2.65 in
@@ -267,6 +269,41 @@ RETIRED: dict[tuple[str, str], str] = {
 }
 
 
+# Names a config may still use from an earlier release: each still works, and loading logs one line naming the new one.
+RENAMED_KEYS: dict[tuple[str, str], str] = {  # [section] old key -> new key
+    ("localizer", "multisensor_gyro_weight"): "complementary_gyro_weight",
+    ("localizer", "multisensor_compass_weight"): "complementary_compass_weight",
+    ("localizer", "multisensor_fix_weight"): "complementary_fix_weight",
+    ("localizer", "seed001_distance_weights"): "estimate_average_distance_weights",
+    ("localizer", "seed001_angle_weights"): "estimate_average_angle_weights",
+    ("localizer", "seed001_fix_weight"): "estimate_average_fix_weight",
+    ("localizer", "seed001_fix_heading_weight"): "estimate_average_fix_heading_weight",
+    ("navigator", "min_speed"): "crawl_speed",  # a goal's min_speed (a chained goal) is another thing
+}
+RENAMED_VALUES: dict[tuple[str, str, str], str] = {  # [section] key = old value -> new value
+    ("localizer", "mode", "weighted"): "speed_weighted",
+    ("localizer", "mode", "weighted_latency"): "speed_weighted_latency",
+    ("localizer", "mode", "multisensor"): "complementary",
+    ("localizer", "mode", "seed001"): "estimate_average",
+}
+
+
+def _renamed(where: str, values: dict[str, Any]) -> dict[str, Any]:
+    """A section with the old names of RENAMED_KEYS and RENAMED_VALUES replaced by the new, a log line for each."""
+    out: dict[str, Any] = {}
+    for key, value in values.items():
+        new_key = RENAMED_KEYS.get((where, key), key)
+        if new_key != key and new_key in values:
+            raise ConfigError(f"config [{where}]: `{key}` is the old name of `{new_key}`, and both are set: keep `{new_key}`")
+        if new_key != key:
+            _log.warning("config [%s] `%s` is now called `%s`: rename it (the old name still works)", where, key, new_key)
+        new_value = RENAMED_VALUES.get((where, new_key, value), value) if isinstance(value, str) else value
+        if new_value != value:
+            _log.warning('config [%s] %s = "%s" is now called "%s": rename it (the old name still works)', where, new_key, value, new_value)
+        out[new_key] = new_value
+    return out
+
+
 def _convert(raw: Any, typ: type[T], where: str) -> T:
     for key in raw if isinstance(raw, dict) else ():
         if (where, key) in RETIRED:
@@ -283,7 +320,7 @@ class Settings:
     """A loaded configuration: deployment values, robot, scenario, and raw sections."""
 
     deployment: Deployment
-    robot: Robot
+    robot: RobotConfig
     scenario: Scenario
     sections: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
     path: str | None = None
@@ -316,6 +353,7 @@ class Settings:
         for name, value in raw.items():
             if not isinstance(value, dict):
                 raise ConfigError(f"config: `{name}` must be a [section], not a value")
+        raw = {name: _renamed(name, values) for name, values in raw.items()}
         unknown = [name for name in raw if name not in known_sections()]
         if unknown:
             near = difflib.get_close_matches(unknown[0], known_sections(), n=1)
@@ -328,7 +366,7 @@ class Settings:
             raise ConfigError(f"config [scenario]: {e}") from None
         except ValueError as e:
             raise ConfigError(f"config [deployment] scenario: {e}") from None
-        robot = _convert(raw.get("robot", {}), Robot, "robot")
+        robot = _convert(raw.get("robot", {}), RobotConfig, "robot")
         limits = _convert(raw.get("limits", {}), Limits, "limits")
         area = raw.get("field", {})
         if area.get("file"):

@@ -33,7 +33,7 @@ class Scenario(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     wheel_radius_err_right: Frac = -0.003  # true right radius vs nominal (-0.3 %)
     track_width_err: Frac = 0.02  # true track width vs nominal (+2 %)
     slip_sigma: Frac = 0.01  # multiplicative noise on each wheel's travel per step, 1 sigma
-    load_radius_err: Frac = 0.0  # radius change with payload (seed 000), both wheels: the mean of the varying model below
+    load_radius_err: Frac = 0.0  # radius change with payload (tyres compress), both wheels: the mean of the varying model below
     load_payload: tuple[tuple[NonNeg, Annotated[float, Meta(ge=-1e3, le=1e3)]], ...] = ()  # (from t [s], payload [kg] above nominal)
     load_radius_per_kg: Annotated[float, Meta(ge=-0.1, le=0.1)] = 0.0  # [1/kg] relative radius change per kg of payload
     load_radius_per_accel: Annotated[float, Meta(ge=-0.1, le=0.1)] = 0.0  # [s^2/m] both wheels, per m/s^2 forward accel
@@ -114,6 +114,6 @@ def scenario(name: str, overrides: dict[str, Any] | None = None) -> Scenario:
 
 
 # The reference trials of shared/spec/scenarios.md, in the map frame, from (0, 0, 0).
-PATH = ((1.0, 0.0), (1.0, 1.0))  # [m] seed 002's path trial
-SQUARE = ((1.0, 0.0), (1.0, 1.0), (0.0, 1.0), (0.0, 0.0))  # [m] seed 003's square, one lap
+PATH = ((1.0, 0.0), (1.0, 1.0))  # [m] the path trial
+SQUARE = ((1.0, 0.0), (1.0, 1.0), (0.0, 1.0), (0.0, 0.0))  # [m] the square trial, one lap
 HEADINGS = (5.0, 30.0, 90.0, -90.0, 180.0, -135.0)  # [deg] the turn sweep's targets

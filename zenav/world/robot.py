@@ -1,6 +1,6 @@
 """The robot's true body: geometry from the scenario, motors (lag, deadband, saturation), slip, exact arcs.
 
-The wheel radii vary under load (seed 000: rubber tyres compress): with the payload
+The wheel radii vary under load (rubber tyres compress): with the payload
 the scenario schedules, and with the load transfer of the previous step's forward
 (both wheels) and centripetal (the outer wheel more, the inner less) acceleration,
 around the mean the scenario's radius errors give.
@@ -15,7 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import Scenario
 
@@ -55,7 +55,7 @@ class World(NamedTuple):
     load: Load = NO_LOAD  # radius changes under load, on top of radius_left / radius_right
 
 
-def world(robot: Robot, scen: Scenario) -> World:
+def world(robot: RobotConfig, scen: Scenario) -> World:
     """The true robot of a scenario around the nominal geometry."""
     r = robot.wheel_radius
     return World(

@@ -1,10 +1,10 @@
 """The simulated robot stepped in time: its true body and its sensors, one seeded generator each.
 
-    bot = SimRobot(Robot(), scenario, seed=1)
+    bot = SimRobot(RobotConfig(), scenario, seed=1)
     bot.drive(0.2, 0.0, 0.01)          # body velocity through the nominal wheel geometry
     bot.step(5.0, 5.0, 0.01)           # or wheel commands [rad/s]
     bot.step(5.0, 5.0, 0.01, {"r2": Disc(0.3, 0.0, 0.1)})  # among other robots' bodies: bot.met names those it met
-    SimRobot(Robot(), scenario, seed=1, body_radius=0.1, walls=Walls(-1.0, 3.0, -1.0, 3.0))  # inside the field
+    SimRobot(RobotConfig(), scenario, seed=1, body_radius=0.1, walls=Walls(-1.0, 3.0, -1.0, 3.0))  # inside the field
     SimRobot(..., chassis=Chassis(0.16, 0.12))  # a rectangle against the walls, that squares up to one
     bot.state.x, bot.encoders(), bot.imu(), bot.compass()
 
@@ -19,7 +19,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.field import Shape
 from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import Scenario
@@ -38,7 +38,7 @@ class SimRobot:
 
     def __init__(
         self,
-        robot: Robot,
+        robot: RobotConfig,
         scenario: Scenario,
         seed: int,
         x: float = 0.0,  # [m] map frame

@@ -15,7 +15,7 @@ import statistics
 from collections.abc import Sequence
 
 from zenav.bench.studies.localizer import drive_square, evaluate
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.scenarios import Scenario, scenario
 from zenav.services.localizer.base import LocalizerConfig
 from zenav.services.localizer.modes import make_mode
@@ -37,7 +37,7 @@ def truth(sc: Scenario) -> dict[str, float]:
 def estimates(name: str, seed: int, duration: float = 60.0) -> dict[str, float]:
     """The default localizer's calibration after `duration` [s] of the scenario's square."""
     sc = scenario(name)
-    robot = Robot(ticks_per_rev=sc.ticks_per_rev)
+    robot = RobotConfig(ticks_per_rev=sc.ticks_per_rev)
     r = drive_square(sc, seed, duration)
     loc = make_mode(LocalizerConfig(), robot)
     evaluate(loc, r.odom, r.fixes, r.truth, r.imu, r.compass)

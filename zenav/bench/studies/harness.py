@@ -1,6 +1,6 @@
 """One offline trial: the world model's robot under a controller at the sensor rate, every stream recorded.
 
-    trial = Trial(Robot(), scenario, seed=1)
+    trial = Trial(RobotConfig(), scenario, seed=1)
     trial.run(lambda tr: tr.bot.wheels(0.2, 0.0), duration=5.0)  # wheel commands [rad/s], None to stop
     trial.streams.truth, .odom, .imu, .compass, .encoders, .fixes
 
@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import msgspec
 
 from zenav.common import messages as m
-from zenav.common.config import Robot, Settings
+from zenav.common.config import RobotConfig, Settings
 from zenav.common.scenarios import Scenario
 from zenav.services.odometry import odometry as od
 from zenav.services.odometry.service import OdometryConfig, params
@@ -59,7 +59,7 @@ class Trial:
 
     def __init__(
         self,
-        robot: Robot,
+        robot: RobotConfig,
         scenario: Scenario,
         seed: int,
         odometry: OdometryConfig | None = None,  # None: encoders only

@@ -38,7 +38,7 @@ import msgspec
 from zenav.bench.scoring import WARMUP, Score, score
 from zenav.bench.studies.harness import Command, Streams, Trial, arrival
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import Scenario, scenario
 from zenav.common.track import Track
@@ -80,7 +80,7 @@ def drive_square(
 ) -> Streams:
     """The streams of the square (0,0) -> (side,0) -> (side,side) -> (0,side) -> (0,0), laps until `duration` [s]
     (odometry: the [odometry] section; None: heading from the encoders)."""
-    trial = Trial(Robot(), scenario, seed, odometry)
+    trial = Trial(RobotConfig(), scenario, seed, odometry)
     trial.run(SquareDriver(side, speed), duration)
     return trial.streams
 
@@ -146,7 +146,7 @@ def evaluate(
 def run(scenario_name: str, modes: Sequence[str], seeds: Sequence[int], imu: bool = True) -> dict[str, list[Score]]:
     """Scores of each mode on one scenario, one per seed (every mode on the same streams)."""
     sc = scenario(scenario_name)
-    robot = Robot(ticks_per_rev=sc.ticks_per_rev)
+    robot = RobotConfig(ticks_per_rev=sc.ticks_per_rev)
     outage = faults.vps_outage_window(sc)
     out: dict[str, list[Score]] = {mode: [] for mode in modes}
     for seed in seeds:
@@ -191,7 +191,7 @@ BLOCKED_UNTIL = 4.0  # [s] when it leaves: the robot, at it from about 1 s, is h
 def drive_pinned(scenario: Scenario, seed: int, duration: float = 60.0) -> Streams:
     """The streams of the square with another robot standing on its first side until BLOCKED_UNTIL: the robot drives
     into it, its wheels slipping, until it leaves."""
-    trial = Trial(Robot(), scenario, seed, others=BLOCKER)
+    trial = Trial(RobotConfig(), scenario, seed, others=BLOCKER)
     driver = SquareDriver(1.0, 0.3)
     trial.run(driver, BLOCKED_UNTIL)
     trial.others = None
@@ -205,7 +205,7 @@ def pushed_table(scenarios: Sequence[str], seeds: Sequence[int]) -> str:
     lines = ["| scenario | ekf | RMSE cm | max cm | fixes rejected |", "|---|---|---|---|---|"]
     for name in scenarios:
         sc = scenario(name)
-        robot = Robot(ticks_per_rev=sc.ticks_per_rev)
+        robot = RobotConfig(ticks_per_rev=sc.ticks_per_rev)
         runs = [drive_pinned(sc, seed) for seed in seeds]
         kinds: tuple[tuple[str, dict[str, float]], ...] = (
             ("slip found (default)", {}),
@@ -255,7 +255,7 @@ def latency_table(scenarios: Sequence[str], seeds: Sequence[int], mode: str = "e
     ]
     for name in scenarios:
         sc = scenario(name)
-        robot = Robot(ticks_per_rev=sc.ticks_per_rev)
+        robot = RobotConfig(ticks_per_rev=sc.ticks_per_rev)
         results: dict[str, list[tuple[Score, tuple[float, float, float] | None]]] = {c[0]: [] for c in LATENCY_CASES}
         for seed in seeds:
             r = drive_square(sc, seed)

@@ -21,7 +21,7 @@ import numpy as np
 
 from zenav.bench.scoring import summary
 from zenav.bench.studies.harness import Command, Trial
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.contract import GoalResult, State
 from zenav.common.geometry import wrap_angle
 from zenav.common.scenarios import HEADINGS, PATH, PRESETS, SQUARE, Scenario
@@ -117,7 +117,7 @@ def drive(trial: Trial, machine: GoalMachine, goal: Goal, error: PoseError, time
 
 def _trial(scenario: Scenario, seed: int) -> Trial:
     """A trial of the nominal robot, with the scenario's encoders, without the camera."""
-    return Trial(Robot(ticks_per_rev=scenario.ticks_per_rev), scenario, seed, camera=False)
+    return Trial(RobotConfig(ticks_per_rev=scenario.ticks_per_rev), scenario, seed, camera=False)
 
 
 def _machine(params: Params, trial: Trial) -> GoalMachine:
@@ -126,14 +126,14 @@ def _machine(params: Params, trial: Trial) -> GoalMachine:
 
 
 def path_trial(params: Params, scenario: Scenario, seed: int, pose_sigma: float = 0.0) -> Outcome:
-    """Seed 002's trial: from (0, 0, 0) follow (1, 0) -> (1, 1)."""
+    """The path trial: from (0, 0, 0) follow (1, 0) -> (1, 1)."""
     goal = Goal(State.FOLLOWING_PATH, points=PATH, speed=params.speed, tolerance=params.tolerance)
     trial = _trial(scenario, seed)
     return drive(trial, _machine(params, trial), goal, PoseError(pose_sigma, scenario.vps_rate_hz, seed))
 
 
 def square_trial(params: Params, scenario: Scenario, seed: int, pose_sigma: float = 0.0, laps: int = 3) -> list[Outcome]:
-    """Seed 003's square: move_to_point around a 1 m square and back to the start, `laps` times."""
+    """The square trial: move_to_point around a 1 m square and back to the start, `laps` times."""
     trial = _trial(scenario, seed)
     machine, error = _machine(params, trial), PoseError(pose_sigma, scenario.vps_rate_hz, seed)
     goals = (Goal(State.MOVING_TO_POINT, points=(p,), speed=params.speed, tolerance=params.tolerance) for p in SQUARE * laps)

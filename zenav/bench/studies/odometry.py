@@ -6,8 +6,8 @@ Drives 3 laps of a 1 m square (straight at 0.2 m/s, turns in place at 1 rad/s) w
 open-loop wheel commands on one offline trial each (harness.py: the robot, its
 sensors and the odometry service's core), and reports the final position error and
 the largest heading jump in odom (a heading change the true motion does not explain).
-The seed001 rows are seed 001's whole scheme (the localizer's seed001 mode with no
-fixes) on the encoders' odometry and the IMU: encoder and accelerometer distances with
+The estimate_average rows are the 12-estimate average (the localizer's estimate_average mode
+with no fixes) on the encoders' odometry and the IMU: encoder and accelerometer distances with
 encoder, gyro and accelerometer angle changes, weighted-averaged.
 """
 
@@ -23,16 +23,16 @@ import msgspec
 
 from zenav.bench.studies.harness import Command, Trial, odometry_config
 from zenav.common import messages as m
-from zenav.common.config import Robot, Settings
+from zenav.common.config import RobotConfig, Settings
 from zenav.common.geometry import wrap_angle
 from zenav.services.localizer.base import LocalizerConfig
-from zenav.services.localizer.seed001 import Seed001
+from zenav.services.localizer.estimate_average import EstimateAverage
 from zenav.services.odometry.service import OdometryConfig
 
 SPEED, TURN_RATE = 0.2, 1.0  # [m/s], [rad/s]
 
 
-def square(robot: Robot, laps: int = 3) -> list[tuple[float, float, float]]:
+def square(robot: RobotConfig, laps: int = 3) -> list[tuple[float, float, float]]:
     """Segments (duration [s], left, right wheel command [rad/s]) of `laps` 1 m squares."""
     r, half = robot.wheel_radius, robot.track_width / 2.0
     drive, turn = SPEED / r, TURN_RATE * half / r
@@ -60,12 +60,12 @@ def run(settings: Settings, cfg: OdometryConfig, seed: int) -> tuple[float, floa
     return _errors(trial, [(o.t, o.x, o.y, o.theta) for o in trial.streams.odom])
 
 
-def run_seed001(settings: Settings, overrides: dict[str, object], seed: int) -> tuple[float, float]:
-    """run() of seed 001's scheme: the seed001 mode (localizer overrides, no fixes) on the encoders' odom and the IMU."""
+def run_estimate_average(settings: Settings, overrides: dict[str, object], seed: int) -> tuple[float, float]:
+    """run() of the 12-estimate average: the estimate_average mode (localizer overrides, no fixes) on the encoders' odom and the IMU."""
     trial = Trial(settings.robot, settings.scenario, seed, odometry=odometry_config(heading_source="encoders"), camera=False)
     controller = OpenLoop(square(settings.robot), trial.rate)
     trial.run(controller, len(controller.commands) / trial.rate + 1.0)
-    mode = Seed001(msgspec.convert({"mode": "seed001", **overrides}, LocalizerConfig), settings.robot)
+    mode = EstimateAverage(msgspec.convert({"mode": "estimate_average", **overrides}, LocalizerConfig), settings.robot)
     events = heapq.merge(((s.t, 0, s) for s in trial.streams.imu), ((s.t, 1, s) for s in trial.streams.odom), key=lambda e: (e[0], e[1]))
     poses = []
     for _, _, msg in events:
@@ -100,12 +100,13 @@ CONFIGS: list[tuple[str, dict[str, object]]] = [
     ("compass, gain 0.1 (default)", dict(heading_source="compass")),
     ("blend 1:3:0", dict(heading_source="blend", blend_encoders=1.0, blend_gyro=3.0, blend_accel=0.0)),
 ]
-# Seed 001's scheme: [localizer] seed001_* weights (distances: encoders, accel; angles: encoders, gyro, accel).
-SEED001_CONFIGS: list[tuple[str, dict[str, object]]] = [
-    ("seed001 dist 1:0, angle 1:3:0", dict(seed001_distance_weights=(1.0, 0.0), seed001_angle_weights=(1.0, 3.0, 0.0))),
-    ("seed001 dist 1:0.1, angle 1:3:0", dict(seed001_distance_weights=(1.0, 0.1), seed001_angle_weights=(1.0, 3.0, 0.0))),
-    ("seed001 dist 1:0, angle 1:3:0.3", dict(seed001_distance_weights=(1.0, 0.0), seed001_angle_weights=(1.0, 3.0, 0.3))),
-    ("seed001 dist 1:1, angle 1:1:1", dict(seed001_distance_weights=(1.0, 1.0), seed001_angle_weights=(1.0, 1.0, 1.0))),
+# The 12-estimate average: [localizer] estimate_average_* weights (distances: encoders, accel; angles: encoders, gyro, accel).
+ESTIMATE_AVERAGE_CONFIGS: list[tuple[str, dict[str, object]]] = [
+    (
+        f"estimate_average dist {d[0]:g}:{d[1]:g}, angle {a[0]:g}:{a[1]:g}:{a[2]:g}",
+        dict(estimate_average_distance_weights=d, estimate_average_angle_weights=a),
+    )
+    for d, a in (((1.0, 0.0), (1.0, 3.0, 0.0)), ((1.0, 0.1), (1.0, 3.0, 0.0)), ((1.0, 0.0), (1.0, 3.0, 0.3)), ((1.0, 1.0), (1.0, 1.0, 1.0)))
 ]
 
 
@@ -119,8 +120,8 @@ def evaluate(scenarios: Sequence[str], seeds: int) -> list[Row]:
             final = statistics.fmean(r[0] for r in results)
             jump = statistics.fmean(r[1] for r in results)
             rows.append(Row(name, label, 100 * final, math.degrees(jump)))
-        for label, overrides in SEED001_CONFIGS:
-            results = [run_seed001(settings, overrides, seed) for seed in range(1, seeds + 1)]
+        for label, overrides in ESTIMATE_AVERAGE_CONFIGS:
+            results = [run_estimate_average(settings, overrides, seed) for seed in range(1, seeds + 1)]
             final = statistics.fmean(r[0] for r in results)
             jump = statistics.fmean(r[1] for r in results)
             rows.append(Row(name, label, 100 * final, math.degrees(jump)))

@@ -19,7 +19,7 @@ from zenav.services.vps.track import FULL_PERIOD
 if TYPE_CHECKING:
     from zenav.bench.run import Results
 
-SEED_002_ROBOT = "mean 11.4 / sd 3.9 cm with a 5 cm stopping threshold"  # the seed's real robot (scenarios.md)
+PATH_TRIAL_ROBOT = "mean 11.4 / sd 3.9 cm with a 5 cm stopping threshold"  # the path trial's real robot (scenarios.md)
 
 
 # ------------------------------------------------------------------ accuracy
@@ -129,10 +129,10 @@ def navigation(res: Results) -> list[str]:
     lines = [
         "## Navigation",
         "",
-        f"Seed 002's path trial: from (0, 0, 0) follow (1, 0) -> (1, 1), default scenario, tolerance as configured; "
+        f"The path trial: from (0, 0, 0) follow (1, 0) -> (1, 1), default scenario, tolerance as configured; "
         f"final truth error to (1, 1). `stack`: the whole stack at rtf {rtf:g}, seeds {list(res.plan.path_seeds)}; "
         "`kinematic`: the navigator's goal machine on a kinematic robot with the scenario's motors and wheels, "
-        f"true pose (the navigator study). The seed's real robot: {SEED_002_ROBOT}.",
+        f"true pose (the navigator study). The trial's real robot (docs/provenance.md): {PATH_TRIAL_ROBOT}.",
         "",
         *table(["controller", "loop", "runs", "error mean / sd / max [cm]", "time mean / sd / max [s]", "failed"], rows),
         *failures((f"{ctrl} seed {s.spec.seed}", s) for ctrl, runs in res.paths.items() for s in runs),
@@ -143,7 +143,7 @@ def navigation(res: Results) -> list[str]:
             for ctrl, s in res.squares.items()
         ]
         laps = next(iter(res.squares.values())).spec.laps
-        lines += ["", f"Seed 003's square: move_to_point around the 1 m square, {laps:g} laps, stack at rtf {rtf:g}.", ""]
+        lines += ["", f"The square trial: move_to_point around the 1 m square, {laps:g} laps, stack at rtf {rtf:g}.", ""]
         header = ["controller", "corner error mean / sd / max [cm]", "total time [s]", "pose RMSE [cm]", "goals failed"]
         lines += table(header, rows)
         lines += failures(res.squares.items())

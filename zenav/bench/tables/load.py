@@ -175,7 +175,7 @@ def speed(res: Results) -> list[str]:
     return [
         "## Speed of simulation",
         "",
-        f"The whole stack at each realtime factor, seeds {list(res.plan.speed_seeds)}: seed 002's path, then "
+        f"The whole stack at each realtime factor, seeds {list(res.plan.speed_seeds)}: the path trial, then "
         "turn_to_heading to each heading of the turn sweep (turns at 2 rad/s show a late command first); as separate "
         "processes (as `zenav up` runs it, and the accuracy runs below) and in one process (as the integration tests "
         "run it). Within noise: every goal succeeded, no sim overrun, and each mean differs from realtime's by less "

@@ -1,7 +1,7 @@
-"""Seed 001's whole dead-reckoning scheme (the localizer's seed001 mode): every distance with every angle change, weighted-averaged.
+"""The estimates of one step (the estimate_average mode), every distance with every angle change, and their weighted average.
 
 Distances of a step: the encoders' and the accelerometer's (forward acceleration
-integrated twice by the seed's secant rule). Angle changes: the encoders', the gyro's
+integrated twice by the secant rule). Angle changes: the encoders', the gyro's
 and the accelerometer's (the lateral travel a_y dt^2 / 2 over the forward travel is
 the chord angle atan(dy / dx), half the heading change of the arc). Each distance
 with each angle change is one estimate of the step (dx, dy) in the field frame; x and
@@ -48,7 +48,7 @@ def imu_sample(
     """Take one IMU sample (t newer than s.t); `halted`: the encoders show no forward travel for a while,
     `still`: no motion at all.
 
-    Secant rule of seed 001: dv = (a0 + da / 2) dt, dd = (v0 + dv / 2) dt.
+    Secant rule: dv = (a0 + da / 2) dt, dd = (v0 + dv / 2) dt.
     """
     dt = 0.0 if s.t is None else t - s.t
     bg, bx, by, n = s.bias_gyro, s.bias_ax, s.bias_ay, s.still_samples

@@ -1,8 +1,8 @@
-"""The localizer's config and the interface every mode implements (seed 004's Localizer).
+"""The localizer's config and the interface every mode implements (get_pose / set_pose, fed by odometry and fixes).
 
 A mode is fed odometry samples (`on_odom`) and VPS fixes (`on_fix`, with their
 arrival time), answers `get_pose` for the newest odom sample, and can be reset with
-`set_pose` (any subset of x, y, theta: seed 004's setPosition and setHeading too).
+`set_pose` (any subset of x, y, theta: a position, a heading, or both).
 The checks every mode shares (stale odometry, jumps, fixes from before a reset or
 from the future) live here.
 """
@@ -20,7 +20,7 @@ import numpy as np
 from msgspec import Meta, Struct
 
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.geometry import Pose2, wrap_angle
 
 from .latency import Estimate, LatencyEstimator, LatencyParams
@@ -29,7 +29,9 @@ Pos = Annotated[float, Meta(gt=0.0, le=1e3)]
 NonNegW = Annotated[float, Meta(ge=0.0, le=1e3)]  # a weight [-]
 DUPLICATE_WINDOW = 64  # fixes: one equal to any of this many recent ones is a duplicate
 MIN_FIX_VAR = 1e-6  # [m^2] and [rad^2] floor of a fix's variances (1 mm, 1 mrad)
-ModeName = Literal["ekf", "ekf_no_delay", "dead_reckoning", "overwrite", "weighted", "weighted_latency", "multisensor", "seed001"]
+ModeName = Literal[
+    "ekf", "ekf_no_delay", "dead_reckoning", "overwrite", "speed_weighted", "speed_weighted_latency", "complementary", "estimate_average"
+]
 MODES: tuple[str, ...] = get_args(ModeName)
 
 
@@ -60,9 +62,9 @@ class LocalizerConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=T
     gyro_bias_noise: Annotated[float, Meta(ge=0.0, le=1.0)] = 1e-5  # [rad/s/sqrt(s)] random walk of the gyro bias
     gyro_bias_sigma: Pos = 0.05  # [rad/s] 1-sigma prior of the gyro bias
     gyro_max_gap: Pos = 0.1  # [s] a longer silence of the gyro restarts its integral
-    multisensor_gyro_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.8  # multisensor: weight of the gyro's heading change
-    multisensor_compass_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.02  # multisensor: pull towards each compass heading
-    multisensor_fix_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.3  # multisensor: pull towards each fix position
+    complementary_gyro_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.8  # complementary: weight of the gyro's heading change
+    complementary_compass_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.02  # complementary: pull towards each compass heading
+    complementary_fix_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.3  # complementary: pull towards each fix position
     fix_sigma_xy: Pos = 0.02  # [m] 1-sigma of a fix that carries no covariance
     fix_sigma_theta: Pos = 0.035  # [rad] 1-sigma of a fix heading that carries no covariance
     unknown_sigma_xy: Pos = 10.0  # [m] 1-sigma of the position before the first fix or set_pose
@@ -77,10 +79,10 @@ class LocalizerConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=T
     latency_max: Annotated[float, Meta(gt=0.0, le=10.0)] = 1.0  # [s] estimate: largest latency searched
     latency_step: Annotated[float, Meta(gt=0.0, le=1.0)] = 0.01  # [s] estimate: grid of the search
     latency_fit_window: Annotated[float, Meta(gt=0.0, le=60.0)] = 4.0  # [s] estimate: fixes fitted together
-    seed001_distance_weights: tuple[NonNegW, NonNegW] = (1.0, 0.0)  # seed001: encoders, accelerometer distance [-]
-    seed001_angle_weights: tuple[NonNegW, NonNegW, NonNegW] = (1.0, 3.0, 0.0)  # seed001: encoders, gyro, accel angle [-]
-    seed001_fix_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.1  # seed001: fraction of the way x, y move to a fix
-    seed001_fix_heading_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.05  # seed001: ... and the heading
+    estimate_average_distance_weights: tuple[NonNegW, NonNegW] = (1.0, 0.0)  # estimate_average: encoders, accelerometer distance [-]
+    estimate_average_angle_weights: tuple[NonNegW, NonNegW, NonNegW] = (1.0, 3.0, 0.0)  # estimate_average: encoders, gyro, accel angle [-]
+    estimate_average_fix_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.1  # estimate_average: fraction of the way x, y move to a fix
+    estimate_average_fix_heading_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.05  # estimate_average: ... and the heading
 
 
 def latency_estimator(cfg: LocalizerConfig) -> LatencyEstimator:
@@ -122,11 +124,11 @@ def fix_cov(fix: m.VpsPose, cfg: LocalizerConfig) -> np.ndarray:
 
 
 class Mode:
-    """Seed 004's Localizer interface: get_pose / set_pose (setPosition, setHeading: a subset), fed by on_odom / on_fix."""
+    """The localizer interface: get_pose / set_pose (any subset of x, y, theta), fed by on_odom / on_fix."""
 
     sensors: tuple[str, ...] = ()  # the sensor topics the mode reads besides odom and fixes (on_imu, on_compass)
 
-    def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
+    def __init__(self, cfg: LocalizerConfig, robot: RobotConfig) -> None:
         self.cfg, self.robot = cfg, robot
         self.odom: m.Odom | None = None  # newest odometry sample used
         self.t_set = -math.inf  # [s] fixes captured before the last set_pose are ignored

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.geometry import Pose2, wrap_angle
 
 from . import impact, model
@@ -82,7 +82,7 @@ class Ekf(Mode):
 
     sensors = ("sensors/imu",)
 
-    def __init__(self, cfg: LocalizerConfig, robot: Robot, delayed: bool = True) -> None:
+    def __init__(self, cfg: LocalizerConfig, robot: RobotConfig, delayed: bool = True) -> None:
         super().__init__(cfg, robot)
         self.delayed = delayed
         self.history: list[_Entry] = []  # oldest first; the first entry is at or before the horizon

@@ -1,6 +1,6 @@
 """The VPS latency estimated online from the fixes and the odometry, for fixes that carry no capture stamp.
 
-Seed 003 only knows that a fix is "about 300 ms" old. Each fix is kept with its
+A VPS may only say that a fix is "about 300 ms" old. Each fix is kept with its
 arrival time; for every candidate lag L on a grid (coarse, then fine around the
 best), the odom poses at (arrival - L) are fitted to the recent fixes by one rigid
 transform (rotation from the headings, translation the median offset of the

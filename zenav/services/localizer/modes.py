@@ -2,24 +2,24 @@
 
 from __future__ import annotations
 
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 
 from .base import LocalizerConfig, Mode
 from .ekf import Ekf
-from .seed001 import Seed001
-from .simple import DeadReckoning, MultiSensor, Overwrite, Weighted, WeightedLatency
+from .estimate_average import EstimateAverage
+from .simple import Complementary, DeadReckoning, Overwrite, SpeedWeighted, SpeedWeightedLatency
 
 
-def make_mode(cfg: LocalizerConfig, robot: Robot) -> Mode:
+def make_mode(cfg: LocalizerConfig, robot: RobotConfig) -> Mode:
     """The mode cfg.mode names."""
     if cfg.mode in ("ekf", "ekf_no_delay"):
         return Ekf(cfg, robot, delayed=cfg.mode == "ekf")
     classes = {
         "dead_reckoning": DeadReckoning,
         "overwrite": Overwrite,
-        "weighted": Weighted,
-        "weighted_latency": WeightedLatency,
-        "multisensor": MultiSensor,
-        "seed001": Seed001,
+        "speed_weighted": SpeedWeighted,
+        "speed_weighted_latency": SpeedWeightedLatency,
+        "complementary": Complementary,
+        "estimate_average": EstimateAverage,
     }
     return classes[cfg.mode](cfg, robot)

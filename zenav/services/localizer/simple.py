@@ -1,11 +1,11 @@
-"""The baseline modes: dead reckoning and seed 003's fusion rules.
+"""The baseline modes: dead reckoning, and fixes that overwrite or are weighted in by speed.
 
 - dead_reckoning: odometry increments only, from the pose set_pose gave.
 - overwrite: a fix replaces x, y (the heading stays dead-reckoned).
-- weighted: x, y move towards the fix by a confidence that falls with speed,
-  seed 003's (255 - |motor_vel|) / 255 with the odometry speed over the top speed.
-- weighted_latency: the same, after carrying the fix forward by the dead-reckoned
-  motion since its capture time (seed 003's path history).
+- speed_weighted: x, y move towards the fix by a confidence that falls with speed,
+  1 - |v| / top speed (the odometry's speed).
+- speed_weighted_latency: the same, after carrying the fix forward by the dead-reckoned
+  motion since its capture time (a path history).
 
 Their covariance is a rule of thumb: the fix's sigma plus a growth per metre driven.
 """
@@ -17,7 +17,7 @@ import math
 from collections import deque
 
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.geometry import Pose2, wrap_angle
 
 from .base import FixResult, LocalizerConfig, Mode
@@ -27,7 +27,7 @@ from .gyro import GyroIntegral
 class DeadReckoning(Mode):
     """Odometry only, placed in the map by set_pose."""
 
-    def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
+    def __init__(self, cfg: LocalizerConfig, robot: RobotConfig) -> None:
         super().__init__(cfg, robot)
         self.est = Pose2()
         self.sigma = [cfg.unknown_sigma_xy, math.pi]  # [m, rad] at the last reset of position, heading
@@ -75,14 +75,14 @@ class DeadReckoning(Mode):
 
 
 class Overwrite(DeadReckoning):
-    """Seed 003: x, y = the fix."""
+    """x, y = the fix."""
 
     def _fix(self, fix: m.VpsPose, t: float, t_arrival: float) -> FixResult:
         return self._blend(fix, fix.x, fix.y, 1.0)
 
 
-class Weighted(DeadReckoning):
-    """Seed 003: confidence-weighted average, trusting the fix more when slow."""
+class SpeedWeighted(DeadReckoning):
+    """Confidence-weighted average, trusting the fix more when slow."""
 
     def confidence(self) -> float:
         """Weight of a fix: 1 standing still, 0 at the robot's top speed."""
@@ -93,10 +93,10 @@ class Weighted(DeadReckoning):
         return self._blend(fix, fix.x, fix.y, self.confidence())
 
 
-class WeightedLatency(Weighted):
-    """Seed 003: the weighted average, with the fix carried forward along the path history."""
+class SpeedWeightedLatency(SpeedWeighted):
+    """The speed-weighted average, with the fix carried forward along the path history."""
 
-    def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
+    def __init__(self, cfg: LocalizerConfig, robot: RobotConfig) -> None:
         super().__init__(cfg, robot)
         self.path: deque[tuple[float, float, float]] = deque()  # (t, total dx, total dy) dead-reckoned [s, m, m]
 
@@ -128,12 +128,12 @@ class WeightedLatency(Weighted):
         return self._blend(fix, fix.x + dx, fix.y + dy, self.confidence())
 
 
-class MultiSensor(DeadReckoning):
-    """Seed 001: fixed-weight averages of the sensors' heading changes and of the camera's position."""
+class Complementary(DeadReckoning):
+    """A complementary filter: fixed-weight averages of the sensors' heading changes, pulled to the compass and the fixes."""
 
     sensors = ("sensors/imu", "sensors/compass")
 
-    def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
+    def __init__(self, cfg: LocalizerConfig, robot: RobotConfig) -> None:
         super().__init__(cfg, robot)
         self.gyro = GyroIntegral(cfg.history, cfg.gyro_max_gap)
 
@@ -142,15 +142,15 @@ class MultiSensor(DeadReckoning):
 
     def on_compass(self, compass: m.Compass) -> None:
         if self.odom is not None:
-            e, w = self.est, self.cfg.multisensor_compass_weight
+            e, w = self.est, self.cfg.complementary_compass_weight
             self.est = Pose2(e.x, e.y, wrap_angle(e.theta + w * wrap_angle(compass.heading - e.theta)))
 
     def _move(self, ds: float, dth: float, t0: float, t: float) -> None:
         g = self.gyro.between(t0, t)
         if g is not None:
-            w = self.cfg.multisensor_gyro_weight
+            w = self.cfg.complementary_gyro_weight
             dth = w * g + (1.0 - w) * dth
         super()._move(ds, dth, t0, t)
 
     def _fix(self, fix: m.VpsPose, t: float, t_arrival: float) -> FixResult:
-        return self._blend(fix, fix.x, fix.y, self.cfg.multisensor_fix_weight)
+        return self._blend(fix, fix.x, fix.y, self.cfg.complementary_fix_weight)

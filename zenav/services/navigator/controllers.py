@@ -1,10 +1,10 @@
 """Point trackers, each `(pose, target, params) -> (v, omega)`, and the wheel limits.
 
-- `RotationPid` (seed 003): a PID on the bearing to the goal, with a forward speed
+- `RotationPid`: a PID on the bearing to the goal, with a forward speed
   proportional to the distance that falls to zero while the bearing error is large.
-- `polar` (seed 002, Siegwart's rho/alpha/beta): v = k_rho rho, omega = k_alpha alpha +
+- `polar` (Siegwart's rho/alpha/beta): v = k_rho rho, omega = k_alpha alpha +
   k_beta beta, driving backwards when the goal starts behind.
-- `proportional` (seed 000): forward speed proportional to the distance, weighted by
+- `proportional`: forward speed proportional to the distance, weighted by
   the cosine of the bearing error, and a proportional turn toward the goal.
 - `carrot` (LemLib's boomerang): move_to_pose drives a point tracker to a point behind
   the goal pose that slides onto it as the robot closes in.
@@ -71,7 +71,7 @@ def make_target(pose: PoseSample, x: float, y: float, speed: float, allow_revers
 
 
 def check_polar_gains(k_rho: float, k_alpha: float, k_beta: float) -> None:
-    """Raise ValueError, naming the equation, unless the gains meet seed 002's eq. 8 and eq. 9.
+    """Raise ValueError, naming the equation, unless the gains meet the polar tracker's stability conditions, eq. 8 and eq. 9.
 
     Eq. 8: the linearised system (eq. 6) is stable: k_rho > 0, k_beta < 0, k_alpha - k_rho > 0
     (the roots of eq. 7). Eq. 9, the strong stability condition (Siegwart): also
@@ -80,14 +80,13 @@ def check_polar_gains(k_rho: float, k_alpha: float, k_beta: float) -> None:
     gains = f"polar gains k_rho={k_rho:g}, k_alpha={k_alpha:g}, k_beta={k_beta:g}"
     if k_rho <= 0 or k_beta >= 0 or k_alpha - k_rho <= 0:
         raise ValueError(
-            f"unstable {gains}: the linearised system (seed 002 eq. 8) needs k_rho > 0, k_beta < 0 and "
+            f"unstable {gains}: the linearised system (eq. 8) needs k_rho > 0, k_beta < 0 and "
             f"k_alpha - k_rho > 0 (it is {k_alpha - k_rho:.3g})"
         )
     margin = k_alpha + 5.0 / 3.0 * k_beta - 2.0 / math.pi * k_rho
     if margin <= 0:
         raise ValueError(
-            f"unstable {gains}: the strong stability condition (seed 002 eq. 9) needs "
-            f"k_alpha + 5/3 k_beta - 2/pi k_rho > 0 (it is {margin:.3g})"
+            f"unstable {gains}: the strong stability condition (eq. 9) needs k_alpha + 5/3 k_beta - 2/pi k_rho > 0 (it is {margin:.3g})"
         )
 
 
@@ -108,7 +107,7 @@ def _clamp(value: float, low: float, high: float) -> float:
 
 
 class RotationPid:
-    """Seed 003: rotation PID toward the goal, proportional forward speed."""
+    """Rotation PID toward the goal, proportional forward speed."""
 
     def __init__(self) -> None:
         self.integral = 0.0  # [rad * s]
@@ -120,12 +119,12 @@ class RotationPid:
         self.t = pose.t
         self.integral = _clamp(self.integral + err * dt, -params.pid_i_limit, params.pid_i_limit)
         omega = params.pid_kp * err + params.pid_ki * self.integral - params.pid_kd * pose.omega
-        v = _clamp(params.pid_speed_gain * dist, params.min_speed, target.speed)
+        v = _clamp(params.pid_speed_gain * dist, params.crawl_speed, target.speed)
         return v * max(0.0, 1.0 - abs(err) / params.pid_heading_limit), omega
 
 
 def polar(pose: PoseSample, target: Target, params: Params) -> tuple[float, float]:
-    """Seed 002: rho/alpha/beta tracking, speed scaled down to the limit, keeping the curvature."""
+    """Rho/alpha/beta tracking, speed scaled down to the limit, keeping the curvature."""
     rho, alpha = _bearing_error(pose, target)
     beta = wrap_angle(target.theta - pose.theta - alpha)
     if target.reverse:  # the back of the robot is its front
@@ -135,14 +134,14 @@ def polar(pose: PoseSample, target: Target, params: Params) -> tuple[float, floa
     if v > target.speed:
         omega *= target.speed / v
         v = target.speed
-    v = max(v, params.min_speed)
+    v = max(v, params.crawl_speed)
     return (-v, omega) if target.reverse else (v, omega)
 
 
 def proportional(pose: PoseSample, target: Target, params: Params) -> tuple[float, float]:
-    """Seed 000: speed proportional to the distance, turn proportional to the bearing error."""
+    """Speed proportional to the distance, turn proportional to the bearing error."""
     dist, err = _bearing_error(pose, target)
-    v = _clamp(params.prop_speed_gain * dist, params.min_speed, target.speed)
+    v = _clamp(params.prop_speed_gain * dist, params.crawl_speed, target.speed)
     return v * max(0.0, math.cos(err)), params.prop_heading_gain * err
 
 
@@ -151,7 +150,7 @@ def boomerang(pose: PoseSample, target: Target, params: Params) -> tuple[float, 
     cx, cy = carrot(pose, target.x, target.y, target.theta, target.lead)
     dist = math.hypot(target.x - pose.x, target.y - pose.y)
     err = wrap_angle(math.atan2(cy - pose.y, cx - pose.x) - pose.theta)
-    v = _clamp(params.prop_speed_gain * dist, params.min_speed, target.speed)
+    v = _clamp(params.prop_speed_gain * dist, params.crawl_speed, target.speed)
     return v * max(0.0, math.cos(err)), params.prop_heading_gain * err
 
 

@@ -66,7 +66,7 @@ def move_to_point(req: m.MoveToPoint, cfg: Params) -> Resolved:
 
 
 def move_to_pose(req: m.MoveToPose, cfg: Params) -> Resolved:
-    """Drive to (x, y) and arrive with heading theta: seed 002's polar tracker or the boomerang, then a turn in place."""
+    """Drive to (x, y) and arrive with heading theta: the polar tracker or the boomerang, then a turn in place."""
     if cfg.pose_controller == "polar":
         try:
             check_polar_gains(cfg.k_rho, cfg.k_alpha, cfg.k_beta)
@@ -98,7 +98,7 @@ def turn_to_heading(req: m.TurnToHeading, cfg: Params) -> Resolved:
 
 
 def turn_to_point(req: m.TurnToPoint, cfg: Params, pose: PoseSample) -> Resolved:
-    """Turn in place to face (x, y), or to turn the back to it, the heading fixed from the pose at the start (as seed 003's turnToPoint)."""
+    """Turn in place to face (x, y), or to turn the back to it, the heading fixed from the pose at the start (as Botball's turnToPoint)."""
     if math.hypot(req.x - pose.x, req.y - pose.y) < 1e-3:
         raise Invalid("x, y: the point is where the robot is, it has no heading")
     heading = math.atan2(req.y - pose.y, req.x - pose.x)

@@ -21,12 +21,12 @@ POSE_CONTROLLERS: tuple[str, ...] = get_args(PoseControllerName)
 class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """Speeds, tolerances, checks and controller gains of the navigator."""
 
-    controller: ControllerName = "pid"  # point tracker: pid (seed 003), polar (seed 002), proportional (seed 000)
-    pose_controller: PoseControllerName = "boomerang"  # move_to_pose: boomerang (LemLib carrot) or polar (seed 002)
+    controller: ControllerName = "pid"  # point tracker: pid (rotation PID), polar (rho/alpha/beta), proportional
+    pose_controller: PoseControllerName = "boomerang"  # move_to_pose: boomerang (LemLib carrot) or polar (rho/alpha/beta)
     lead: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.6  # [-] boomerang: carrot distance behind the goal per metre to it
     speed: Speed = 0.2  # [m/s] forward speed of a goal that names none
     max_speed: Speed = 0.3  # [m/s] forward speed limit; faster requests are clamped
-    min_speed: NonNeg = 0.03  # [m/s] slowest forward command while moving (above the motor deadband)
+    crawl_speed: NonNeg = 0.03  # [m/s] slowest forward command while driving (above the motor deadband; not a goal's min_speed)
     decel: Pos = 0.5  # [m/s^2] braking into a goal point or the end of a straight
     turn_speed: Speed = 2.0  # [rad/s] turn rate of a turn that names none
     max_turn_speed: Speed = 3.0  # [rad/s] turn rate limit; faster requests are clamped
@@ -34,7 +34,7 @@ class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     turn_decel: Pos = 4.0  # [rad/s^2] braking into a target heading
     tolerance: Pos = 0.01  # [m] goal position tolerance of a goal that names none
     heading_tolerance: Pos = 0.0175  # [rad] heading tolerance of a turn or pose that names none (1 deg: above the fused heading noise)
-    waypoint_tolerance: Pos = 0.05  # [m] follow_path: tolerance of an intermediate point that names none (seed 002)
+    waypoint_tolerance: Pos = 0.05  # [m] follow_path: tolerance of an intermediate point that names none
     avoid_robots: bool = True  # drive round the other robots on the field (`robots`), keeping right, and give way by id
     robot_wait: Pos = 20.0  # [s] a goal that waited for other robots this long in all aborts (stalled)
     corner_tolerance: Pos = 0.01  # [m] a planned detour's corners are passed within this ([field] margin must hold it)

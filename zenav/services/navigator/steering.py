@@ -224,7 +224,7 @@ class Steering:
         # Braking to reach the tolerance's edge at the speed whose coast ends on the point: the stop there lands close.
         edge = goal.tolerance / p.stop_lead if p.stop_lead > 0.0 else goal.speed  # [m/s]
         speed = math.sqrt(edge**2 + 2.0 * p.decel * max(abs(along) - goal.tolerance, 0.0))
-        return math.copysign(max(p.min_speed, min(speed, goal.speed)), ahead), 0.0
+        return math.copysign(max(p.crawl_speed, min(speed, goal.speed)), ahead), 0.0
 
     def _through(self, run: Run, pose: PoseSample, target: Target, dist: float) -> tuple[float, float]:
         """An intermediate point: steer with the controller, keeping a speed the next turn can be taken at."""
@@ -274,4 +274,4 @@ class Steering:
         if ahead <= 0.0:
             run.exit = Exit.WITHIN_TOLERANCE if ahead >= -goal.tolerance else Exit.PASSED
             return None
-        return sign * profile_speed(ahead, p.decel, p.min_speed, abs(goal.speed)), omega
+        return sign * profile_speed(ahead, p.decel, p.crawl_speed, abs(goal.speed)), omega

@@ -1,4 +1,4 @@
-"""Heading sources of one odometry step: encoders, gyro, compass, or seed 001's blend.
+"""Heading sources of one odometry step: encoders, gyro, compass, or a blend of them.
 
 Pure: samples and times come in as arguments and every function returns new state.
 The gyro is integrated into a heading of its own (trapezoid rule); a step takes the
@@ -152,7 +152,7 @@ def heading_step(
     if gyro_dtheta is not None:
         parts.append((w_gyro, gyro_dtheta, p.gyro_var_rate * dt))
     if gyro_ok and abs(v) >= p.accel_min_speed:
-        # Centripetal a_y = v omega. (Seed 001's atan(dy/dx) of the doubly integrated
+        # Centripetal a_y = v omega. (The chord angle atan(dy/dx) of the doubly integrated
         # accelerations, with the lateral speed zero at the step's start, is the chord
         # angle a_y dt / (2 v): half of this heading change.)
         parts.append((w_accel, imu.accel_y / v * dt, p.accel_var_rate * dt))

@@ -29,7 +29,7 @@ Integrator = Callable[[float, float], Direction]  # (theta_old [rad], dtheta [ra
 
 
 def euler(theta: float, dtheta: float) -> Direction:
-    """Seeds 003/004: the whole step along the old heading."""
+    """Euler: the whole step along the old heading."""
     return Direction(math.cos(theta), math.sin(theta), 0.0, 0.0)
 
 
@@ -40,7 +40,7 @@ def midpoint(theta: float, dtheta: float) -> Direction:
 
 
 def rk4(theta: float, dtheta: float) -> Direction:
-    """Seed 000's fourth-order Runge-Kutta on (v cos theta, v sin theta, omega)."""
+    """Fourth-order Runge-Kutta on (v cos theta, v sin theta, omega)."""
     # Seed: k00 = v cos(th), k10 = v cos(th + t/2 k02), k20 = v cos(th + t/2 k12),
     # k30 = v cos(th + t k22), k02 = k12 = k22 = omega; x += t/6 (k00 + 2 (k10 + k20) + k30).
     # With v t = d and omega t = dtheta, k10 = k20 and the per-metre terms are these.
@@ -59,7 +59,7 @@ _SERIES = 1e-3  # [rad] below this half-turn, sin(h)/h by its series (relative e
 
 
 def arc(theta: float, dtheta: float) -> Direction:
-    """Seed 001: the exact circular arc, i.e. its chord; a straight line when dtheta -> 0."""
+    """The exact circular arc, i.e. its chord; a straight line when dtheta -> 0."""
     h = dtheta / 2.0
     if abs(h) > _SERIES:
         k = math.sin(h) / h  # chord length per arc length

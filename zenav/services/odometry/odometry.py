@@ -13,7 +13,7 @@ import math
 from typing import NamedTuple
 
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.services.odometry import heading as hd
 from zenav.services.odometry import integrators, stall
 
@@ -39,7 +39,7 @@ class Params(NamedTuple):
 
 
 def make_params(
-    robot: Robot,
+    robot: RobotConfig,
     integrator: str,
     k_left: float,
     k_right: float,
@@ -48,7 +48,7 @@ def make_params(
     stall_limits: tuple[float, float, float],
 ) -> Params:
     """Params from the nominal robot; reset_factor times the max wheel speed is impossible;
-    stall_limits: (min_speed [rad/s], min_ticks, min_time [s]) of a silent encoder (stall.py)."""
+    stall_limits: (stall_speed [rad/s], min_ticks, min_time [s]) of a silent encoder (stall.py)."""
     ticks = robot.ticks_per_rev
     if ticks is None:
         raise ValueError("the robot's ticks_per_rev is unknown (Settings takes it from the scenario)")

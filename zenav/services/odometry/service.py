@@ -11,7 +11,7 @@ from zenav.common import keys
 from zenav.common import messages as m
 from zenav.common.bus import Bus
 from zenav.common.clock import Clock
-from zenav.common.config import Robot, Settings
+from zenav.common.config import RobotConfig, Settings
 from zenav.common.runtime import Service, publish, subscribe, timer
 from zenav.services.odometry import heading as hd
 from zenav.services.odometry import odometry as od
@@ -50,7 +50,7 @@ class OdometryConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=Tr
     stall_time: Positive = 0.3  # [s] ... and at least this long
 
 
-def params(robot: Robot, c: OdometryConfig) -> od.Params:
+def params(robot: RobotConfig, c: OdometryConfig) -> od.Params:
     """The odometry's parameters from the nominal robot and the [odometry] section."""
     heading = hd.HeadingParams(
         source=c.heading_source,

@@ -15,7 +15,7 @@ from typing import NamedTuple
 
 
 class StallParams(NamedTuple):
-    min_speed: float  # [rad/s] a wheel commanded slower than this may rightly not turn (deadband)
+    stall_speed: float  # [rad/s] a wheel commanded slower than this may rightly not turn (deadband)
     min_ticks: float  # ticks the commanded speed must have turned the wheel before silence counts
     min_time: float  # [s] and the least time of silence
     ticks_per_rad: float  # encoder ticks per radian of wheel
@@ -40,7 +40,7 @@ def step(
     since, owed, unmeasured, silent = list(w.since), list(w.owed), [0.0, 0.0], [False, False]
     for i in (0, 1):
         speed = cmd[i]
-        if ticks[i] != 0 or abs(speed) < p.min_speed:
+        if ticks[i] != 0 or abs(speed) < p.stall_speed:
             since[i], owed[i] = None, 0.0
             continue
         start = since[i]
@@ -54,5 +54,5 @@ def step(
     return Watch((since[0], since[1]), (owed[0], owed[1]), flags), (unmeasured[0], unmeasured[1]), flags
 
 
-def params(ticks_per_rev: int, radius: float, min_speed: float, min_ticks: float, min_time: float) -> StallParams:
-    return StallParams(min_speed, min_ticks, min_time, ticks_per_rev / (2.0 * math.pi), radius)
+def params(ticks_per_rev: int, radius: float, stall_speed: float, min_ticks: float, min_time: float) -> StallParams:
+    return StallParams(stall_speed, min_ticks, min_time, ticks_per_rev / (2.0 * math.pi), radius)

@@ -1,11 +1,11 @@
-"""Seed 000's load-dependent wheel radius: payload schedule and load transfer in the world model."""
+"""The load-dependent wheel radius: payload schedule and load transfer in the world model."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.scenarios import PRESETS, scenario
 from zenav.world import robot
 from zenav.world.robot import Load, State, World
@@ -45,14 +45,14 @@ def test_the_ground_moves_by_the_loaded_radius_and_time_advances():
 
 
 def test_no_load_model_is_the_constant_radius():
-    w = robot.world(Robot(), PRESETS["default"])
+    w = robot.world(RobotConfig(), PRESETS["default"])
     assert w.load == robot.NO_LOAD
     assert robot.radii(State(t=30.0, accel=2.0, v=0.3, omega=1.0), w) == (w.radius_left, w.radius_right)
 
 
 def test_harsh_varies_around_its_mean_radius():
     sc = PRESETS["harsh"]
-    w = robot.world(Robot(), sc)
+    w = robot.world(RobotConfig(), sc)
     assert w.radius_left == pytest.approx(0.0673 / 2 * (1 + 0.01 - 0.005))  # the mean: load_radius_err
     assert w.load.per_kg < 0.0 and w.load.per_accel < 0.0 and w.load.per_lateral < 0.0
     # The payload schedule averages to the nominal load over the reference trials' 60 s.

@@ -1,4 +1,4 @@
-"""Seed 001's scheme: the accelerometer's secant-rule integration, the weighted averages, the seed001 mode."""
+"""The 12-estimate average: the accelerometer's secant-rule integration, the weighted averages, the estimate_average mode."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import msgspec
 import pytest
 
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.services.localizer import averaging
 from zenav.services.localizer.base import LocalizerConfig
 from zenav.services.localizer.modes import make_mode
@@ -75,11 +75,11 @@ def test_combine_leaves_missing_sensors_out():
 
 
 def mode(**overrides: object):
-    return make_mode(msgspec.convert({"mode": "seed001", **overrides}, LocalizerConfig), Robot())
+    return make_mode(msgspec.convert({"mode": "estimate_average", **overrides}, LocalizerConfig), RobotConfig())
 
 
-def test_seed001_mode_averages_the_gyro_into_the_heading():
-    loc = mode(seed001_angle_weights=(1.0, 1.0, 0.0))
+def test_estimate_average_mode_averages_the_gyro_into_the_heading():
+    loc = mode(estimate_average_angle_weights=(1.0, 1.0, 0.0))
     for i in range(11):  # the encoders say 0.1 rad/s, the gyro 0.3 rad/s
         t = i * 0.1
         loc.on_imu(m.Imu(t=t, gyro_z=0.3, accel_x=0.0, accel_y=0.0))
@@ -88,8 +88,8 @@ def test_seed001_mode_averages_the_gyro_into_the_heading():
     assert p is not None and p.theta == pytest.approx(0.2, abs=1e-6)  # (0.1 + 0.3) / 2 rad/s for 1 s
 
 
-def test_seed001_mode_weights_a_fix_in():
-    loc = mode(seed001_fix_weight=0.25, seed001_fix_heading_weight=0.5)
+def test_estimate_average_mode_weights_a_fix_in():
+    loc = mode(estimate_average_fix_weight=0.25, estimate_average_fix_heading_weight=0.5)
     loc.on_odom(m.Odom(t=0.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0))
     rec = loc.on_fix(m.VpsPose(t=0.0, x=1.0, y=-2.0, theta=0.2), 0.3)
     p = loc.get_pose()

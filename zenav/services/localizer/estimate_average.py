@@ -1,18 +1,18 @@
-"""The seed001 mode: seed 001's weighted averages of every sensor's step, with the camera's fixes weighted in.
+"""The estimate_average mode: weighted averages of every sensor's estimate of a step, with the camera's fixes weighted in.
 
 Each odom increment gives the encoders' distance and angle change (the odometry's
 heading: from the encoders when [odometry] heading_source = "encoders"); the IMU gives
 the gyro's angle change and the accelerometer's distance and angle change
 (averaging.py). x and y move by the weighted average of the six
 (distance, angle) estimates, the heading by the weighted average of the angle changes.
-A fix moves x, y and the heading a fixed fraction of the way towards it, as the seed
+A fix moves x, y and the heading a fixed fraction of the way towards it, as the method
 weights the camera in: it is not carried forward over its latency.
 """
 
 from __future__ import annotations
 
 from zenav.common import messages as m
-from zenav.common.config import Robot
+from zenav.common.config import RobotConfig
 from zenav.common.geometry import Pose2, wrap_angle
 from zenav.services.localizer import averaging
 
@@ -25,12 +25,12 @@ BIAS_TIME = 5.0  # [s] time constant of the bias averages
 IMU_GAP = 0.1  # [s] the IMU silent for longer than this is missing for a step
 
 
-class Seed001(DeadReckoning):
-    """Seed 001: encoder and accelerometer distances with encoder, gyro and accelerometer angles, averaged."""
+class EstimateAverage(DeadReckoning):
+    """Encoder and accelerometer distances with encoder, gyro and accelerometer angles: the 12 estimates (x and y of six) averaged."""
 
     sensors = ("sensors/imu",)
 
-    def __init__(self, cfg: LocalizerConfig, robot: Robot) -> None:
+    def __init__(self, cfg: LocalizerConfig, robot: RobotConfig) -> None:
         super().__init__(cfg, robot)
         self.inertial = averaging.Inertial()
         self.t_moved = 0.0  # [s] newest odom increment with motion
@@ -58,16 +58,16 @@ class Seed001(DeadReckoning):
             e.theta,
             (ds, travel if fresh else None),
             (dth, gyro if fresh else None, accel_angle if fresh else None),
-            self.cfg.seed001_distance_weights,
-            self.cfg.seed001_angle_weights,
+            self.cfg.estimate_average_distance_weights,
+            self.cfg.estimate_average_angle_weights,
         )
         self.est = Pose2(e.x + dx, e.y + dy, wrap_angle(e.theta + dtheta))
         step = abs(ds) + abs(dth) * self.robot.track_width / 2.0
         self.driven = [d + step for d in self.driven]
 
     def _fix(self, fix: m.VpsPose, t: float, t_arrival: float) -> FixResult:
-        res = self._blend(fix, fix.x, fix.y, self.cfg.seed001_fix_weight)
-        w = self.cfg.seed001_fix_heading_weight
+        res = self._blend(fix, fix.x, fix.y, self.cfg.estimate_average_fix_weight)
+        w = self.cfg.estimate_average_fix_heading_weight
         e = self.est  # the camera's heading is weighted in too: nothing else bounds the gyro's drift
         self.est = Pose2(e.x, e.y, wrap_angle(e.theta + w * res.innovation[2]))
         self._reset(1, w * self.cfg.fix_sigma_theta + (1.0 - w) * self._sigmas()[1])

@@ -1,4 +1,4 @@
-"""Seed 003's VPS without capture stamps, through the services: vps stamp = "none", localizer latency = "estimate"."""
+"""A VPS without capture stamps, through the services: vps stamp = "none", localizer latency = "estimate"."""
 
 from __future__ import annotations
 
