@@ -66,7 +66,9 @@ PUBLISHER = {
     "motors/wheels": "motor-r1",
     **{f"diag/{s}": login(s) for s in NAMES},
 }
-SERVER = {q: login("localizer" if q.startswith("localizer/") or q == "time/sync" else "sim" if q == "sim/reset" else "navigator") for q in QUERIES}
+SERVER = {
+    q: login("localizer" if q.startswith("localizer/") or q == "time/sync" else "sim" if q == "sim/reset" else "navigator") for q in QUERIES
+}
 READ_ONLY = {"localizer/pose", "time/sync"}  # what anyone may ask: the pose, the stack's clock
 
 
