@@ -114,13 +114,13 @@ def sections(
     *scenarios: str, settle: bool = False, floor: bool = False, peers: bool = True, around_fix: bool = True, busy: bool = True
 ) -> list[str]:
     """The headings of a report with every section, its accuracy measured in `scenarios` (`settle`: and the settle
-    table; `floor`: and the bare chain; `peers`: and the services as Zenoh peers; `around_fix`: and the localizer's
+    table; `floor`: and the relay arm and the bare chain; `peers`: and the services as Zenoh peers; `around_fix`: and the localizer's
     stage around a late fix; `busy`: and the runs with a busy core)."""
     return [
         "# zenav benchmark",
         "## Targets",
         "## Latency",
-        *(["### The floor: a bare chain of the same five hops"] if floor else []),
+        *(["### What the services add", "### The floor: a bare chain of the same five hops"] if floor else []),
         *(["### Services as Zenoh peers"] if peers else []),
         *(["### The localizer around a late fix"] if around_fix else []),
         *(["### A busy computer: the control loop at real-time priority"] if busy else []),
