@@ -206,3 +206,37 @@ def test_up_runs_the_control_loop_and_its_router_at_the_realtime_priority_it_is_
         c.close()
         if proc.poll() is None:
             proc.kill()
+
+
+def test_up_runs_a_vps_for_each_camera_its_config_names_and_the_localizer_fuses_both(tmp_path):
+    """[vps] also = ["onboard"]: the overhead camera's vps and the robot's own camera's, each its own process and
+    presence; the localizer accepts fixes of both latencies (the overhead camera's link 0.3 s, the onboard one's 0.05 s)."""
+    pytest.importorskip("cv2")
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    argv = [sys.executable, "-m", "zenav", "up", "--listen", endpoint, "--log-dir", str(tmp_path), "--duration", "240"]
+    argv += ["--services", "sim,motor,odometry,vps,localizer", "--set", 'vps.source="camera"', "--set", 'vps.also=["onboard"]']
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    c = RawClient(endpoint)
+    try:
+        c.follow("diag/*")
+        c.follow("localizer/fixes", keep=True)
+        c.wait(lambda latest: {"diag/vps", "diag/vps_onboard"} <= set(latest), timeout=90)
+        assert {"vps", "vps_onboard"} <= c.alive()
+        assert len(pids("zenav.services.vps", endpoint)) == 2  # each its own process
+        for name in ("vps", "vps_onboard"):
+            c.wait(lambda latest, n=name: latest[f"diag/{n}"]["counters"].get("fixes_captured", 0) > 0, timeout=60)
+        c.wait(
+            lambda latest: {f["latency"] > 0.2 for f in c.history.get("localizer/fixes", []) if f["accepted"]} == {True, False},
+            timeout=60,
+        )
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=60)
+        assert proc.returncode == 0, out
+        assert "starting sim, motor, odometry, vps, localizer, vps_onboard" in out, out
+    finally:
+        c.close()
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+        for f in tmp_path.glob("*.log"):  # shown when the test fails
+            print(f"--- {f.name}\n{f.read_text()[-2000:]}")

@@ -138,3 +138,40 @@ def test_detect_refuses_a_file_that_is_no_picture_in_one_line(tmp_path, name, co
 def test_detect_documents_its_exit_codes():
     got = zenav("camera", "detect", "--help")
     assert "exit codes: 0 tags found, 1 no tag found, 2 the file cannot be read as an image" in got.stdout
+
+
+def _parsed(*argv: str):
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    camera.add_arguments(parser.add_subparsers())
+    return parser.parse_args(["camera", "stream", *argv])
+
+
+def test_stream_onboard_publishes_on_the_robots_own_camera_key_at_its_sections_size():
+    key, device, exposure, size = camera.stream_target(_parsed("--onboard", "--device", "0", "--robot", "r2"))
+    assert (key, device, size) == ("zenav/r2/camera/onboard/frame", "0", (640, 480))
+    key, device, _, size = camera.stream_target(_parsed("--onboard", "--device", "1", "--set", "onboard_camera.width=320"))
+    assert key == "zenav/r1/camera/onboard/frame" and size == (320, 480)
+    key, device, _, _ = camera.stream_target(_parsed("--set", 'camera.device="cam.mp4"'))
+    assert (key, device) == ("zenav/field/camera/frame", "cam.mp4")
+    # The robot's camera is not the field's: [camera] device is not its source.
+    assert camera.stream_target(_parsed("--onboard", "--set", 'camera.device="cam.mp4"'))[1] == ""
+
+
+def test_stream_onboard_without_a_device_says_so(capsys):
+    assert main(["camera", "stream", "--onboard", "--set", 'camera.device="cam.mp4"']) == EXIT_FAILED
+    assert "name a source: --device (a video file, a webcam index or a URL)\n" in capsys.readouterr().err
+
+
+def test_stream_stops_on_frames_of_another_size_than_the_section_says(pictures, tmp_path):
+    path = str(tmp_path / "field.avi")
+    out = cv2.VideoWriter(path, cv2.VideoWriter_fourcc(*"MJPG"), 20.0, (640, 480))
+    frame = cv2.cvtColor(cv2.imread(str(pictures / "robot.png"), cv2.IMREAD_GRAYSCALE), cv2.COLOR_GRAY2BGR)
+    for _ in range(2):
+        out.write(frame)
+    out.release()
+    sent: list[bytes] = []
+    with pytest.raises(frames.FrameError, match="the source gives 640x480 frames, the camera's section says 320x240"):
+        camera.stream(frames.Capture(path, start=time.time()), sent.append, threading.Event(), 0.008, (320, 240))
+    assert sent == []

@@ -157,3 +157,15 @@ def test_the_services_are_peers_on_one_host_and_clients_of_their_router_across_h
     assert mode("--router-connect", "tcp/10.77.0.1:7447") == "client"  # this one links to another host's
     assert mode("--connect", "tcp/127.0.0.1:7447") == "client"
     assert mode("--listen", "tcp/10.77.0.1:7447", "--zenoh-mode", "peer") == "peer"
+
+
+def test_vps_also_starts_one_more_vps_per_camera_each_under_its_own_name(capsys):
+    from zenav.common.config import Settings
+
+    settings = Settings.load(None, vps={"source": "camera", "also": ["onboard"]})
+    more = up.more_vps(settings, ["sim", "vps", "localizer"])
+    assert more == {"vps_onboard": ["--set", 'vps.source="onboard"', "--set", 'vps.name="onboard"', "--set", "vps.also=[]"]}
+    assert up.more_vps(settings, ["sim", "localizer"]) == {}  # no vps in this run, none beside it
+    assert up.more_vps(Settings.load(None), ["vps"]) == {}
+    assert main(["up", "--set", 'vps.source="onboard"', "--set", 'vps.also=["onboard"]']) == 2
+    assert "also = ['onboard']: each a source other than this vps's own (onboard), once" in capsys.readouterr().err

@@ -2,8 +2,9 @@
 
     zenav bench studies onboard   # 300 poses, then the square driven 3 laps at rtf 1
 
-Fixes: `poses` random robot poses on the default field (its twelve wall tags, FRC's 0.1651 m), each frame rendered
-by the sim's onboard camera ([onboard_camera] defaults: 640 x 480, 65 deg, 2 grey levels of noise), its tags
+Fixes: `poses` random robot poses, at rest, on the default field (its twelve wall tags, FRC's 0.1651 m), each frame
+rendered by the sim's onboard camera ([onboard_camera] defaults: 640 x 480, 65 deg, 2 grey levels of noise, and its
+realistic errors: the true lens, mount and tags as placed drawn for the seed, the chassis' shake, JPEG), its tags
 detected, and the pose solved from all of them, then from each tag alone (the current estimate, for the one-tag
 ambiguity, is the truth off by 2 cm and 1 deg). Errors against the truth, by tag count and by distance. A fix
 accepted more than 5 cm off the truth and outside its own covariance's 99.9 % ellipse counts as a wrong one (a
@@ -23,6 +24,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import cv2
+import msgspec
 import numpy as np
 
 from zenav.bench import accuracy
@@ -30,6 +33,7 @@ from zenav.common.config import Settings
 from zenav.common.onboardcam import OnboardCamera
 from zenav.services.vps import detect, onboard
 from zenav.services.vps.onboard_reader import TAG_PX
+from zenav.world.camera_errors import imperfect_onboard, jpeg, shake, tags_as_placed
 from zenav.world.onboard import OnboardRenderer
 
 WRONG_M = 0.05  # [m] an accepted fix this far off the truth ...
@@ -79,7 +83,15 @@ def fix_errors(poses: int, seed: int) -> list[str]:
     cfg = OnboardCamera()
     tags, shapes = settings.field.tags, settings.field.shapes()
     layout = {t.id: t for t in tags}
-    renderer = OnboardRenderer(cfg, tags, shapes, seed)
+    errors = imperfect_onboard(cfg, seed)
+    renderer = OnboardRenderer(errors.true, tags_as_placed(cfg, tags, seed), shapes, seed)
+
+    def shoot(truth: tuple[float, float, float]) -> np.ndarray:
+        img = shake(renderer.render(*truth), errors, rng)
+        if errors.jpeg_quality <= 0:
+            return img
+        return np.asarray(cv2.imdecode(np.frombuffer(jpeg(img, errors.jpeg_quality), np.uint8), cv2.IMREAD_GRAYSCALE))
+
     detector = detect.make("auto", TAG_PX)
     rng = np.random.default_rng(seed)
     by_count: dict[str, Bin] = {k: Bin() for k in ("1 tag", "2 tags", "3+ tags")}
@@ -89,14 +101,14 @@ def fix_errors(poses: int, seed: int) -> list[str]:
         truth = (float(rng.uniform(*AREA)), float(rng.uniform(*AREA)), float(rng.uniform(-math.pi, math.pi)))
         off = rng.normal(0.0, 1.0, 3) * (*[ESTIMATE_ERROR[0]] * 2, ESTIMATE_ERROR[1])
         estimate = (truth[0] + float(off[0]), truth[1] + float(off[1]), truth[2] + float(off[2]))
-        found = [t for t in detector.detect(renderer.render(*truth)) if t.id in layout]
+        found = [t for t in detector.detect(shoot(truth)) if t.id in layout]
         if not found:
             frames_without += 1
             continue
         key = "1 tag" if len(found) == 1 else "2 tags" if len(found) == 2 else "3+ tags"
         by_count[key].add(onboard.solve(found, layout, cfg, estimate), truth)
         for t in found:  # each tag alone, as a frame that showed only it
-            got = onboard.solve([t], layout, OnboardCamera(max_distance=100.0), estimate)
+            got = onboard.solve([t], layout, msgspec.structs.replace(cfg, max_distance=100.0), estimate)
             d = float(np.linalg.norm(np.array([layout[t.id].x - truth[0], layout[t.id].y - truth[1]])))
             i = int(np.searchsorted(DISTANCES, d, side="right")) - 1
             if 0 <= i < len(by_distance):

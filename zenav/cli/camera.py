@@ -22,8 +22,10 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from zenav.cli import intrinsics
+from zenav.cli.checks import Failed
 from zenav.cli.main import EXIT_FAILED, EXIT_OK, EXIT_UNAVAILABLE, EXIT_USAGE
 from zenav.cli.nav import open_client
+from zenav.cli.session import robot_id
 from zenav.common import codec, extras, keys
 from zenav.common import messages as m
 from zenav.common.app import deployment_args, settings_from_args, stop_on_signals
@@ -73,11 +75,17 @@ def add_arguments(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     for name, text in (
         ("calibrate", "fit the floor homography to the fixed tags in one frame; write [camera] calibration"),
         ("snapshot", "save a PNG of one frame with the field grid, the tags and the fixes drawn"),
-        ("stream", "publish frames of a video file, webcam or URL on zenav/field/camera/frame"),
+        ("stream", "publish frames of a video file, webcam or URL on zenav/field/camera/frame (--onboard: the robot's)"),
     ):
         v = verbs.add_parser(name, help=text)
         deployment_args(v)
         v.add_argument("--device", help="video file, webcam index or URL (default [camera] device)")
+        if name == "stream":
+            v.add_argument(
+                "--onboard",
+                action="store_true",
+                help="a camera on the robot: [onboard_camera]'s frames on zenav/<robot>/camera/onboard/frame (--device required)",
+            )
         if name == "calibrate":
             v.add_argument("--sim", action="store_true", help="use the frame the sim renders from [camera] (no bus needed)")
         if name != "stream":
@@ -226,13 +234,21 @@ def run_snapshot(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def stream(cap: frames.Capture, publish: Callable[[bytes], None], done: threading.Event, exposure: float) -> int:
-    """Publish every frame of a source as a CameraFrame until it ends or `done` is set (a file plays at its own pace); frames sent."""
+def stream(
+    cap: frames.Capture, publish: Callable[[bytes], None], done: threading.Event, exposure: float, size: tuple[int, int] | None = None
+) -> int:
+    """Publish every frame of a source as a CameraFrame until it ends or `done` is set (a file plays at its own pace); frames sent.
+    `size` (width, height) [px]: the camera section's; a frame of another size stops it (FrameError: the vps would refuse them all)."""
     seq = 0
     while not done.is_set():
         shot = cap.read()
         if shot is None:
             break
+        h, w = shot.img.shape
+        if size is not None and (w, h) != size:
+            raise frames.FrameError(
+                f"the source gives {w}x{h} frames, the camera's section says {size[0]}x{size[1]}: set its width and height"
+            )
         if not cap.live:
             done.wait(max(shot.t - time.time(), 0.0))
         seq += 1
@@ -240,28 +256,49 @@ def stream(cap: frames.Capture, publish: Callable[[bytes], None], done: threadin
     return seq
 
 
+def stream_target(args: argparse.Namespace) -> tuple[str, str, float, tuple[int, int]]:
+    """Where `zenav camera stream` publishes: (key, source, exposure [s], frame size [px]); --onboard: the robot's own
+    camera ([onboard_camera], --device only), else the field's overhead one ([camera], --device or its device)."""
+    settings = settings_from_args(args)
+    if args.onboard:
+        from zenav.common.onboardcam import OnboardCamera
+
+        onb = settings.section("onboard_camera", OnboardCamera)
+        key = keys.key(robot_id(args), "camera/onboard/frame")
+        return key, args.device or "", onb.exposure, (onb.width, onb.height)
+    cfg = settings.section("camera", Camera)
+    return FRAME_KEY, args.device or cfg.device, cfg.exposure, (cfg.width, cfg.height)
+
+
 def run_stream(args: argparse.Namespace) -> int:
     """Publish a source's frames, stamped on the host's wall clock (the stack's clock with deployment.clock = "wall")."""
-    cfg = _config(args)
+    try:
+        key, device, exposure, size = stream_target(args)
+    except Failed as e:
+        print(f"zenav camera stream: {e.message}", file=sys.stderr)
+        return e.code
     opencv()
-    device = args.device or cfg.device
     if not device:
-        print("zenav camera stream: name a source: --device (a video file, a webcam index or a URL) or [camera] device", file=sys.stderr)
+        where = "--device (a video file, a webcam index or a URL)" + ("" if args.onboard else " or [camera] device")
+        print(f"zenav camera stream: name a source: {where}", file=sys.stderr)
         return EXIT_FAILED
     try:
-        cap = frames.Capture(device, now=time.time, start=time.time(), delay=cfg.exposure / 2.0)
+        cap = frames.Capture(device, now=time.time, start=time.time(), delay=exposure / 2.0)
     except frames.FrameError as e:
         print(f"zenav camera stream: {e}", file=sys.stderr)
         return EXIT_FAILED
     try:
         with open_client(args) as client:
-            sent = stream(cap, lambda data: client.bus.publish(FRAME_KEY, data), stop_on_signals(), cfg.exposure)
+            sent = stream(cap, lambda data: client.bus.publish(key, data), stop_on_signals(), exposure, size)
     except Unavailable as e:
         print(f"zenav camera stream: {e}", file=sys.stderr)
         return EXIT_UNAVAILABLE
+    except frames.FrameError as e:
+        print(f"zenav camera stream: {e}", file=sys.stderr)
+        return EXIT_FAILED
     finally:
         cap.close()
-    print(f"published {sent} frames on {FRAME_KEY}")
+    print(f"published {sent} frames on {key}")
     return EXIT_OK
 
 

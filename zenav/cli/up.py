@@ -26,6 +26,7 @@ from zenav.common.roles import ESSENTIAL
 from zenav.common.scenarios import SQUARE
 from zenav.robot import Goal, Result, Robot
 from zenav.services.sim.service import SimConfig
+from zenav.services.vps.service import VpsConfig
 from zenav.stack.launcher import CRASH_WINDOW, MAX_CRASHES, Launcher, service_argv
 from zenav.stack.logs import LOG_BYTES, LOG_FILES
 from zenav.stack.router import DEFAULT_LISTEN, exposed, open_router
@@ -223,6 +224,14 @@ def _pause(
         say("demo: resuming the square")
 
 
+def more_vps(settings: Settings, names: Sequence[str]) -> dict[str, list[str]]:
+    """The cameras' vps that [vps] also starts beside the robot's (when it runs): process name -> its own --set."""
+    if "vps" not in names:
+        return {}
+    also = settings.section("vps", VpsConfig).also
+    return {f"vps_{s}": ["--set", f'vps.source="{s}"', "--set", f'vps.name="{s}"', "--set", "vps.also=[]"] for s in also}
+
+
 def frames_elsewhere(session: zenoh.Session, robot: str, wait: float = FIELD_LISTEN) -> bool:
     """Whether the field's camera frames already come from another robot's sim (frames heard within `wait`
     seconds while this robot's own sim is not up: a second instance of it is refused by its own check)."""
@@ -242,6 +251,7 @@ def run(args: argparse.Namespace) -> int:
         return checked
     names, settings, hang = checked
     robot = settings.robot_id
+    more = more_vps(settings, names)
     # --connect: join a router that runs elsewhere; otherwise embed one (linked to --router-connect's).
     endpoint = args.connect or args.listen
     session = _session(args, settings, names)
@@ -273,6 +283,10 @@ def run(args: argparse.Namespace) -> int:
     for name in names:
         if name not in composed:
             sup.add(name, service_argv(name, child_args(args, endpoint)))
+    for name, sets in more.items():
+        sup.add(name, service_argv("vps", [*child_args(args, endpoint), *sets]))
+    names = [*names, *more]
+    child_of.update((n, n) for n in more)
     if composed:
         argv = [sys.executable, "-m", "zenav.stack.composed", "--services", ",".join(composed), *child_args(args, endpoint)]
         sup.add("composed", argv)
@@ -429,7 +443,8 @@ def _shutdown(client: Client, sup: Launcher, say: Callable[[str], None], compose
     The composed process stops at the place of its first service (it stops its own in order)."""
     say("stopping: wheels to zero first")
     child = {name: "composed" if name in composed else name for name in [*composed, *sup.children] if name != "composed"}
-    order = list(dict.fromkeys(child[name] for name in services.stop_order(child)))
+    base = {name: "vps" if name.startswith("vps_") else name for name in child}  # a camera's vps stops as the vps does
+    order = list(dict.fromkeys(child[name] for name in sorted(child, key=lambda n: services.stop_order(base.values()).index(base[n]))))
 
     def after(group: Sequence[str]) -> None:
         if "navigator" in group or ("composed" in group and "navigator" in composed):

@@ -191,7 +191,7 @@ class Client:
 
     def subscribe(self, suffix: str, callback: Callable[[Any], None], typ: type | None = None) -> Handle:
         """Call `callback(msg)` for every valid message on a topic (on Zenoh's thread: it must not block)."""
-        typ = typ or keys.TOPICS[suffix]
+        typ = typ or keys.topic_type(suffix)
 
         def on_sample(key: str, data: bytes) -> None:
             try:
@@ -214,7 +214,7 @@ class Client:
         """Follow a topic to read its newest message now and then, at no cost per message (Latest: to wait on one)."""
         newest = self.bus.newest(self.key(suffix))
         self._handles.append(newest)
-        return Sampled(newest, keys.TOPICS[suffix])
+        return Sampled(newest, keys.topic_type(suffix))
 
     def alive(self, timeout: float = 1.0) -> set[str]:
         """The services whose liveliness token is present now."""

@@ -32,6 +32,14 @@ TOPICS: dict[str, type[m.Topic]] = {
     **{f"diag/{s}": m.Diag for s in SERVICES},
 }
 
+
+def topic_type(suffix: str) -> type[m.Topic]:
+    """The message type of a robot topic; a second instance's diag (diag/vps_onboard) is a Diag too. KeyError if none."""
+    if suffix not in TOPICS and suffix.startswith("diag/") and suffix[5:].split("_", 1)[0] in SERVICES:
+        return m.Diag
+    return TOPICS[suffix]
+
+
 # The robot's loop: the clock, the sensors (and the truth the simulated camera reads),
 # the estimates and the commands; small periodic samples. Published at Zenoh's
 # interactive-high priority, so on a link they overtake bulk data queued there (camera

@@ -8,7 +8,7 @@ straight ahead, level, image x to the robot's right. Intrinsics and distortion f
 from __future__ import annotations
 
 import math
-from typing import Annotated
+from typing import Annotated, Literal
 
 from msgspec import Meta, Struct
 
@@ -43,6 +43,18 @@ class OnboardCamera(Struct, frozen=True, kw_only=True, forbid_unknown_fields=Tru
     corner_sigma: Annotated[float, Meta(gt=0.0, le=100.0)] = 0.3  # [px] 1 sigma of a tag corner, the base of a fix's covariance
     max_distance: Annotated[float, Meta(gt=0.0, le=100.0)] = 3.0  # [m] a tag farther than this gives no one-tag fix
     max_ambiguity: Annotated[float, Meta(gt=0.0, le=1.0)] = 0.2  # a one-tag fix whose two poses fit this alike is refused
+    # The camera's own errors (world/camera_errors.py), at a real camera's size: the sim renders them; the vps stamps
+    # the fix at its tags' rows by the readout and widens its covariance by the rest. "ideal": none of them.
+    model: Literal["realistic", "ideal"] = "realistic"
+    calibration_error: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.3  # [px] rms: the true lens off the calibrated one
+    mount_tilt: Annotated[float, Meta(ge=0.0, le=0.2)] = 0.0035  # [rad] sim: the mount off its configured pitch and yaw
+    vibration: Annotated[float, Meta(ge=0.0, le=0.05)] = 0.0005  # [rad] 1 sigma: the chassis' shake, frame to frame
+    tag_position_error: Annotated[float, Meta(ge=0.0, le=0.5)] = 0.003  # [m] 1 sigma: a field tag's true place off its layout
+    print_scale_error: Annotated[float, Meta(ge=0.0, le=0.2)] = 0.005  # [-] 1 sigma: the printed tags' scale off 1
+    exposure: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.008  # [s] sim: the robot's own motion blurs over this time
+    readout: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.03  # [s] rolling shutter: top row to bottom row; 0: global shutter
+    jpeg_quality: Annotated[int, Meta(ge=0, le=100)] = 80  # sim: frames sent as JPEG of this quality; 0: raw mono8
+    drop_rate: Annotated[float, Meta(ge=0.0, le=0.9)] = 0.02  # sim: fraction of frames lost on the way
 
     def __post_init__(self) -> None:
         for name, c, size in (("cx", self.cx, self.width), ("cy", self.cy, self.height)):

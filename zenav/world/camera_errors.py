@@ -16,18 +16,25 @@ size); `imperfect` draws the camera that really is, off by the configured error 
 - the rest are per frame: the rolling shutter's `readout`, JPEG's `jpeg_quality`, frames
   lost (`drop_rate`), and the camera host's clock (`clock_offset`, `clock_drift`).
 `model = "ideal"` keeps every one of these at zero but the host's clock.
+
+The robot's own camera ([onboard_camera]) has the same lens, shake, print scale, shutter, JPEG and losses
+(`imperfect_onboard`); its mount is off in pitch and yaw, and the field's tags stand off their layout by
+`tag_position_error` (`tags_as_placed`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Generic, TypeVar
 
 import cv2
 import msgspec
 import numpy as np
 
-from zenav.common.config import Camera
+from zenav.common.config import Camera, FieldTag
+from zenav.common.onboardcam import OnboardCamera
 from zenav.world.camera_time import host_time
 
 RNG_STREAM = 0x455252  # "ERR": the camera's drawn errors' seed stream
@@ -35,12 +42,14 @@ RNG_STREAM = 0x455252  # "ERR": the camera's drawn errors' seed stream
 LENS_SHARES = (0.004, 0.004, 1.5, 1.5, 0.01, 0.005)
 GRID = 9  # pixels across (and 3/4 as many down) where the lens error's rms is measured
 
+C = TypeVar("C", Camera, OnboardCamera)  # either camera: both have OpenCV's lens model and a frame size
+
 
 @dataclass(frozen=True)
-class Imperfect:
+class Imperfect(Generic[C]):
     """The camera as it really is, and its per-frame errors' sizes."""
 
-    true: Camera  # the lens, mount and tags the frames are rendered with
+    true: C  # the lens, mount and tags the frames are rendered with
     readout: float  # [s] rolling shutter: top row to bottom row
     vibration: float  # [rad] 1 sigma per frame, about each axis
     jpeg_quality: int  # 0: raw
@@ -53,7 +62,7 @@ class Imperfect:
         return host_time(t, self.clock_offset, self.clock_drift)
 
 
-def lens_error_px(believed: Camera, true: Camera) -> float:
+def lens_error_px(believed: C, true: C) -> float:
     """[px] rms over the image of where the true lens images a ray minus where the believed one places it."""
     w, h = believed.width, believed.height
     u, v = np.meshgrid(np.linspace(0.05, 0.95, GRID) * w, np.linspace(0.05, 0.95, GRID * 3 // 4) * h)
@@ -66,16 +75,16 @@ def lens_error_px(believed: Camera, true: Camera) -> float:
     return float(np.sqrt(np.mean(np.sum((seen.reshape(-1, 2) - px.reshape(-1, 2)) ** 2, axis=1))))
 
 
-def _lens(c: Camera) -> tuple[np.ndarray, np.ndarray]:
+def _lens(c: Camera | OnboardCamera) -> tuple[np.ndarray, np.ndarray]:
     cx, cy = c.principal
     return np.array([[c.fx, 0.0, cx], [0.0, c.fy, cy], [0.0, 0.0, 1.0]]), np.array([c.k1, c.k2, c.p1, c.p2, c.k3])
 
 
-def _lens_off(cfg: Camera, draw: np.ndarray, rms_px: float) -> Camera:
+def _lens_off(cfg: C, draw: np.ndarray, rms_px: float) -> C:
     """cfg's lens moved along the direction `draw` (6 normal values) so far that it is off by rms_px [px] rms."""
     cx, cy = cfg.principal
 
-    def moved(s: float) -> Camera:
+    def moved(s: float) -> C:
         d = draw * np.array(LENS_SHARES) * s
         return msgspec.structs.replace(
             cfg, fx=cfg.fx * (1 + d[0]), fy=cfg.fy * (1 + d[1]), cx=cx + d[2], cy=cy + d[3], k1=cfg.k1 + d[4], k2=cfg.k2 + d[5]
@@ -87,7 +96,7 @@ def _lens_off(cfg: Camera, draw: np.ndarray, rms_px: float) -> Camera:
     return moved(rms_px / unit) if unit > 0 else cfg
 
 
-def imperfect(cfg: Camera, seed: int) -> Imperfect:
+def imperfect(cfg: Camera, seed: int) -> Imperfect[Camera]:
     """The camera [camera] describes as it really is, drawn for a seed (the same seed, the same camera)."""
     clock = (cfg.clock_offset, cfg.clock_drift)
     if cfg.model == "ideal":
@@ -107,7 +116,33 @@ def imperfect(cfg: Camera, seed: int) -> Imperfect:
     return Imperfect(true, cfg.readout, cfg.vibration, cfg.jpeg_quality, cfg.drop_rate, *clock)
 
 
-def shake(img: np.ndarray, e: Imperfect, rng: np.random.Generator) -> np.ndarray:
+def imperfect_onboard(cfg: OnboardCamera, seed: int) -> Imperfect[OnboardCamera]:
+    """The robot's camera [onboard_camera] describes as it really is, drawn for a seed. Its true `readout` and
+    `exposure` are what the renderer rolls and blurs over (0 for an ideal camera); the host's clock is the stack's."""
+    if cfg.model == "ideal":
+        return Imperfect(msgspec.structs.replace(cfg, readout=0.0, exposure=0.0), 0.0, 0.0, 0, 0.0, 0.0, 0.0)
+    rng = np.random.default_rng([seed, RNG_STREAM])
+    true = _lens_off(cfg, rng.standard_normal(6), cfg.calibration_error)
+    turn = rng.uniform(-math.pi, math.pi)
+    true = msgspec.structs.replace(true, pitch=cfg.pitch + cfg.mount_tilt * math.cos(turn), yaw=cfg.yaw + cfg.mount_tilt * math.sin(turn))
+    return Imperfect(true, cfg.readout, cfg.vibration, cfg.jpeg_quality, cfg.drop_rate, 0.0, 0.0)
+
+
+def tags_as_placed(cfg: OnboardCamera, tags: Sequence[FieldTag], seed: int) -> tuple[FieldTag, ...]:
+    """The field's tags as they really are: each centre off its layout by tag_position_error (1 sigma, each axis),
+    all printed at one scale off 1 by print_scale_error. An ideal camera's are the layout's."""
+    if cfg.model == "ideal":
+        return tuple(tags)
+    rng = np.random.default_rng([seed, RNG_STREAM, 1])
+    scale = 1.0 + cfg.print_scale_error * rng.standard_normal()
+    out = []
+    for t in tags:
+        dx, dy, dz = rng.standard_normal(3) * cfg.tag_position_error
+        out.append(msgspec.structs.replace(t, size=t.size * scale, x=t.x + dx, y=t.y + dy, z=t.z + dz))
+    return tuple(out)
+
+
+def shake(img: np.ndarray, e: Imperfect[Camera] | Imperfect[OnboardCamera], rng: np.random.Generator) -> np.ndarray:
     """The frame as the shaken mount saw it: turned by e.vibration (1 sigma, rad) about each axis, drawn from rng."""
     if e.vibration <= 0.0:
         return img
@@ -118,7 +153,7 @@ def shake(img: np.ndarray, e: Imperfect, rng: np.random.Generator) -> np.ndarray
     return cv2.warpAffine(img, M, (img.shape[1], img.shape[0]), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
 
-def dropped(e: Imperfect, rng: np.random.Generator) -> bool:
+def dropped(e: Imperfect[Camera] | Imperfect[OnboardCamera], rng: np.random.Generator) -> bool:
     """Whether this frame is lost on the way (one draw a frame, lost or not)."""
     return bool(rng.random() < e.drop_rate)
 

@@ -37,7 +37,8 @@ class SimConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     max_burst: Annotated[int, Meta(ge=1, le=10_000)] = 50  # [steps] most steps one tick catches up before resyncing
     encoder_start: m.Ticks = 0  # [ticks] count both encoders read at start (to exercise the int32 wrap)
     camera: bool = False  # render the overhead camera's frames ([camera]) on zenav/field/camera/frame
-    # render the robot's own camera's frames ([onboard_camera]) on camera/onboard/frame; None: when [vps] source = "onboard"
+    # render the robot's own camera's frames ([onboard_camera]) on camera/onboard/frame; None: when [vps] source or also
+    # has "onboard"
     onboard_camera: bool | None = None
     # [Hz] of sim time: clock ticks (at most one a step); at rtf 1 a tick at least every SimClock's 0.25 s of extrapolation
     clock_rate_hz: Annotated[float, Meta(ge=5.0, le=2000.0)] = 20.0
@@ -107,7 +108,8 @@ class Sim(Service):
             hidden = partial(faults.vps_outage, self.scen)  # the scenario's VPS outage hides the robot from the camera
             self.shutter = Shutter(FieldCamera(cam, settings.deployment.seed, cam.robots.get(self.robot), hidden), self._send_frame)
         self.onboard: Shutter | None = None
-        if c.onboard_camera or (c.onboard_camera is None and settings.sections.get("vps", {}).get("source") == "onboard"):
+        vps = settings.sections.get("vps", {})
+        if c.onboard_camera or (c.onboard_camera is None and "onboard" in (vps.get("source"), *vps.get("also", ()))):
             from zenav.services.sim.camera import Shutter
             from zenav.services.sim.onboard import OnboardFrames
 

@@ -4,10 +4,14 @@ Pure. Every detected tag of the [field] layout gives four 3D-2D correspondences 
 the lens shows them). Several tags at once are solved jointly (MultiTag: SQPnP over all their corners); one tag by
 IPPE, which gives two poses, the tag's two-fold ambiguity. Each candidate becomes a robot pose on the floor (x, y,
 heading) and is refined there by Gauss-Newton on the corners' reprojection with the camera's mount on the robot
-held to the config: a wrong flip, which tilts the camera, then fits far worse than the right one. A one-tag fix is
-kept when the better candidate's reprojection error is at most `max_ambiguity` of the worse's; otherwise only the
+held to the config: a wrong flip, which tilts the camera, then fits far worse than the right one. A realistic
+camera's pitch, the tags' print scale and each tag's place are solved beside it, held near the config by priors of
+their error sizes ([onboard_camera]), so the covariance carries them (the tags stand near the camera's height, where
+a few mm say much about the distance). A one-tag fix is kept when the better candidate's reprojection error is at
+most `max_ambiguity` of the worse's; otherwise only the
 current estimate can tell them apart, and it must be clearly nearer one of them. The covariance is the
-least-squares one, corner_sigma^2 (J^T J)^-1: it grows with the tags' distance and shrinks with their number.
+least-squares one, corner_sigma^2 (J^T J)^-1: it grows with the tags' distance and shrinks with their number;
+`widen` adds the lens's calibration error and the heading's turn, which the corners cannot show.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import cv2
+import msgspec
 import numpy as np
 
 from zenav.common.config import FieldTag
@@ -34,6 +39,7 @@ PRIOR_GATE = (0.3, 0.3)  # [m, rad] the estimate chooses a candidate only when i
 PRIOR_MARGIN = 3.0  # ... and the other candidate is this many times farther
 MAX_TILT_OFF = 0.1  # [m] a PnP solution whose camera stands this far off its mounted height is no pose on the floor
 VAR_FLOOR = (1e-6, 1e-6, 1e-6)  # [m^2, m^2, rad^2] least variances (the model's own errors)
+PRIOR_LEAST = 1e-6  # [rad, m] a nuisance's prior no tighter than this (an error size of 0 holds it there)
 
 
 @dataclass(frozen=True)
@@ -49,6 +55,7 @@ class TagFix:
     rms_px: float  # [px] corners' reprojection error
     ambiguity: float = 0.0  # one tag: better candidate's error / worse's (0: several tags, or one pose left)
     chosen_by_estimate: bool = False  # one ambiguous tag whose candidate the current estimate picked
+    row: float = 0.0  # [px] the tags' corners' mean image row (a rolling shutter exposed them then)
 
 
 @dataclass(frozen=True)
@@ -77,10 +84,11 @@ def solve(
     seeds = _candidates(known, layout, cfg, world, image)
     if not seeds:
         return Refused("no_solution", f"no PnP solution places the camera on its mount over tags {[t.id for t in known]}")
-    refined = sorted((_refine(cfg, world, image, s) for s in seeds), key=lambda r: r[1])
+    priors = nuisance(cfg, len(known))
+    refined = sorted((_refine(cfg, world, image, s, priors) for s in seeds), key=lambda r: r[1])
     ids = tuple(t.id for t in known)
     best, err = refined[0]
-    cov = _covariance(cfg, world, best)
+    cov = _covariance(cfg, world, best, priors)
     rest = [r for r in refined[1:] if not _same(best, r[0], cov)]  # the other minima (seeds that converged apart)
     ambiguity = 0.0
     chosen = False
@@ -94,9 +102,21 @@ def solve(
                 return Refused("ambiguous", f"tag {ids[0]}: its two poses fit alike (ambiguity {ambiguity:.2f}); {why}")
             if pick is other:
                 best, err = other, err2
-                cov = _covariance(cfg, world, best)
+                cov = _covariance(cfg, world, best, priors)
             chosen = True
-    return TagFix(*best, cov, ids, distance, err, ambiguity, chosen)
+    return TagFix(*best, widen(cfg, cov), ids, distance, err, ambiguity, chosen, float(image[:, 1].mean()))
+
+
+def widen(cfg: OnboardCamera, cov: tuple[float, ...]) -> tuple[float, ...]:
+    """A fix's covariance (3x3 row-major) with what its nuisances do not carry: the lens off its calibration
+    (calibration_error px beside corner_sigma on every corner) and, on the heading, the mount's and the chassis' turn
+    (mount_tilt, vibration). An `ideal` camera's is unchanged."""
+    if cfg.model == "ideal":
+        return cov
+    c = np.array(cov, dtype=np.float64).reshape(3, 3) - np.diag(VAR_FLOOR)
+    c = c * (1.0 + (cfg.calibration_error / cfg.corner_sigma) ** 2) + np.diag(VAR_FLOOR)
+    c[2, 2] += cfg.mount_tilt**2 + cfg.vibration**2
+    return tuple(float(v) for v in c.ravel())
 
 
 def _distance(known: Sequence[Tag], layout: Mapping[int, FieldTag], cfg: OnboardCamera, image: np.ndarray) -> float:
@@ -179,8 +199,22 @@ def _mirror(cfg: OnboardCamera, tag: FieldTag, pose: tuple[float, float, float])
     return float(mirrored[0] - off[0]), float(mirrored[1] - off[1]), theta
 
 
+def nuisance(cfg: OnboardCamera, tags: int) -> np.ndarray:
+    """1 sigma of what a realistic camera's fix solves beside the pose, each held near 0 by that prior: the camera's
+    pitch off its mounted one [rad] (the mount's error and shake), the printed tags' scale off 1, and each tag's centre
+    off its layout (x, y, z [m]). None for an ideal camera."""
+    if cfg.model == "ideal":
+        return np.zeros(0)
+    tilt = math.sqrt(cfg.mount_tilt**2 + cfg.vibration**2)
+    return np.maximum([tilt, cfg.print_scale_error, *[cfg.tag_position_error] * (3 * tags)], PRIOR_LEAST)
+
+
 def _project(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray) -> np.ndarray:
-    """(2N,) [px] where the camera of a robot at pose (x, y, theta) shows the points `world`."""
+    """(2N,) [px] where the camera of a robot at pose (x, y, theta[, the nuisances]) shows `world` (4 corners a tag)."""
+    if len(pose) > 3:
+        cfg = msgspec.structs.replace(cfg, pitch=cfg.pitch + float(pose[3]))
+        centres = np.repeat(world.reshape(-1, 4, 3).mean(axis=1), 4, axis=0)
+        world = centres + (world - centres) * (1.0 + pose[4]) + np.repeat(pose[5:].reshape(-1, 3), 4, axis=0)
     cam = mount(cfg, float(pose[0]), float(pose[1]), float(pose[2]))
     rvec, _ = cv2.Rodrigues(cam.R)
     lo = lens(cfg)
@@ -189,37 +223,67 @@ def _project(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray) -> np.ndar
 
 
 def _jacobian(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray) -> np.ndarray:
-    """(2N x 3) [px per m, px per rad] of the projection, by central differences."""
+    """(2N x len(pose)) [px per m, px per rad] of the projection, by central differences. A tag's place moves only its
+    own corners: one difference moving every tag along an axis gives each tag's column (its rows, zeros elsewhere)."""
+
+    def column(d: np.ndarray) -> np.ndarray:
+        step = float(np.max(d))
+        return np.asarray((_project(cfg, world, pose + d) - _project(cfg, world, pose - d)) / (2.0 * step))
+
     cols = []
-    for i, step in enumerate((1e-5, 1e-5, 1e-6)):
-        d = np.zeros(3)
-        d[i] = step
-        cols.append((_project(cfg, world, pose + d) - _project(cfg, world, pose - d)) / (2.0 * step))
-    return np.column_stack(cols)
+    for i in range(min(len(pose), 5)):
+        d = np.zeros(len(pose))
+        d[i] = 1e-6 if i in (2, 3) else 1e-5  # [rad] angles, [m] or [-] the rest
+        cols.append(column(d))
+    tags = max(len(pose) - 5, 0) // 3
+    owner = np.repeat(np.arange(tags), 8)  # each tag's 4 corners, u and v
+    for axis in range(3) if tags else ():
+        d = np.zeros(len(pose))
+        d[5 + axis :: 3] = 1e-5
+        cols += [np.where(owner == k, column(d), 0.0) for k in range(tags)]
+    j = np.column_stack(cols)
+    if tags:  # the columns above are axis by axis; the pose's nuisances are tag by tag (x, y, z each)
+        order = [*range(5), *[5 + axis * tags + k for k in range(tags) for axis in range(3)]]
+        j = j[:, order]
+    return j
+
+
+def _augmented(
+    cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray, target: np.ndarray, priors: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Residuals [px] and their Jacobian, with the nuisances' priors (0 +- priors) as more residuals in corner sigmas."""
+    r = _project(cfg, world, pose) - target
+    j = _jacobian(cfg, world, pose)
+    if not len(priors):
+        return r, j
+    w = cfg.corner_sigma / priors  # [px per rad, px per m]
+    return np.concatenate([r, w * pose[3:]]), np.vstack([j, np.hstack([np.zeros((len(w), 3)), np.diag(w)])])
 
 
 def _refine(
-    cfg: OnboardCamera, world: np.ndarray, image: np.ndarray, seed: tuple[float, float, float]
+    cfg: OnboardCamera, world: np.ndarray, image: np.ndarray, seed: tuple[float, float, float], priors: np.ndarray
 ) -> tuple[tuple[float, float, float], float]:
-    """The floor pose nearest `seed` that best reprojects the corners (Gauss-Newton), and its rms error [px]."""
-    pose = np.array(seed, dtype=np.float64)
+    """The floor pose nearest `seed` that best reprojects the corners (Gauss-Newton), and its rms error [px], the
+    nuisances (`priors`' sizes) solved beside it."""
+    pose = np.concatenate([seed, np.zeros(len(priors))])
     target = image.reshape(-1)
     for _ in range(ITERATIONS):
-        r = _project(cfg, world, pose) - target
-        j = _jacobian(cfg, world, pose)
+        r, j = _augmented(cfg, world, pose, target, priors)
         step, *_ = np.linalg.lstsq(j, -r, rcond=None)
         pose = pose + step
         if np.max(np.abs(step)) < STEP_DONE:
             break
-    rms = float(np.sqrt(np.mean((_project(cfg, world, pose) - target) ** 2)))
+    r, _ = _augmented(cfg, world, pose, target, priors)
+    rms = float(np.sqrt(np.sum(r**2) / len(target)))
     return (float(pose[0]), float(pose[1]), wrap_angle(float(pose[2]))), rms
 
 
-def _covariance(cfg: OnboardCamera, world: np.ndarray, pose: tuple[float, float, float]) -> tuple[float, ...]:
-    """corner_sigma^2 (J^T J)^-1, 3x3 row-major, with the least variances added."""
-    j = _jacobian(cfg, world, np.array(pose))
+def _covariance(cfg: OnboardCamera, world: np.ndarray, pose: tuple[float, float, float], priors: np.ndarray) -> tuple[float, ...]:
+    """corner_sigma^2 (J^T J)^-1 (the nuisances' priors in J, then left out), 3x3 row-major, with the least variances added."""
+    p = np.concatenate([pose, np.zeros(len(priors))])
+    _, j = _augmented(cfg, world, p, _project(cfg, world, p), priors)
     try:
-        cov = np.linalg.inv(j.T @ j) * cfg.corner_sigma**2
+        cov = np.linalg.inv(j.T @ j)[:3, :3] * cfg.corner_sigma**2
     except np.linalg.LinAlgError:
         cov = np.diag([1.0, 1.0, 1.0])
     cov = cov + np.diag(VAR_FLOOR)

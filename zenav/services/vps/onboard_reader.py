@@ -1,7 +1,7 @@
 """Frames of the robot's own camera in, fixes out: the onboard VPS's pipeline without the bus.
 
 A frame is decoded (refused when corrupt or not [onboard_camera]'s size), the [field] layout's tags detected in
-it, and the robot's pose solved from them (onboard.solve), stamped with the frame's capture time.
+it, and the robot's pose solved from them (onboard.solve), stamped with the frame's capture time at the tags' rows.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from zenav.common import messages as m
 from zenav.common.config import ConfigError, Settings
 from zenav.common.onboardcam import OnboardCamera
 from zenav.services.vps import detect, frames, onboard
+from zenav.world.camera_time import row_time
 
 SECTION = "onboard_camera"
 TAG_PX = 24.0  # [px] tags are looked for on the frame halved: on the field's walls they stay over this size up to ~3.5 m
@@ -48,6 +49,11 @@ class OnboardReader:
         unknown = sum(1 for t in found if t.id not in self.layout)
         fix = None
         if isinstance(solved, onboard.TagFix):
-            fix = m.VpsPose(t=frame.t, x=solved.x, y=solved.y, theta=solved.theta, cov=solved.cov)
+            fix = m.VpsPose(t=self.stamp(frame.t, solved), x=solved.x, y=solved.y, theta=solved.theta, cov=solved.cov)
         refused = solved.reason if isinstance(solved, onboard.Refused) else ""
         return OnboardRead(fix, solved, refused, unknown, time.perf_counter() - start)
+
+    def stamp(self, frame_t: float, solved: onboard.TagFix) -> float:
+        """[s] when the fix's tags were exposed: a rolling shutter's rows after (or before) the frame's middle row."""
+        cfg = self.cfg
+        return max(frame_t + (row_time(solved.row, cfg.height, cfg.readout) if cfg.model != "ideal" else 0.0), 0.0)

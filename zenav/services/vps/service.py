@@ -46,8 +46,13 @@ class VpsConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     # "": the robot's vps; a name: one more camera's vps beside it, running as vps_<name> (its own alive, instance and diag
     # keys), its fixes on the same vps/pose, each stamped at its capture: the localizer fuses them all
     name: Annotated[str, Meta(pattern=r"^[a-z0-9_]{0,32}$")] = ""
+    # more cameras' vps that `zenav up` starts beside this one, one process per source, each named after it (vps_onboard,
+    # vps_camera): "camera" or "onboard", not this one's own source
+    also: tuple[Literal["camera", "onboard"], ...] = ()
 
     def __post_init__(self) -> None:
+        if self.source in self.also or len(set(self.also)) < len(self.also):
+            raise ValueError(f"also = {list(self.also)}: each a source other than this vps's own ({self.source}), once")
         if self.source != "synthetic":  # at start, in one line, rather than when the first frame comes
             extras.check("cv2", f'the camera VPS ([vps] source = "{self.source}")')
             if self.detector == "apriltag":
