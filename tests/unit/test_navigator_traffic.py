@@ -5,10 +5,13 @@ import math
 
 from zenav.bench import crossing
 from zenav.common.config import Field, Obstacle
-from zenav.common.contract import GoalResult
+from zenav.common.contract import GoalResult, State
+from zenav.services.navigator.controllers import PoseSample, Wheelbase
+from zenav.services.navigator.goals import Goal
 from zenav.services.navigator.params import Params
 from zenav.services.navigator.planner import Planner
 from zenav.services.navigator.traffic import Other, Traffic
+from zenav.services.navigator.traffic_machine import TrafficMachine
 
 AREA = Field(x_min=0.0, x_max=3.0, y_min=0.0, y_max=3.0)
 CLEAR = 0.1 + 0.05  # [m] footprint and margin: how far the detour's points keep from the edges
@@ -96,3 +99,29 @@ def test_two_robots_on_each_others_goals_swap_without_waiting_for_robot_wait():
 def test_four_robots_crossing_the_centre_arrive_without_contact():
     res = crossing.measure("4 crossing the centre", 1, seed=1)
     assert res.succeeded == 1 and res.contact_runs == 0 and res.least > 0.0
+
+
+def test_a_detour_replanned_rejoins_the_goals_own_way_not_the_earlier_detour():
+    way = [(0.5, -0.5), (2.0, 0.0)]  # a detour's corner, then the goal's own point
+    standing = [Other("r3", 0.2, -0.1, 0.1)]  # on the detour's first leg; its corner is clear of it
+    assert Traffic("r2", 0.1, 0.05).decide((0.0, 0.0), way, standing).rejoin == 0
+    d = Traffic("r2", 0.1, 0.05).decide((0.0, 0.0), way, standing, base=1)
+    assert d.detour is not None and d.rejoin == 1 and d.detour[-1] == (2.0, 0.0)
+
+
+def test_the_goal_machine_replaces_a_blocked_detour_whole():
+    params = Params()
+    wheels = Wheelbase(0.15, 0.03, 10.0)
+    machine = TrafficMachine(params, wheels, AREA, traffic=Traffic("r2", 0.1, 0.05, Planner(AREA, 0.15)))
+    machine.on_pose(PoseSample(0.0, 0.5, 1.5, 0.0, 0.0, 0.0, 0.0, 0.0))
+    machine.start(Goal(State.MOVING_TO_POINT, points=((2.5, 1.5),), speed=0.2, tolerance=params.tolerance), 0.0)
+    machine.drive(PoseSample(0.0, 0.5, 1.5, 0.0, 0.0, 0.0, 0.0, 0.0), [Other("r3", 1.0, 1.5, 0.1)])
+    run = machine._run
+    assert run is not None and machine.counts["robot_detours"] == 1
+    first = run.goal.points[:-1]  # the detour's corners
+    assert len(first) == 2 and first[1][0] < 1.1  # round r3 on the right: its second corner beside r3
+    blocker = Other("r3", 0.62, 1.2, 0.1)  # now on the detour's first corner; its second corner is clear of it
+    machine.drive(PoseSample(0.5, 0.5, 1.5, 0.0, 0.0, 0.0, 0.0, 0.0), [blocker])
+    assert machine.counts["robot_detours"] == 2
+    points = run.goal.points[run.index :]
+    assert points[-1] == (2.5, 1.5) and not set(first) & set(points)  # no corner of the blocked detour is kept

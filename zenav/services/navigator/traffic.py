@@ -16,7 +16,9 @@ margin plus BUFFER from this one's. Each pose:
    the robots and the field's obstacles near it, inside the field's edges (moved in by the footprint and margin): a
    robot near the edge goes round on the side that has room. Each robot's shape is moved BIAS to the left of the line
    from this robot to it (and grown by 2 BIAS, so that it still holds it with BIAS to spare): the way round it on the
-   right is the shorter, and two robots meeting head-on both keep right.
+   right is the shorter, and two robots meeting head-on both keep right. A detour taken earlier (the way's points
+   before `base`) is kept while nothing is in it; once something is, the new detour replaces it whole, rejoining the
+   goal's own way (never a corner of the old detour: detours do not pile up into loops).
 4. It waits (standing) when no detour exists (a robot stands on the goal, once within GOAL_NEAR of it; or the way round
    is closed by the field's obstacles or edges); the caller bounds the wait ([navigator] robot_wait). A robot on the
    goal that has the right of way and stands may be waiting for this one to leave its own goal: once per goal (when
@@ -38,7 +40,7 @@ from zenav.services.navigator.planner import Planner
 
 BUFFER = 0.03  # [m] kept clear of another robot beyond both footprints and the margin (its pose's noise, its motion)
 BIAS = 0.03  # [m] each robot's disc moved left (and grown) by this for the detour: passing on the right is shorter
-SWEEP = 1.0  # [s] a moving robot with the right of way is kept clear of where it will be within this long
+SWEEP = 1.5  # [s] a moving robot with the right of way is kept clear of where it will be within this long
 LOOK_AHEAD = 1.0  # [m] of the way checked for robots in it
 MOVING = 0.03  # [m/s] a robot slower than this stands
 GOAL_NEAR = 0.6  # [m] a robot on the goal counts only once this close to the goal (two swapping robots: not at the start)
@@ -119,8 +121,11 @@ class Traffic:
         """[m] how close the two centres may come."""
         return self.radius + o.radius + self.margin + BUFFER
 
-    def decide(self, here: Point, way: Sequence[Point], others: Sequence[Other], speed: float = 0.2, aside: bool = False) -> Decision:
-        """What to do at `here` driving through `way` at `speed` [m/s] among `others`; `aside`: it may step aside."""
+    def decide(
+        self, here: Point, way: Sequence[Point], others: Sequence[Other], speed: float = 0.2, aside: bool = False, base: int = 0
+    ) -> Decision:
+        """What to do at `here` driving through `way` at `speed` [m/s] among `others`; `aside`: it may step aside; `base`:
+        the way's first point of the goal's own (those before it: a detour taken earlier, replaced whole if blocked)."""
         if not way or not others:
             return Decision()
         if math.dist(here, way[-1]) > GOAL_NEAR:  # far from the goal: a robot standing on it may well leave it first
@@ -132,8 +137,8 @@ class Traffic:
         if not near:
             return Decision()
         first = min(near, key=lambda o: o.name)
-        clear = [all(math.dist(p, q) >= self.reach(o) + BIAS for o in others for q in self.swept(o)) for p in way]
-        k = next((i for i, ok in enumerate(clear) if ok), None)
+        clear = [all(math.dist(p, q) >= self.reach(o) + BIAS for o in others for q in self.swept(o)) for p in way[base:]]
+        k = next((base + i for i, ok in enumerate(clear) if ok), None)
         if k is None:
             taken = min(others, key=lambda o: math.dist(way[-1], (o.x, o.y)))
             step = self._aside(here, taken, others) if aside and taken.name < self.robot and not taken.moving else None

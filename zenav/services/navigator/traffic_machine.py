@@ -57,11 +57,12 @@ class TrafficMachine(GoalMachine):
         self._waited = 0.0  # [s] waited so far by the running goal
         self._since: float | None = None  # [s] pose t of the last pose waited on
         self._next = -math.inf  # [s] pose t from which to decide again
+        self._own = 0  # the goal's first point of its own way (those before it and after run.index: a detour round robots)
 
     def start(self, goal: Goal, now: float) -> End | None:
         """Start a goal (GoalMachine.start), its waiting counted afresh."""
         self._waited, self._since, self.waiting, self.why, self._next = 0.0, None, "", "", -math.inf
-        self.scale, self._aside = 1.0, False
+        self.scale, self._aside, self._own = 1.0, False, 0
         return super().start(goal, now)
 
     def drive(self, pose: PoseSample, others: Sequence[Other]) -> tuple[Command | None, End | None]:
@@ -73,7 +74,8 @@ class TrafficMachine(GoalMachine):
                 decision = Decision(self.waiting, self.why, scale=self.scale)
             else:
                 way = run.goal.points[run.index :]
-                decision = self.traffic.decide((pose.x, pose.y), way, others, abs(run.goal.speed), not self._aside)
+                base = max(self._own - run.index, 0)
+                decision = self.traffic.decide((pose.x, pose.y), way, others, abs(run.goal.speed), not self._aside, base)
                 if decision.detour is not None or decision.wait or decision.scale < 1.0:
                     self._next = pose.t + REPLAN
         if run is not None and decision.detour is not None:
@@ -126,6 +128,7 @@ class TrafficMachine(GoalMachine):
         points = goal.points[:i] + decision.detour + goal.points[i + k + 1 :]
         tolerances = tols[:i] + [self.params.waypoint_tolerance] * corners + tols[i + k :]
         run.goal = replace(goal, points=tuple(points), point_tolerances=tuple(tolerances))
+        self._own = i if decision.aside else i + corners  # a step aside is the way now: driven to, not replaced
         run.rest = path_rest(run.goal.points)
         run.locked = False
         self._aim(run, behind(pose) if run.sign < 0.0 else pose)
