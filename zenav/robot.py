@@ -53,7 +53,7 @@ __all__ = ["Goal", "Internal", "InvalidArgument", "Result", "Robot", "Unavailabl
 CONNECT_TIMEOUT = 5.0  # [s] how long to look for the router
 QUERY_TIMEOUT = 5.0  # [s] for a reply to a query (a goal is answered when it starts)
 POSE_TIMEOUT = 5.0  # [s] pose() waits this long for a first pose
-RETRIES = 2  # a goal refused on a stale pose, or before its lease was seen, is sent again this often
+RETRIES = 2  # a goal refused on a stale pose, or before its lease was seen, is sent again at least this often
 ASK_EVERY = 0.05  # [s] of stack clock: wait_ready asks the navigator again on a pose at least this much newer
 LEASE_TIMEOUT = 0.3  # [s] transport lease of the robot's own session: a frozen program's goal stops this soon
 DRIVE_PERIOD = 0.05  # [s] drive() sends its command this often (20 Hz, well inside the motor's command watchdog)
@@ -369,19 +369,23 @@ class Robot(GoalMethods[Goal]):
         return goal
 
     def _ask(self, suffix: str, request: dict[str, Any]) -> m.GoalReply:
-        """Send a goal; on a stale pose (a stalled host) or a lease not yet seen, again on the next pose."""
-        for attempt in range(RETRIES + 1):
+        """Send a goal; on a stale pose (a host that stalled, a link that just went) or a lease not yet seen, again
+        on each newer pose for at most the query timeout (and at least RETRIES times): then the refusal is raised."""
+        deadline = time.monotonic() + self.timeout
+        attempt = 0
+        while True:
             seen = self._poses.msg
             try:
                 return cast(m.GoalReply, self.client.query(suffix, request, timeout=self.timeout))
             except Unavailable as e:
-                if attempt == RETRIES or e.reason not in RETRYABLE:
+                left = deadline - time.monotonic()
+                if e.reason not in RETRYABLE or (attempt >= RETRIES and left <= 0.0):
                     raise
                 try:
-                    self._next_pose(seen, self.timeout)
+                    self._next_pose(seen, max(left, self.timeout if attempt < RETRIES else 0.0))
                 except TimeoutError:
                     raise e from None
-        raise AssertionError("unreachable")
+            attempt += 1
 
     def _next_pose(self, seen: m.Pose | None, timeout: float, step: float = 0.0) -> None:
         """Block until a pose more than `step` seconds newer than `seen` (or from a restarted clock) arrives."""
