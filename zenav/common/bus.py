@@ -411,9 +411,12 @@ class ZenohBus:
                     # Small messages at 100 Hz: send at once (express) and never drop
                     # silently under load (BLOCK); a dropped wheel command is a hazard.
                     # The robot's loop goes ahead of bulk data queued on a link.
+                    # Camera frames are the exception: a link that cannot take one (a host whose cable is out)
+                    # drops it, a newer frame follows, and the sender's loop is never held up behind it.
                     priority = zenoh.Priority.INTERACTIVE_HIGH if in_loop(key) else zenoh.Priority.DEFAULT
+                    congestion = zenoh.CongestionControl.DROP if key.endswith("/frame") else zenoh.CongestionControl.BLOCK
                     pub = self.session.declare_publisher(
-                        key, encoding=_MSGPACK, congestion_control=zenoh.CongestionControl.BLOCK, express=True, priority=priority
+                        key, encoding=_MSGPACK, congestion_control=congestion, express=True, priority=priority
                     )
                     self._pubs[key] = pub
         pub.put(data)
