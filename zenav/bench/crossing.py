@@ -73,7 +73,6 @@ class Robotrun:
     goal: Goal
     done: str = ""  # its result once ended
     t_end: float = math.inf  # [s]
-    checks: int = 0
 
 
 def setup(case: str, run: int, seed: int) -> list[tuple[str, Point, Point, float]]:
@@ -112,9 +111,7 @@ def simulate(robots: list[tuple[str, Point, Point, float]], seed: int, params: P
         bodies = {r.name: r.trial.bot.state for r in runs}
         cmds = []
         for r in runs:
-            others = [
-                Other(n, s.x, s.y, RADIUS, s.v * math.cos(s.theta), s.v * math.sin(s.theta)) for n, s in bodies.items() if n != r.name
-            ]
+            others = [_other(n, s) for n, s in bodies.items() if n != r.name]
             cmds.append(_command(r, others, guard, step, every))
         for r, (left, right) in zip(runs, cmds):
             r.trial.others = {n: Disc(s.x, s.y, RADIUS) for n, s in bodies.items() if n != r.name}

@@ -39,6 +39,7 @@ from zenav.common.scenarios import scenario
 from zenav.common.track import Track
 from zenav.services.localizer.base import LocalizerConfig
 from zenav.services.localizer.modes import make_mode
+from zenav.services.odometry.odometry import tick_delta
 
 TARGET = 2.5  # WPILib's best RMSE over zenav's, on the same stream, at least (reported, not asserted)
 Sigmas = tuple[float, float, float]  # [m], [m], [rad]: x, y, heading
@@ -83,8 +84,8 @@ def wheel_travel(encoders: Sequence[m.Encoders], robot: RobotConfig) -> list[tup
     prev: m.Encoders | None = None
     for e in encoders:
         if prev is not None:
-            left += (e.left - prev.left + 2**31) % 2**32 - 2**31
-            right += (e.right - prev.right + 2**31) % 2**32 - 2**31
+            left += tick_delta(e.left, prev.left)
+            right += tick_delta(e.right, prev.right)
         out.append((e.t, left * per_tick, right * per_tick))
         prev = e
     return out

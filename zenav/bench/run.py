@@ -115,7 +115,6 @@ def _measure_live(plan: Plan, res: Results, logs: Path, note: Callable[[str], No
     if "cost" in plan.sections:
         res.plain = base = live.run(1, RATE, 1.0, plan.latency_window, logs / "plain")  # the stack alone on its router
         note(f"one robot at {RATE:g} Hz, realtime, alone: {len(base.chain['end to end'])} chains")
-    if "cost" in plan.sections:
         one = cost.load(base)
         for rate in plan.rates:
             res.rates.append(one if rate == RATE else _sweep_point(1, rate, plan.sweep_window, logs))

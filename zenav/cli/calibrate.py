@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import math
 import queue
-import re
 import sys
 import time
 
@@ -28,7 +27,7 @@ from zenav.cli.nav import finite, point
 from zenav.common import messages as m
 from zenav.common.app import deployment_args, settings_from_args
 from zenav.common.client import Client, ZenavError
-from zenav.common.config import ConfigError, RobotConfig
+from zenav.common.config import ConfigError, RobotConfig, set_keys
 from zenav.services.driver import umbmark as u
 
 CONNECT_TIMEOUT = 3.0  # [s]
@@ -145,26 +144,6 @@ def report(fit: u.Fit, nominal: u.Geometry) -> str:
             f"unexplained  {fit.rms * 1e3:.1f} mm rms (slip, noise, measuring: more runs average it out)",
         ]
     )
-
-
-def set_keys(text: str, section: str, values: dict[str, float]) -> str:
-    """TOML `text` with `key = value` set in [section] (lines replaced or added; the rest kept)."""
-    lines = text.splitlines()
-    head = next((i for i, s in enumerate(lines) if re.match(rf"^\s*\[{re.escape(section)}\]\s*(#.*)?$", s)), None)
-    if head is None:
-        lines += ["", f"[{section}]"]
-        head = len(lines) - 1
-    end = next((i for i in range(head + 1, len(lines)) if re.match(r"^\s*\[", lines[i])), len(lines))
-    for key, value in values.items():
-        line = f"{key} = {value!r}"
-        at = next((i for i in range(head + 1, end) if re.match(rf"^\s*{re.escape(key)}\s*=", lines[i])), None)
-        if at is None:
-            last = max([head, *(i for i in range(head + 1, end) if lines[i].strip())])
-            lines.insert(last + 1, line)
-            end += 1
-        else:
-            lines[at] = line
-    return "\n".join(lines) + "\n"
 
 
 def drive_runs(client: Client, args: argparse.Namespace, robot: RobotConfig, nominal: u.Geometry) -> list[u.Run]:

@@ -14,7 +14,7 @@ import zenoh
 
 from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common.contract import ErrorCode
+from zenav.common.client import foreign_error
 
 ABSOLUTE = ("zenav/", "@/")  # keys typed with these prefixes are taken as they are
 
@@ -98,8 +98,7 @@ def error_reply(data: bytes) -> tuple[str, str]:
     try:
         err = codec.decode(data, m.ErrorReply)
     except codec.BadInput:
-        text = data.decode(errors="replace")
-        return (ErrorCode.UNAVAILABLE if "timeout" in text.lower() else ErrorCode.INTERNAL), text
+        return foreign_error(data), data.decode(errors="replace")
     return err.error, err.message
 
 

@@ -64,6 +64,12 @@ def error(code: str, message: str, reason: str = "") -> ZenavError:
     return ZenavError(code, message, reason) if typ is None else typ(message, reason)
 
 
+def foreign_error(data: bytes) -> ErrorCode:
+    """The code of an error reply that is not the contract's ErrorReply but Zenoh's own text (b"Timeout": no reply
+    came in time)."""
+    return ErrorCode.UNAVAILABLE if b"timeout" in data.lower() else ErrorCode.INTERNAL
+
+
 URGENT = frozenset({"nav/stop"})  # queries that travel ahead of everything else on every Zenoh link
 
 
@@ -179,9 +185,8 @@ class Client:
             try:
                 err = codec.decode(data, m.ErrorReply)
             except codec.BadInput:
-                # Not a zenav error map: Zenoh's own, e.g. b"Timeout" when no reply came in time.
-                code = "unavailable" if b"timeout" in data.lower() else "internal"
-                raise error(code, f"{self.key(suffix)}: {data.decode(errors='replace')} after {timeout} s") from None
+                message = f"{self.key(suffix)}: {data.decode(errors='replace')} after {timeout} s"
+                raise error(foreign_error(data), message) from None
             raise error(err.error, err.message, err.reason)
         return codec.decode(data, reply_type)
 

@@ -460,3 +460,24 @@ class Camera(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     def principal(self) -> tuple[float, float]:
         """(cx, cy) [px]."""
         return (self.width / 2.0 if self.cx is None else self.cx, self.height / 2.0 if self.cy is None else self.cy)
+
+
+def set_keys(text: str, section: str, values: dict[str, float] | dict[str, float | int]) -> str:
+    """TOML `text` with `key = value` set in [section] (lines replaced, new ones at the section's end, the section added
+    when missing; comments and every other line kept): what the commands that calibrate write to a config file."""
+    lines = text.splitlines()
+    head = next((i for i, s in enumerate(lines) if re.match(rf"^\s*\[{re.escape(section)}\]\s*(#.*)?$", s)), None)
+    if head is None:
+        lines += ["", f"[{section}]"]
+        head = len(lines) - 1
+    end = next((i for i in range(head + 1, len(lines)) if re.match(r"^\s*\[", lines[i])), len(lines))
+    for key, value in values.items():
+        line = f"{key} = {value!r}"
+        at = next((i for i in range(head + 1, end) if re.match(rf"^\s*{re.escape(key)}\s*=", lines[i])), None)
+        if at is None:
+            last = max([head, *(i for i in range(head + 1, end) if lines[i].strip())])
+            lines.insert(last + 1, line)
+            end += 1
+        else:
+            lines[at] = line
+    return "\n".join(lines) + "\n"

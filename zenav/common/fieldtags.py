@@ -65,9 +65,7 @@ def wpilib_tags(raw: Any, size: float | None, where: str) -> list[dict[str, floa
             entry = {"id": int(tag["ID"]), "size": size, "x": float(t["x"]), "y": float(t["y"]), "z": float(t["z"])}
         except (KeyError, TypeError, ValueError) as e:
             why = f"missing {e}" if isinstance(e, KeyError) else str(e)
-            raise LayoutError(
-                f"{where}: tags[{i}]: {why} (a tag is {{ID, pose: {{translation: {{x, y, z}}, rotation: {{quaternion: {{W, X, Y, Z}}}}}}}})"
-            ) from None
+            raise LayoutError(f"{where}: tags[{i}]: {why} ({TAG_SHAPE})") from None
         out.append({**entry, "yaw": yaw, "pitch": pitch, "roll": roll})
     return out
 

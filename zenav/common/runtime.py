@@ -33,6 +33,7 @@ worker several services of one process share).
 
 from __future__ import annotations
 
+import functools
 import itertools
 import logging
 import threading
@@ -104,6 +105,7 @@ class Service(Intake, Dispatch):
         self.limits = settings.limits
         self._inbox = Inbox(self.limits.queue_items, self.limits.queue_bytes)
         self._timers = Timers()  # @timer methods, diag, and call_at
+        self._overrun = functools.partial(self.counters.inc, "timer_overruns")  # made once: timers run every turn
         self._handles: list[Handle] = []
         self._token: Handle | None = None
         self._started_wall = time.monotonic()
@@ -278,7 +280,7 @@ class Service(Intake, Dispatch):
             background_thread()
         while not self._stop.is_set():
             delay = self.turn(Executor.ROUND)
-            self._inbox.wait(0.1 if delay is None else min(delay, 0.1))
+            self._inbox.wait(Executor.IDLE if delay is None else min(delay, Executor.IDLE))
 
     def turn(self, budget: int) -> float | None:
         """Without blocking: dispatch up to `budget` queued items, then the due timers (a
@@ -389,7 +391,7 @@ class Service(Intake, Dispatch):
         """Run due timers and calls (call_at); return wall seconds until the next one (None: unknown)."""
         if not self.clock.ready:
             return None
-        left = self._timers.run(self.clock.now(), self._fire, lambda: self.counters.inc("timer_overruns"))
+        left = self._timers.run(self.clock.now(), self._fire, self._overrun)
         return None if left is None else self.clock.wall_delay(left)
 
     def diag(self, now: float) -> m.Diag:

@@ -1,20 +1,21 @@
 """A camera's intrinsics from views of a chessboard or a ChArUco board (OpenCV's calibrateCamera), and writing them
 into a config file's camera section.
 
-Pure but for OpenCV: images in, numbers out; `write_section` edits TOML text (the config file's comments and other
+Pure but for OpenCV: images in, numbers out; `write_section` edits TOML text with config.set_keys (the config file's comments and other
 sections are kept). A chessboard is given by its inner corners (cols x rows) and its squares' edge [m]; a ChArUco
 board by its squares (cols x rows), their edge, its markers' edge and its ArUco dictionary.
 """
 
 from __future__ import annotations
 
-import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
 import cv2
 import numpy as np
+
+from zenav.common.config import set_keys
 
 MIN_VIEWS = 5  # views of the board a calibration needs at least
 KEYS = ("width", "height", "fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
@@ -111,19 +112,5 @@ def calibrate(images: Iterable[np.ndarray], board: Board, max_views: int = 40, f
 
 
 def write_section(text: str, section: str, values: dict[str, float | int]) -> str:
-    """The TOML `text` with `values` set in [section]: existing keys replaced in place, new ones after the header,
-    the section appended when missing; comments and every other line kept."""
-    lines = text.splitlines()
-    header = re.compile(rf"^\s*\[{re.escape(section)}\]\s*(#.*)?$")
-    start = next((i for i, line in enumerate(lines) if header.match(line)), None)
-    rendered = {k: f"{k} = {v if isinstance(v, int) else repr(round(float(v), 9))}" for k, v in values.items()}
-    if start is None:
-        return "\n".join([*lines, "", f"[{section}]", *rendered.values()]) + "\n"
-    end = next((i for i in range(start + 1, len(lines)) if re.match(r"^\s*\[", lines[i])), len(lines))
-    missing = dict(rendered)
-    for i in range(start + 1, end):
-        key = re.match(r"^\s*([A-Za-z_]\w*)\s*=", lines[i])
-        if key and key.group(1) in missing:
-            lines[i] = missing.pop(key.group(1))
-    lines[start + 1 : start + 1] = list(missing.values())
-    return "\n".join(lines) + "\n"
+    """The TOML `text` with the intrinsics `values` (rounded to 9 decimals) set in [section], the rest kept."""
+    return set_keys(text, section, {k: v if isinstance(v, int) else round(float(v), 9) for k, v in values.items()})

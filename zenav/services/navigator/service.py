@@ -67,7 +67,7 @@ class Navigator(Service):
         wheels = Wheelbase(r.track_width, r.wheel_radius, r.max_wheel_speed)
         self.planner = planner.Planner(self.area, r.radius + self.area.margin)  # the field's visibility graph, built once
         traffic = Traffic(self.robot, r.radius, self.area.margin, self.planner) if cfg.avoid_robots else None
-        self.machine = TrafficMachine(cfg, wheels, self.area, gated=False, traffic=traffic, wait_limit=cfg.robot_wait)
+        self.machine = TrafficMachine(cfg, wheels, self.area, gated=False, traffic=traffic)
         self.robot_bodies: dict[str, tuple[float, Other]] = {}  # robot -> (clock time heard, its body)
         for name in COUNTERS:
             self.count(name, 0)

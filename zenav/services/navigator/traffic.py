@@ -137,8 +137,8 @@ class Traffic:
         if not near:
             return Decision()
         first = min(near, key=lambda o: o.name)
-        clear = [all(math.dist(p, q) >= self.reach(o) + BIAS for o in others for q in self.swept(o)) for p in way[base:]]
-        k = next((base + i for i, ok in enumerate(clear) if ok), None)
+        kept = [(q, self.reach(o) + BIAS) for o in others for q in self.swept(o)]  # each place another robot takes, how far off
+        k = next((base + i for i, p in enumerate(way[base:]) if all(math.dist(p, q) >= r for q, r in kept)), None)
         if k is None:
             taken = min(others, key=lambda o: math.dist(way[-1], (o.x, o.y)))
             step = self._aside(here, taken, others) if aside and taken.name < self.robot and not taken.moving else None

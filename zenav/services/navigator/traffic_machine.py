@@ -44,11 +44,9 @@ class TrafficMachine(GoalMachine):
         area: Field | None = None,
         gated: bool = True,
         traffic: Traffic | None = None,
-        wait_limit: float = 20.0,
     ) -> None:
         super().__init__(params, wheels, area, gated)
         self.traffic = traffic  # None: other robots are left to the guard
-        self.wait_limit = wait_limit  # [s] of waiting in all, per goal
         self.waiting = ""  # the robot waited for now ("": none)
         self.why = ""  # why it waits, for nav/state ("": it does not)
         self.scale = 1.0  # [-] the fraction of the commanded forward speed driven now (< 1: letting a robot pass)
@@ -87,10 +85,11 @@ class TrafficMachine(GoalMachine):
         if self._since is not None:
             self._waited += max(pose.t - self._since, 0.0)
         self.waiting, self.why, self._since, self.scale = decision.wait, decision.why, pose.t, 1.0
-        if self._waited > self.wait_limit:
+        limit = self.params.robot_wait  # [s] of waiting in all, per goal
+        if self._waited > limit:
             why = self.why
             self.waiting, self.why, self._since = "", "", None
-            return (0.0, 0.0), self.abort(f"{why}: waited {self._waited:.1f} s, over robot_wait = {self.wait_limit:g} s", Exit.STALLED)
+            return (0.0, 0.0), self.abort(f"{why}: waited {self._waited:.1f} s, over robot_wait = {limit:g} s", Exit.STALLED)
         self._pause(run, pose)
         return (0.0, 0.0), None
 

@@ -240,7 +240,8 @@ def _jacobian(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray) -> np.nda
     for axis in range(3) if tags else ():
         d = np.zeros(len(pose))
         d[5 + axis :: 3] = 1e-5
-        cols += [np.where(owner == k, column(d), 0.0) for k in range(tags)]
+        moved = column(d)  # one difference per axis serves every tag: each keeps its own corners' rows
+        cols += [np.where(owner == k, moved, 0.0) for k in range(tags)]
     j = np.column_stack(cols)
     if tags:  # the columns above are axis by axis; the pose's nuisances are tag by tag (x, y, z each)
         order = [*range(5), *[5 + axis * tags + k for k in range(tags) for axis in range(3)]]

@@ -90,7 +90,6 @@ class Vps(Service):
             cam = self.settings.section("camera", CameraConfig)
             check_fits(cam, self.limits)
             self.reader = Reader(cam, calibration_file.configured(cam), detect.make(self.cfg.detector, tag_pixels(cam)))
-            self.link_delay = cam.link_delay  # [s]
             self.queues = {robot: DeliveryQueue() for robot in cam.robots}
             self.host = HostClock(cam, self.clock, self.bus, self.settings.deployment.seed)
         if self.cfg.source == "onboard":
@@ -98,7 +97,7 @@ class Vps(Service):
             from zenav.services.vps.onboard_reader import OnboardReader
 
             self.onboard = OnboardReader(self.settings, self.cfg.detector)
-            self.link_delay = self.onboard.cfg.link_delay
+            self.link_delay = self.onboard.cfg.link_delay  # [s] (the overhead camera's: its host's clock, self.host)
         if self.cfg.source != "synthetic":
             self.timing: dict[str, deque[float]] = {k: deque(maxlen=TIMING_WINDOW) for k in ("pipeline_ms_p50", "detect_ms_p50")}
 
