@@ -36,17 +36,21 @@ def test_cmd_vel_carries_the_pose_t(rig):
     assert rig.published("cmd_vel")[-1].t == pytest.approx(rig.clock.now())
 
 
-def test_a_navigator_behind_its_poses_acts_on_the_newest(rig):
+@pytest.mark.parametrize("control_on", ["pose", "odom"])
+def test_a_navigator_behind_its_input_acts_on_the_newest(control_on):
+    rig = NavigatorRig(control_on=control_on)
+    rig.pose()
     rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0})
     rig.step(3)
     before = len(rig.published("cmd_vel"))
-    for _ in range(3):  # three poses come before the navigator gets to any
+    for _ in range(3):  # three samples come before the navigator gets to any
         rig.clock.advance(0.01)
-        pose = m.Pose(t=rig.clock.now(), x=rig.x, y=rig.y, theta=rig.theta, v=0.2, omega=0.0)
-        rig.bus.publish("zenav/r1/pose", codec.encode(pose))
+        msg = m.Odom if control_on == "odom" else m.Pose
+        rig.bus.publish(f"zenav/r1/{control_on}", codec.encode(msg(t=rig.clock.now(), x=rig.x, y=rig.y, theta=rig.theta, v=0.2, omega=0.0)))
     rig.nav.drain()
     assert [c.t for c in rig.published("cmd_vel")[before:]] == [pytest.approx(rig.clock.now())]
     assert rig.nav.counters.values["dropped_superseded"] == 2
+    rig.nav.close()
 
 
 def test_turn_to_heading_turns_without_overshoot(rig):
@@ -310,23 +314,35 @@ def test_speeds_above_the_limits_are_clamped_and_reported(rig):
     assert max(abs(c.v) for c in rig.published("cmd_vel")) <= 0.3 + 1e-9
 
 
-def test_out_of_order_pose_is_dropped(rig):
+@pytest.mark.parametrize("control_on", ["pose", "odom"])
+def test_out_of_order_input_is_dropped(control_on):
+    rig = NavigatorRig(control_on=control_on)
+    rig.pose()
     rig.step(2)
-    rig.bus.publish("zenav/r1/pose", codec.encode(m.Pose(t=50.0, x=5.0, y=5.0, theta=0.0, v=0.0, omega=0.0)))
+    msg = m.Odom if control_on == "odom" else m.Pose
+    rig.bus.publish(f"zenav/r1/{control_on}", codec.encode(msg(t=50.0, x=5.0, y=5.0, theta=0.0, v=0.0, omega=0.0)))
     rig.nav.drain()
-    assert rig.nav.counters.values["dropped_stale"] == 1 and rig.nav.machine.pose.x == 0.0
+    assert rig.nav.counters.values["dropped_stale"] == 1 and rig.nav.machine.pose.x == pytest.approx(0.0)
+    rig.nav.close()
 
 
-def test_sim_restart_aborts_the_goal_and_takes_the_new_poses():
+def _origin(bus, t):
+    """The robot at the origin at t: its pose, then its odom sample (the odometry's frame the map's)."""
+    bus.publish("zenav/r1/pose", codec.encode(m.Pose(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
+    bus.publish("zenav/r1/odom", codec.encode(m.Odom(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
+
+
+@pytest.mark.parametrize("control_on", ["pose", "odom"])
+def test_sim_restart_aborts_the_goal_and_takes_the_new_poses(control_on):
     bus, clock = MemoryBus(), SimClock()
-    nav = Navigator(Settings.load(None), bus, clock)
+    nav = Navigator(Settings.load(None, navigator={"control_on": control_on}), bus, clock)
     nav.start()
     bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=50.0)))
-    bus.publish("zenav/r1/pose", codec.encode(m.Pose(t=50.0, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
+    _origin(bus, 50.0)
     q = bus.query("zenav/r1/nav/move_to_point", codec.encode({"x": 1.0, "y": 0.0, "wait": True}))
     nav.drain()
     bus.publish("zenav/r1/clock", codec.encode(m.Clock(t=0.01, instance="sim-2")))  # a new sim instance
-    bus.publish("zenav/r1/pose", codec.encode(m.Pose(t=0.01, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
+    _origin(bus, 0.01)
     nav.drain()
     rep = reply(q)
     assert rep.result == "aborted" and "restarted" in rep.message

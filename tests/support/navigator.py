@@ -5,10 +5,14 @@ from tests.support.navigator import NavigatorRig, reply
 rig = NavigatorRig(field=None, **navigator_settings)
 q = rig.query("nav/move_to_point", {"x": 0.5, "y": 0.0, "wait": True})  # -> the MemoryQuery, after draining
 rig.run_until(q)                                # step until it has its reply (bounded): the decoded reply
-rig.step(10)                                    # 10 pose periods: drive the robot, publish its pose
+rig.step(10)                                    # 10 pose periods: drive the robot, publish its pose (and odom sample)
 rig.published("cmd_vel")                        # -> [m.CmdVel, ...] published so far
 rig.x, rig.y, rig.theta, rig.cmd, rig.moving    # the robot (settable), the last command, stuck wheels
 rig.cov                                         # the covariance its poses carry (settable)
+rig.odom_frame                                  # the odometry's frame in the map frame, (x, y, theta) (settable)
+
+With control on odom (the default), each pose goes out after the odom sample of its t, as in the stack: the
+navigator steers on each sample by the pose before's correction (and takes each pose as the newest when it comes).
 
 `World()` is that rig as the bus of `zenav.robot.Robot("r1", bus=world)`; `world.drive(until)` steps until `until()` holds.
 """
@@ -21,6 +25,8 @@ from zenav.common.bus import MemoryBus
 from zenav.common.clock import ManualClock
 from zenav.common.config import Settings
 from zenav.common.scenarios import scenario
+from zenav.services.navigator.correction import compose, inverse
+from zenav.services.navigator.params import Params
 from zenav.services.navigator.service import Navigator
 from zenav.world.sim import SimRobot
 
@@ -41,6 +47,8 @@ class NavigatorRig:
         self.cmd = (0.0, 0.0)  # last cmd_vel (v, omega)
         self.moving = True  # False: the wheels are stuck, the commands do nothing
         self.cov = m.ZERO_COV  # the covariance each pose carries
+        self.odom_frame = (0.3, -0.2, 0.5)  # the odometry's frame in the map frame (not the identity: the correction counts)
+        self.on_odom = settings.section("navigator", Params).control_on == "odom"
         self.bus.subscribe("zenav/r1/cmd_vel", self._on_cmd)
 
     x = property(lambda self: self.bot.state.x, lambda self, v: self._shove(x=v))
@@ -56,10 +64,17 @@ class NavigatorRig:
         self.cmd = (msg.v, msg.omega)
 
     def pose(self):
-        s = self.bot.state
-        msg = m.Pose(t=self.clock.now(), x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega, cov=self.cov)
-        self.bus.publish("zenav/r1/pose", codec.encode(msg))
-        self.nav.drain()
+        """The pose now (with control on odom, after the odom sample of its t)."""
+        for key, data in self.samples():
+            self.bus.publish(key, data)
+            self.nav.drain()
+
+    def samples(self):
+        """(key, payload) of the odom sample now (with control on odom), then of the localizer's pose."""
+        s, t = self.bot.state, self.clock.now()
+        x, y, theta = compose(inverse(self.odom_frame), (s.x, s.y, s.theta))
+        odom = [("zenav/r1/odom", codec.encode(m.Odom(t=t, x=x, y=y, theta=theta, v=s.v, omega=s.omega)))] if self.on_odom else []
+        return [*odom, ("zenav/r1/pose", codec.encode(m.Pose(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega, cov=self.cov)))]
 
     def step(self, n=1, poses=True):
         for _ in range(n):

@@ -8,8 +8,6 @@ import pytest
 
 from tests.support.navigator import MAX_STEPS, World
 from zenav import aio
-from zenav.common import codec
-from zenav.common import messages as m
 from zenav.common.goalschema import GOALS
 from zenav.robot import InvalidArgument, Robot, Unavailable, ZenavError
 
@@ -281,7 +279,8 @@ def test_a_goal_refused_on_a_stale_pose_is_sent_again_on_the_next(world, bot):
 
     def fresh_pose():
         assert world.refused.wait(5.0)
-        world.bus.publish("zenav/r1/pose", codec.encode(m.Pose(t=world.clock.now(), x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
+        for key, data in world.samples():  # the robot at rest where it started
+            world.bus.publish(key, data)
 
     helper = threading.Thread(target=fresh_pose)
     helper.start()

@@ -72,7 +72,8 @@ def refuse_once_on_a_stale_pose(world: World) -> tuple[threading.Thread, Robot]:
 
     def fresh_pose():
         assert world.refused.wait(5.0)
-        world.bus.publish("zenav/r1/pose", codec.encode(m.Pose(t=world.clock.now(), x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
+        for key, data in world.samples():  # the robot at rest where it started
+            world.bus.publish(key, data)
 
     helper = threading.Thread(target=fresh_pose)
     helper.start()

@@ -32,6 +32,12 @@ class PoseSample(NamedTuple):
     sigma_xy: float = 0.0  # [m] 1 sigma of the position along its most uncertain axis
     sigma_theta: float = 0.0  # [rad] 1 sigma of the heading
     slipping: bool = False  # the localizer finds the wheels slipping: x, y wait for the fixes
+    pose_t: float | None = None  # [s] steered on odometry: t of the localizer's pose whose correction it carries (None: t)
+
+    @property
+    def since(self) -> float:
+        """[s] the t its age counts from: its localizer pose's (a stale pose is stale however fresh the odometry)."""
+        return self.t if self.pose_t is None else self.pose_t
 
 
 def sigmas(cov: Sequence[float]) -> tuple[float, float]:

@@ -119,8 +119,8 @@ class GoalMachine(Steering):
         """Why no goal can start now (no pose, stale pose, uncertain pose), or None."""
         if self.pose is None:
             return Refusal(Reason.NO_POSE, "no pose yet: is the localizer running?")
-        if now - self.pose.t > self.params.stale_after:
-            return Refusal(Reason.POSE_STALE, f"pose stale: the newest is {now - self.pose.t:.2f} s old")
+        if now - self.pose.since > self.params.stale_after:
+            return Refusal(Reason.POSE_STALE, f"pose stale: the newest is {now - self.pose.since:.2f} s old")
         doubt = self.uncertain() if self.gated else None
         if doubt is not None:
             return Refusal(Reason.POSE_UNCERTAIN, f"{doubt} (no VPS fix yet or for long: wait for one, or set the pose)")
@@ -190,6 +190,14 @@ class GoalMachine(Steering):
         self.pose = None
         return end
 
+    def heard(self, pose: PoseSample) -> None:
+        """A pose that is not steered on (control on odom: the odom samples are): its age and uncertainty count at
+        once, and it is the newest pose unless a sample after its t was steered on already."""
+        if self.pose is None or pose.t >= self.pose.t:
+            self.pose = pose
+        else:
+            self.pose = self.pose._replace(sigma_xy=pose.sigma_xy, sigma_theta=pose.sigma_theta, slipping=pose.slipping, pose_t=pose.t)
+
     def on_pose(self, pose: PoseSample) -> tuple[tuple[float, float] | None, End | None]:
         """Take a pose: the (v, omega) to command (None when idle), and the End if the goal ended."""
         self._lag(pose.t)
@@ -232,8 +240,8 @@ class GoalMachine(Steering):
         run, p, pose = self._run, self.params, self.pose
         if run is None or pose is None:  # a goal runs only from a pose
             return None
-        if now - pose.t > p.stale_after:
-            return self.abort(f"pose stale: none for {now - pose.t:.2f} s")
+        if now - pose.since > p.stale_after:
+            return self.abort(f"pose stale: none for {now - pose.since:.2f} s")
         doubt = self.uncertain() if self.gated else None
         if doubt is not None:
             return self.abort(doubt)

@@ -16,11 +16,13 @@ ControllerName = Literal["pid", "polar", "proportional"]
 CONTROLLERS: tuple[str, ...] = get_args(ControllerName)
 PoseControllerName = Literal["polar", "boomerang"]
 POSE_CONTROLLERS: tuple[str, ...] = get_args(PoseControllerName)
+ControlOn = Literal["odom", "pose"]  # roles.CONTROL_ON
 
 
 class Params(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """Speeds, tolerances, checks and controller gains of the navigator."""
 
+    control_on: ControlOn = "odom"  # the control loop runs on each odom sample (the localizer's correction applied) or each pose
     controller: ControllerName = "pid"  # point tracker: pid (rotation PID), polar (rho/alpha/beta), proportional
     pose_controller: PoseControllerName = "boomerang"  # move_to_pose: boomerang (LemLib carrot) or polar (rho/alpha/beta)
     lead: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.6  # [-] boomerang: carrot distance behind the goal per metre to it

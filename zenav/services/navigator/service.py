@@ -1,5 +1,10 @@
 """The navigator service: nav/* goals in, cmd_vel per pose while a goal runs, nav/state out.
 
+Its control loop runs on each odom sample (`[navigator] control_on = "odom"`), placed in the
+map frame by the localizer's newest correction (correction.py: the pose less the odom sample
+of the pose's t), or on each of the localizer's poses ("pose"). On odom the localizer is off
+the sensor-to-wheel path; the pose's age still counts for staleness, its cov for uncertainty.
+
 Goal queries reply at once with the goal id, or with `wait` when the goal ends.
 A `lease` names a liveliness token the caller holds: the goal starts once the token
 is seen alive (the request is answered `unavailable` if it is not seen within
@@ -37,6 +42,7 @@ from zenav.common.geometry import wrap_angle
 from zenav.common.runtime import QueryError, Service, on_liveliness, publish, query, reply_error, reply_ok, subscribe, timer
 from zenav.services.navigator import goals, intake, planner, routing
 from zenav.services.navigator.controllers import PoseSample, Wheelbase, check_polar_gains, sigmas
+from zenav.services.navigator.correction import Paired, Pairing
 from zenav.services.navigator.goals import End, Refused
 from zenav.services.navigator.params import Params
 from zenav.services.navigator.requests import LOST, START, Request, Requests
@@ -84,17 +90,51 @@ class Navigator(Service):
         self._stops = 0  # nav/stop queries arrived (queued) but not yet handled: no cmd_vel from the worker
         self._stopped_at = 0  # arrival number (Service.query_arrival) of the newest nav/stop: goals that came before are void
         self._holding: Request | None = None  # a chained goal's request, its lease watched while its last command is held
+        # control on odom: the odom samples and poses paired for the localizer's correction (None: control on pose)
+        self.pairing: Pairing[m.Pose] | None = Pairing() if cfg.control_on == "odom" else None
 
     # ------------------------------------------------------------ inputs
     @subscribe("pose", latest=True)  # a navigator behind its input acts on the newest pose
     def on_pose(self, msg: m.Pose) -> None:
-        """Run the goal on each pose: the command acts on (and carries the t of) this pose."""
+        """Control on pose: run the goal on each pose. On odom: pair it with its odom sample, for the correction."""
+        sample = PoseSample(msg.t, msg.x, msg.y, wrap_angle(msg.theta), msg.v, msg.omega, *sigmas(msg.cov), msg.slipping)
+        if self.pairing is not None:
+            paired = self.pairing.on_pose(msg.t, (msg.x, msg.y, msg.theta), msg)
+            if paired == Paired.OUT_OF_ORDER:
+                self._out_of_order("pose", f"t {msg.t:.3f} < {self.pairing.t or 0.0:.3f}")
+            elif paired == Paired.UNPAIRED:
+                self.count("poses_unpaired")
+            elif paired == Paired.PAIRED:
+                self.machine.heard(sample)
+                self._show_changes()
+                if self.status != "ok":
+                    self._health(self.clock.now())
+            return
         last = self.machine.pose
         if last is not None and msg.t < last.t:
-            self.count("dropped_stale")
-            self.warn("pose_order", f"dropped a pose out of order (t {msg.t:.3f} < {last.t:.3f})")
-            return None
-        sample = PoseSample(msg.t, msg.x, msg.y, wrap_angle(msg.theta), msg.v, msg.omega, *sigmas(msg.cov), msg.slipping)
+            self._out_of_order("pose", f"t {msg.t:.3f} < {last.t:.3f}")
+            return
+        self._drive(sample)
+
+    def on_odom(self, msg: m.Odom) -> None:
+        """Control on odom: run the goal on each odom sample in the map frame, by the newest pose's correction."""
+        assert self.pairing is not None
+        try:
+            at = self.pairing.on_odom(msg.t, (msg.x, msg.y, msg.theta))
+        except ValueError as e:
+            self._out_of_order("odom", str(e))
+            return
+        pose = self.pairing.pose
+        if at is None or pose is None:
+            return  # no pose paired yet: nothing to steer on
+        self._drive(PoseSample(msg.t, at[0], at[1], wrap_angle(at[2]), msg.v, msg.omega, *sigmas(pose.cov), pose.slipping, pose.t))
+
+    def _out_of_order(self, topic: str, why: str) -> None:
+        self.count("dropped_stale")
+        self.warn(f"{topic}_order", f"dropped a{'n' if topic == 'odom' else ''} {topic} out of order ({why})")
+
+    def _drive(self, sample: PoseSample) -> None:
+        """Run the goal on a pose: the command acts on (and carries the t of) this pose."""
         why = self.machine.why
         cmd, end = self.machine.drive(sample, self._bodies())
         for name, n in self.machine.counts.items():
@@ -114,7 +154,7 @@ class Navigator(Service):
         if cmd is not None:
             with self._cmd_lock:
                 if self._stops <= 0:  # -1 for a moment when the worker handles a stop before its hook ran
-                    self.publish("cmd_vel", m.CmdVel(t=msg.t, v=cmd[0], omega=cmd[1]))
+                    self.publish("cmd_vel", m.CmdVel(t=sample.t, v=cmd[0], omega=cmd[1]))
 
     @timer("check_period")
     def check(self, now: float) -> None:
@@ -178,6 +218,8 @@ class Navigator(Service):
             self.robot_bodies[msg.robot] = (self.clock.now(), other)
 
     def on_start(self) -> None:
+        if self.pairing is not None:
+            self.subscribe("odom", m.Odom, self.on_odom, latest=True)  # as the pose: the newest sample
         if self.cfg.avoid_robots:
             self.subscribe("robots", m.Body, self.on_body, other_clock=True)  # each robot stamps on its own clock
 
@@ -299,6 +341,8 @@ class Navigator(Service):
     def on_clock_reset(self) -> None:
         """The sim restarted: poses start again from t = 0, and the goal is void."""
         self._drop_pending("the stack clock restarted", Reason.RESTARTED)
+        if self.pairing is not None:
+            self.pairing.reset()
         end = self.machine.reset("the stack clock restarted")
         if end is not None:
             self._ended(end)
