@@ -65,7 +65,18 @@ class NavigatorRig:
 
     def pose(self):
         """The pose now (with control on odom, after the odom sample of its t)."""
-        for key, data in self.samples():
+        self._publish(self.samples())
+
+    def odom(self):
+        """The odometry's sample now (the robot in the odometry's frame), alone."""
+        self._publish([kd for kd in self.samples() if kd[0].endswith("/odom")])
+
+    def localize(self):
+        """The localizer's pose now, alone."""
+        self._publish([kd for kd in self.samples() if kd[0].endswith("/pose")])
+
+    def _publish(self, samples):
+        for key, data in samples:
             self.bus.publish(key, data)
             self.nav.drain()
 
@@ -73,8 +84,8 @@ class NavigatorRig:
         """(key, payload) of the odom sample now (with control on odom), then of the localizer's pose."""
         s, t = self.bot.state, self.clock.now()
         x, y, theta = compose(inverse(self.odom_frame), (s.x, s.y, s.theta))
-        odom = [("zenav/r1/odom", codec.encode(m.Odom(t=t, x=x, y=y, theta=theta, v=s.v, omega=s.omega)))] if self.on_odom else []
-        return [*odom, ("zenav/r1/pose", codec.encode(m.Pose(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega, cov=self.cov)))]
+        odom = [("zenav/r1/odom", codec.encode(m.Odom(t=t, x=x, y=y, theta=theta, v=s.v, omega=s.omega)))]
+        return [*(odom if self.on_odom else []), ("zenav/r1/pose", codec.encode(m.Pose(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega, cov=self.cov)))]
 
     def step(self, n=1, poses=True):
         for _ in range(n):
