@@ -174,3 +174,13 @@ def test_services_on_one_key_share_a_network_subscriber_and_each_get_every_sampl
     remote.publish(key, b"x")
     assert second.wait(n2 + 1) and second.got[-1] == (key, b"x")
     assert len(first.got) == n1  # undeclared: nothing more
+
+
+@pytest.mark.parametrize(
+    "control_on, order",
+    [("odom", ["motor", "odometry", "navigator", "localizer"]), ("pose", ["motor", "odometry", "localizer", "navigator"])],
+)
+def test_composed_the_chain_s_services_subscribe_first(control_on, order):
+    """In one process a sample reaches the subscribers in the order they came: the chain's before the localizer off it."""
+    stack = ComposedStack(Settings.load(None, navigator={"control_on": control_on}), ["navigator", "localizer", "odometry", "motor"])
+    assert stack.names == order

@@ -85,7 +85,8 @@ class NavigatorRig:
         s, t = self.bot.state, self.clock.now()
         x, y, theta = compose(inverse(self.odom_frame), (s.x, s.y, s.theta))
         odom = [("zenav/r1/odom", codec.encode(m.Odom(t=t, x=x, y=y, theta=theta, v=s.v, omega=s.omega)))]
-        return [*(odom if self.on_odom else []), ("zenav/r1/pose", codec.encode(m.Pose(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega, cov=self.cov)))]
+        pose = m.Pose(t=t, x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega, cov=self.cov)
+        return [*(odom if self.on_odom else []), ("zenav/r1/pose", codec.encode(pose))]
 
     def step(self, n=1, poses=True):
         for _ in range(n):

@@ -39,10 +39,20 @@ def test_runs_must_pair_up_and_hold_samples():
 
 def test_a_relay_publishes_its_service_output_type_stamped_with_the_input_t():
     sample = codec.encode(m.Encoders(t=1.25, left=10, right=12))
-    ((topic, data),) = arm.outputs("odometry", sample)
+    ((topic, data),) = arm.outputs("odometry", sample, "pose")
     assert topic == "odom" and codec.decode(data, m.Odom).t == 1.25
-    chained = arm.outputs(arm.COMPOSED, sample)
+    chained = arm.outputs(arm.COMPOSED, sample, "pose")
     assert [t for t, _ in chained] == ["odom", "pose", "cmd_vel", "motors/wheels"]
     assert codec.decode(chained[-1][1], m.Wheels).t == 1.25
     with pytest.raises(codec.BadInput):
-        arm.outputs("navigator", sample)  # an encoder sample is no pose
+        arm.outputs("navigator", sample, "pose")  # an encoder sample is no pose
+
+
+def test_with_control_on_odom_the_navigator_relay_reads_odom_and_the_localizer_is_off_the_chain():
+    hops = arm.hops("odom")
+    assert list(hops) == ["odometry", "navigator", "motor", "localizer"]  # the chain's order, then the one off it
+    assert hops["navigator"].input == "odom" and hops["localizer"].input == "odom"
+    ((topic, data),) = arm.outputs("navigator", codec.encode(m.Odom(t=2.5, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)), "odom")
+    assert topic == "cmd_vel" and codec.decode(data, m.CmdVel).t == 2.5
+    chained = arm.outputs(arm.COMPOSED, codec.encode(m.Encoders(t=1.25, left=10, right=12)), "odom")
+    assert [t for t, _ in chained] == ["odom", "cmd_vel", "motors/wheels", "pose"]

@@ -76,7 +76,8 @@ def test_safety_spread_is_min_median_max_in_ms():
 
 
 def test_a_helper_process_runs_only_a_role_of_the_bench():
-    assert child.argv(chain.relay, "tcp/127.0.0.1:1", 2, "peer")[-3:] == ["chain", "relay", '["tcp/127.0.0.1:1", 2, "peer"]']
+    argv = child.argv(chain.relay, "tcp/127.0.0.1:1", 2, "peer", "odom")
+    assert argv[-3:] == ["chain", "relay", '["tcp/127.0.0.1:1", 2, "peer", "odom"]']
     with pytest.raises(ValueError, match="not a role"):
         child.argv(chain.measure, "tcp/127.0.0.1:1")
     assert child.main(["chain", "measure", "[]"]) == 2

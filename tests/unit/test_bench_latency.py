@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from zenav.bench.latency import AROUND_FIX, CHAIN, END_TO_END, SPLIT, STAGES, ChainRecorder, Stats, near_fix
+from zenav.bench.latency import AROUND_FIX, END_TO_END, SPLIT, ChainRecorder, Stats, chain, near_fix, present, stages
 from zenav.common import codec
 from zenav.common import messages as m
 
@@ -31,15 +31,17 @@ def stamp(t: float, wall: float) -> m.Truth:
     return m.Truth(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0, wall=wall)
 
 
-def test_stages_split_end_to_end_exactly(monkeypatch):
+@pytest.mark.parametrize("control_on", ["odom", "pose"])
+def test_stages_split_end_to_end_exactly(monkeypatch, control_on):
     client = FakeClient()
-    rec = ChainRecorder(client, "r1")
+    rec = ChainRecorder(client, "r1", control_on)
     wall = [1000.0]
     monkeypatch.setattr("zenav.bench.latency.time.time", lambda: wall[0])
     steps = {"sensors/encoders": 0.001, "odom": 0.002, "pose": 0.0005, "cmd_vel": 0.0007, "motors/wheels": 0.0004}  # [s]
+    topics = chain(control_on)
     for t in (0.01, 0.02, 0.03):
         client.callbacks["sim/truth"](stamp(t, wall[0]))
-        for topic in CHAIN:
+        for topic in topics:
             wall[0] += steps[topic]
             client.callbacks[topic](m.Wheels(t=t, left=0.0, right=0.0))
         wall[0] += 0.1
@@ -49,16 +51,24 @@ def test_stages_split_end_to_end_exactly(monkeypatch):
     wall[0] += 5.0
     client.callbacks["motors/wheels"](m.Wheels(t=0.03, left=0.0, right=0.0))
     out = rec.stages()
-    assert set(out) == {*STAGES, END_TO_END, *(f"{s}, {g}" for s in SPLIT for g in AROUND_FIX)}
+    split = [s for s in SPLIT if s in stages(control_on) or s == END_TO_END]
+    assert set(out) == {*stages(control_on), END_TO_END, *(f"{s}, {g}" for s in split for g in AROUND_FIX)}
+    assert present(out) == stages(control_on)
     assert len(out[END_TO_END]) == 3
-    for stage, topic in zip(STAGES, CHAIN):
+    for stage, topic in zip(stages(control_on), topics):
         assert out[stage] == pytest.approx([steps[topic] * 1e3] * 3)
-    assert out[END_TO_END] == pytest.approx([sum(steps.values()) * 1e3] * 3)
+    assert out[END_TO_END] == pytest.approx([sum(steps[topic] for topic in topics) * 1e3] * 3)
+
+
+def test_with_control_on_odom_the_chain_leaves_the_localizer_out():
+    assert chain("odom") == ("sensors/encoders", "odom", "cmd_vel", "motors/wheels")
+    assert stages("odom") == ("delivery", "odometry", "navigator", "motor")
+    assert chain("pose") == ("sensors/encoders", "odom", "pose", "cmd_vel", "motors/wheels")
 
 
 def test_bad_input_is_not_stamped():
     client = FakeClient()
-    rec = ChainRecorder(client, "r1")
+    rec = ChainRecorder(client, "r1", "odom")
     client.subs["sim/truth"]("zenav/r1/sim/truth", b"\xc1")
     client.subs["motors/wheels"]("zenav/r1/motors/wheels", b"\xc1")
     assert rec.stamp == {} and rec.arrival["motors/wheels"] == {} and rec.stages()[END_TO_END] == []
@@ -74,14 +84,14 @@ def test_stats_percentiles_and_empty():
 
 def test_the_samples_just_after_a_fix_are_split_from_the_others(monkeypatch):
     client = FakeClient()
-    rec = ChainRecorder(client, "r1")
+    rec = ChainRecorder(client, "r1", "pose")  # the localizer on the chain
     wall = [1000.0]
     monkeypatch.setattr("zenav.bench.latency.time.time", lambda: wall[0])
     fix = m.VpsPose(t=0.0, x=0.0, y=0.0, theta=0.0)
     for i in range(5):  # a fix 1.5 ms before sample 1's odom arrives, 4.5 ms before sample 3's; sample 1's pose 1 ms late
         t = 0.01 * (i + 1)
         client.callbacks["sim/truth"](stamp(t, wall[0]))
-        for topic in CHAIN:
+        for topic in chain("pose"):
             if topic == "odom" and i in (1, 3):
                 client.callbacks["vps/pose"](fix)
                 wall[0] += 0.001 if i == 1 else 0.004

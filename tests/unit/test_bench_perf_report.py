@@ -37,8 +37,8 @@ def test_the_performance_sections_are_written(tmp_path):
     assert all(h in headings for h in (*wanted, "## Fleet"))
     assert "- end to end (clients) / bare chain: p50 1.20x, p99 1.50x" in text  # p50 3.0 / 2.5, p99 8.88 / 5.93
     # in the targets table, per deployment, a figure and no goal: what the services add is the goal (test_bench_added)
-    assert "| end to end / bare five-hop chain, clients, same windows | - | p50 1.20x, p99 1.50x | - |" in text
-    assert "| end to end / bare five-hop chain, services as peers, same windows | - | p50 1.33x, p99 " in text
+    assert "| end to end / bare chain of its hops, clients, same windows | - | p50 1.20x, p99 1.50x | - |" in text
+    assert "| end to end / bare chain of its hops, services as peers, same windows | - | p50 1.33x, p99 " in text
     assert "bare chain p50" not in text and "<= 1.3x" not in text
     # composed, the four services are one stage (their outputs leave the process in reverse order): end to end
     # less delivery, sample by sample

@@ -71,7 +71,21 @@ def test_every_list_of_services_comes_from_the_one_table():
 
     assert keys.SERVICES == services.ALL == roles.ALL == tuple(r.name for r in roles.TABLE)
     assert {p for r in roles.TABLE for p in r.profiles} == set(services.PROFILES)
-    assert roles.ROBOT_SERVICES == ("odometry", "localizer", "navigator", "motor")  # the chain's order
+    assert roles.ROBOT_SERVICES == ("odometry", "localizer", "navigator", "motor")  # the chain's order, control on pose
     assert set(roles.DRIVE_SERVICES) == set(roles.ROBOT_SERVICES)
     assert roles.CONTROL_LOOP == ("driver", "motor", "odometry", "localizer", "navigator")
     assert roles.ESSENTIAL == ("driver", "motor", "navigator")
+
+
+def test_the_chain_follows_what_the_control_loop_runs_on():
+    from typing import get_args
+
+    from zenav.common import roles
+    from zenav.services.navigator.params import ControlOn
+
+    assert roles.CONTROL_ON == get_args(ControlOn) == tuple(roles.OFF_CHAIN)
+    assert roles.chain("pose") == roles.ROBOT_SERVICES
+    assert roles.chain("odom") == ("odometry", "navigator", "motor")  # the localizer's pose corrects later samples
+    # composed in one process, the chain's services subscribe first: a sample reaches them before the localizer
+    assert roles.start_order("odom") == ("driver", "sim", "motor", "odometry", "vps", "navigator", "localizer")
+    assert roles.start_order("pose") == roles.ALL

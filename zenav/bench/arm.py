@@ -24,12 +24,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from zenav.bench import child
-from zenav.bench.latency import Observer
+from zenav.bench.latency import OUTPUT, Observer, input_of
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.app import PEER_LISTEN
 from zenav.common.bus import ZenohBus
-from zenav.common.roles import ROBOT_SERVICES
+from zenav.common.roles import OFF_CHAIN, ROBOT_SERVICES, chain
 from zenav.stack.launcher import service_argv
 
 ROBOT = "relays"  # the arm's robot id, apart from the stack's
@@ -64,30 +64,33 @@ class Hop:
     make: Callable[[float], m.Topic]  # its output for an input of time t
 
 
-HOPS: dict[str, Hop] = {
-    "odometry": Hop("sensors/encoders", m.Encoders, "odom", _odom),
-    "localizer": Hop("odom", m.Odom, "pose", _pose),
-    "navigator": Hop("pose", m.Pose, "cmd_vel", _cmd),
-    "motor": Hop("cmd_vel", m.CmdVel, "motors/wheels", _wheels),
-}
-assert tuple(HOPS) == ROBOT_SERVICES
+MAKE: dict[str, Callable[[float], m.Topic]] = {"odometry": _odom, "localizer": _pose, "navigator": _cmd, "motor": _wheels}
+assert tuple(MAKE) == ROBOT_SERVICES
 
 
-def outputs(service: str, data: bytes) -> list[tuple[str, bytes]]:
+def hops(control_on: str) -> dict[str, Hop]:
+    """Each robot service's hop, the chain's in its order, then those off it (the localizer's, with control on odom)."""
+    order = (*chain(control_on), *OFF_CHAIN[control_on])
+    return {s: Hop(input_of(s, control_on), keys.TOPICS[input_of(s, control_on)], OUTPUT[s], MAKE[s]) for s in order}
+
+
+def outputs(service: str, data: bytes, control_on: str) -> list[tuple[str, bytes]]:
     """A relay's whole work on one message: (topic, payload) to publish, in order; BadInput if it does not decode."""
-    hops = list(HOPS.values()) if service == COMPOSED else [HOPS[service]]
-    t = codec.decode(data, hops[0].type).t  # type: ignore[attr-defined]
-    return [(h.output, codec.encode(h.make(t))) for h in hops]
+    table = hops(control_on)
+    chosen = list(table.values()) if service == COMPOSED else [table[service]]
+    t = codec.decode(data, chosen[0].type).t  # type: ignore[attr-defined]
+    return [(h.output, codec.encode(h.make(t))) for h in chosen]
 
 
-def relay(connect: str, service: str, mode: str, robot: str = ROBOT) -> None:
+def relay(connect: str, service: str, mode: str, control_on: str, robot: str = ROBOT) -> None:
     """Stand in for `service` of `robot` until stdin closes."""
     bus = ZenohBus.open(connect, mode=mode, listen=PEER_LISTEN if mode == "peer" else None)
-    first = HOPS[ROBOT_SERVICES[0]] if service == COMPOSED else HOPS[service]
+    table = hops(control_on)
+    first = next(iter(table.values())) if service == COMPOSED else table[service]
 
     def on_msg(key: str, data: bytes) -> None:  # as the bare chain's relays: the floor's own price, on Zenoh's thread
         try:
-            out = outputs(service, data)
+            out = outputs(service, data, control_on)
         except codec.BadInput:
             return
         for topic, payload in out:
@@ -102,11 +105,14 @@ def relay(connect: str, service: str, mode: str, robot: str = ROBOT) -> None:
 class Arm:
     """The arm's sim, its relays and its observer, on a running router: start() before the window, stages() at its end."""
 
-    def __init__(self, connect: str, sim_args: Sequence[str], log: Path, mode: str = "client", composed: bool = False) -> None:
-        """`log`: the file the arm's sim writes its log to."""
+    def __init__(
+        self, connect: str, sim_args: Sequence[str], log: Path, control_on: str, mode: str = "client", composed: bool = False
+    ) -> None:
+        """`log`: the file the arm's sim writes its log to; `control_on`: the stack's [navigator] control_on."""
         sim = service_argv("sim", ["--connect", connect, "--robot", ROBOT, *sim_args, "--set", "sim.body_radius=0"])
-        self.argv = [sim] + [child.argv(relay, connect, s, mode) for s in ((COMPOSED,) if composed else ROBOT_SERVICES)]
-        self.observer = Observer(connect, ROBOT, mode)
+        relays = (COMPOSED,) if composed else tuple(hops(control_on))
+        self.argv = [sim] + [child.argv(relay, connect, s, mode, control_on) for s in relays]
+        self.observer = Observer(connect, ROBOT, control_on, mode)
         self.log = log
         self.procs: list[subprocess.Popen[str]] = []
 

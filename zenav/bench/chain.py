@@ -1,11 +1,12 @@
-"""The floor the sensor-to-wheel chain is compared with: the same five hops with no service work.
+"""The floor the sensor-to-wheel chain is compared with: the same hops with no service work.
 
 A publisher paced like the sim (per sample: its wall clock, `sensors/encoders`, and half
-a period later `sim/truth` carrying that wall stamp), RELAYS relay processes that only
-decode a message and publish it again on the chain's next topic (`odom`, `pose`,
-`cmd_vel`, `motors/wheels`), and the stack's own observer process (bench/latency.py),
-which stamps every topic of the chain as it does for the stack: five hops, as sim ->
-odometry -> localizer -> navigator -> motor -> observer, with the same codec,
+a period later `sim/truth` carrying that wall stamp), one relay process per service of the
+configured chain that only decodes a message and publishes it again on the chain's next
+topic (`odom`, `cmd_vel`, `motors/wheels`; with control on pose `pose` too), and the
+stack's own observer process (bench/latency.py), which stamps every topic of the chain as
+it does for the stack: four hops, as sim -> odometry -> navigator -> motor -> observer
+(five on pose, the localizer's among them), with the same codec,
 publisher settings, Zenoh mode and measuring apparatus, under a robot id of its own.
 Its stages compare hop for hop with the stack's.
 
@@ -20,7 +21,7 @@ import time
 from dataclasses import dataclass
 
 from zenav.bench import child
-from zenav.bench.latency import CHAIN, END_TO_END, Observer
+from zenav.bench.latency import END_TO_END, Observer, chain
 from zenav.common import codec, keys
 from zenav.common import messages as m
 from zenav.common.app import PEER_LISTEN
@@ -28,14 +29,13 @@ from zenav.common.bus import ZenohBus
 from zenav.stack.launcher import read_proc
 
 ROBOT = "chain"  # the bare chain's robot id, apart from every robot of the stack
-RELAYS = len(CHAIN) - 1  # relay processes: with the publisher and the observer, five hops
 READY = "ready"  # a relay's first line on stdout
 WARMUP = 0.5  # [s] samples published without a stamp (not measured) while routes settle
 
 
-def hop_key(i: int) -> str:
+def hop_key(i: int, control_on: str) -> str:
     """The key relay i reads (0: the publisher's); relay i publishes on hop_key(i + 1)."""
-    return keys.key(ROBOT, CHAIN[i])
+    return keys.key(ROBOT, chain(control_on)[i])
 
 
 def forward(data: bytes) -> bytes:
@@ -48,15 +48,15 @@ def sample(t: float) -> m.Encoders:
     return m.Encoders(t=t, left=round(t * 1000), right=round(t * 1000))
 
 
-def relay(connect: str, index: int, mode: str) -> None:
+def relay(connect: str, index: int, mode: str, control_on: str) -> None:
     """Decode every message of hop `index` and publish it on the next, until stdin closes."""
     bus = ZenohBus.open(connect, mode=mode, listen=PEER_LISTEN if mode == "peer" else None)
-    out = hop_key(index + 1)
+    out = hop_key(index + 1, control_on)
 
     def on_msg(key: str, data: bytes) -> None:
         bus.publish(out, forward(data))
 
-    bus.subscribe(hop_key(index), on_msg)
+    bus.subscribe(hop_key(index, control_on), on_msg)
     print(READY, flush=True)
     sys.stdin.read()  # the measuring process closes it to end the relay
     bus.close()
@@ -70,7 +70,7 @@ def pace(start: float, i: float, rate: float) -> None:
 def publish(connect: str, rate: float, duration: float, mode: str = "client") -> None:
     """Publish samples at `rate` [Hz]: WARMUP seconds unstamped, then `duration` seconds stamped, as the sim does."""
     bus = ZenohBus.open(connect, mode=mode, listen=PEER_LISTEN if mode == "peer" else None)
-    first, truth = hop_key(0), keys.key(ROBOT, "sim/truth")
+    first, truth = keys.key(ROBOT, chain("odom")[0]), keys.key(ROBOT, "sim/truth")  # the sensor sample, on any chain
     start = time.monotonic()
     warm = int(WARMUP * rate)
     for i in range(warm + int(duration * rate)):
@@ -106,12 +106,12 @@ class Chain:
         return cls(stages, *(sum(f) / len(parts) for f in figures))
 
 
-def measure(connect: str, rate: float = 100.0, duration: float = 10.0, mode: str = "client") -> Chain:
-    """Start the observer and the relays, run the publisher through them."""
-    observer = Observer(connect, ROBOT, mode).start()
+def measure(connect: str, control_on: str, rate: float = 100.0, duration: float = 10.0, mode: str = "client") -> Chain:
+    """Start the observer and the relays (the chain `control_on` makes), run the publisher through them."""
+    observer = Observer(connect, ROBOT, control_on, mode).start()
     procs = [
-        subprocess.Popen(child.argv(relay, connect, i, mode), stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-        for i in range(RELAYS)
+        subprocess.Popen(child.argv(relay, connect, i, mode, control_on), stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        for i in range(len(chain(control_on)) - 1)
     ]
     try:
         for p in procs:

@@ -1,6 +1,8 @@
 """Sensor-to-wheel latency through the stack, stage by stage, on the host's wall clock.
 
-Every message of the chain carries the t of the encoder sample it descends from, and
+The chain is the configured one (roles.chain): with the navigator's control loop on odom,
+sim -> odometry -> navigator -> motor; on pose, the localizer between the odometry and the
+navigator. Every message of the chain carries the t of the encoder sample it descends from, and
 the sim stamps the `sim/truth` message of that t with its wall clock, taken once the
 sample's sensors are read, just before it publishes them. An observer subscribed to
 the chain stamps each arrival. For each t, end to end = arrival of `motors/wheels` -
@@ -22,6 +24,7 @@ measured by the same observer.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import threading
@@ -33,10 +36,13 @@ from typing import cast
 import numpy as np
 
 from zenav.bench import child
-from zenav.common import codec, keys
+from zenav.common import codec, keys, roles
 from zenav.common import messages as m
 from zenav.common.app import PEER_LISTEN
 from zenav.common.bus import Bus, ZenohBus
+from zenav.common.config import Settings
+from zenav.common.roles import ROBOT_SERVICES
+from zenav.services.navigator.params import Params
 
 READY = "ready"  # the observer's first line on stdout
 
@@ -47,8 +53,36 @@ class _Stamped(m.Topic, frozen=True, kw_only=True):
     t: float
 
 
-CHAIN = ("sensors/encoders", "odom", "pose", "cmd_vel", "motors/wheels")  # sim -> odometry -> ... -> motor
-STAGES = ("delivery", "odometry", "localizer", "navigator", "motor")  # what ends with each chain message
+OUTPUT = {"odometry": "odom", "localizer": "pose", "navigator": "cmd_vel", "motor": "motors/wheels"}  # each robot service's
+INPUT = {"odometry": "sensors/encoders", "localizer": "odom", "motor": "cmd_vel"}  # the navigator's: its control_on, a topic
+STAGES = ("delivery", *ROBOT_SERVICES)  # every stage a chain may have, in order: what ends with each chain message
+
+
+def input_of(service: str, control_on: str) -> str:
+    """The chain message a robot service reads (the localizer's off the chain too)."""
+    return control_on if service == "navigator" else INPUT[service]
+
+
+def chain(control_on: str) -> tuple[str, ...]:
+    """The chain's messages: the encoder sample, then each of its services' output, in order."""
+    return ("sensors/encoders", *(OUTPUT[s] for s in roles.chain(control_on)))
+
+
+def stages(control_on: str) -> tuple[str, ...]:
+    """The chain's stages, in order: what ends with each of its messages."""
+    return ("delivery", *roles.chain(control_on))
+
+
+def present(measured: dict[str, list[float]]) -> tuple[str, ...]:
+    """The stages a measured chain has (its services' stages, in order)."""
+    return tuple(s for s in STAGES if s in measured)
+
+
+def configured() -> str:
+    """What the navigator's control loop runs on in the stack `zenav up` starts here ($ZENAV_CONFIG, or the default)."""
+    return Settings.load(os.environ.get("ZENAV_CONFIG")).section("navigator", Params).control_on
+
+
 END_TO_END = "end to end"
 FIX = "vps/pose"
 # An odom sample that arrives this soon after a fix would meet the fix's replay were the fix served as it came
@@ -79,14 +113,15 @@ class Stats:
 class ChainRecorder:
     """Stamps the wall arrival of each chain message of one robot, by t (in the observer process)."""
 
-    def __init__(self, bus: Bus, robot: str) -> None:
+    def __init__(self, bus: Bus, robot: str, control_on: str) -> None:
         self._lock = threading.Lock()
+        self.chain, self.names = chain(control_on), stages(control_on)  # its messages, its stages
         self.stamp: dict[float, float] = {}  # t -> sim's wall clock at t [s]
-        self.arrival: dict[str, dict[float, float]] = {topic: {} for topic in CHAIN}  # topic -> t -> wall [s]
+        self.arrival: dict[str, dict[float, float]] = {topic: {} for topic in self.chain}  # topic -> t -> wall [s]
         self.fixes: list[float] = []  # wall arrival of each fix [s]
         bus.subscribe(keys.key(robot, "sim/truth"), self._on_truth)
         bus.subscribe(keys.key(robot, FIX), self._on_fix)
-        for topic in CHAIN:
+        for topic in self.chain:
             bus.subscribe(keys.key(robot, topic), self._stamper(topic))
 
     def _on_truth(self, key: str, data: bytes) -> None:
@@ -122,15 +157,16 @@ class ChainRecorder:
 
     def stages(self) -> dict[str, list[float]]:
         """Per stage and end to end, the latencies [ms] of every t that went all the way through."""
+        topics = self.chain
         with self._lock:
-            ts = [t for t in self.arrival[CHAIN[-1]] if t in self.stamp and all(t in self.arrival[c] for c in CHAIN)]
-            times = np.array([[self.stamp[t]] + [self.arrival[c][t] for c in CHAIN] for t in ts]).reshape(-1, len(CHAIN) + 1)
+            ts = [t for t in self.arrival[topics[-1]] if t in self.stamp and all(t in self.arrival[c] for c in topics)]
+            times = np.array([[self.stamp[t]] + [self.arrival[c][t] for c in topics] for t in ts]).reshape(-1, len(topics) + 1)
             fixes = np.array(self.fixes)
         steps = np.diff(times, axis=1) * 1e3  # [ms] column k: chain[k] arrival - the one before
-        out = {stage: steps[:, k] for k, stage in enumerate(STAGES)}
+        out = {stage: steps[:, k] for k, stage in enumerate(self.names)}
         out[END_TO_END] = (times[:, -1] - times[:, 0]) * 1e3
-        near = near_fix(times[:, 1 + CHAIN.index("odom")], fixes)
-        for name in SPLIT:
+        near = near_fix(times[:, 1 + topics.index("odom")], fixes)
+        for name in (n for n in SPLIT if n in out):
             for group, mask in zip(AROUND_FIX, (near, ~near)):
                 out[f"{name}, {group}"] = out[name][mask]
         return {name: values.tolist() for name, values in out.items()}
@@ -145,10 +181,10 @@ def near_fix(arrivals: np.ndarray, fixes: np.ndarray) -> np.ndarray:
     return cast(np.ndarray, (last >= 0) & (arrivals - fixes[np.maximum(last, 0)] < NEAR_FIX))
 
 
-def observe(connect: str, robot: str, mode: str) -> None:
+def observe(connect: str, robot: str, mode: str, control_on: str) -> None:
     """Stamp the chain until stdin closes, then print its stages as JSON (the observer process)."""
     bus = ZenohBus.open(connect, mode=mode, listen=PEER_LISTEN if mode == "peer" else None)
-    rec = ChainRecorder(bus, robot)
+    rec = ChainRecorder(bus, robot, control_on)
     print(READY, flush=True)
     sys.stdin.read()  # the measuring process closes it to end the window
     bus.close()
@@ -158,9 +194,9 @@ def observe(connect: str, robot: str, mode: str) -> None:
 class Observer:
     """The observer process for one robot: recording from start() until stages()."""
 
-    def __init__(self, connect: str, robot: str, mode: str = "client") -> None:
+    def __init__(self, connect: str, robot: str, control_on: str, mode: str = "client") -> None:
         self.robot = robot
-        self.args = child.argv(observe, connect, robot, mode)
+        self.args = child.argv(observe, connect, robot, mode, control_on)
         self.proc: subprocess.Popen[str] | None = None
 
     def start(self) -> Observer:

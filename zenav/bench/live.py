@@ -24,7 +24,7 @@ from typing import cast
 from zenav.bench import chain, trials
 from zenav.bench.arm import Arm
 from zenav.bench.chain import Chain
-from zenav.bench.latency import Observer
+from zenav.bench.latency import Observer, configured
 from zenav.common import messages as m
 from zenav.common.bus import ZenohBus
 from zenav.common.client import Client, Latest, ZenavError
@@ -89,7 +89,7 @@ class Live:
     machine_busy: float  # fraction of all cores busy in the window (every process on the machine)
     goal_failures: list[str]  # goals aborted or refused, all robots, whole run: why
     arm: dict[str, list[float]] | None = None  # the relay arm's chain over the same window (bench/arm.py), if run
-    bare: Chain | None = None  # the bare five-hop chain over the same window (bench/chain.py), if run
+    bare: Chain | None = None  # the bare chain of its hops over the same window (bench/chain.py), if run
 
 
 def _diags(client: Client) -> dict[str, Latest]:
@@ -138,15 +138,16 @@ def run(
     during: run in the window instead of waiting it out, given every process's pid by (robot, service), for
     about `window` seconds (bench/spy.py's sampling).
     beside: in the same window on the same router, the relay arm (bench/arm.py) in the same deployment and, with
-    the services as separate processes, the bare five-hop chain (bench/chain.py), which then sets the window's length.
+    the services as separate processes, the bare chain of its hops (bench/chain.py), which then sets the window's length.
     """
     ids = tuple(f"r{i + 1}" for i in range(robots))
     args = _stack_args(robots, rate, rtf, scenario, zenoh_mode, realtime)
     stack = ProcStack(ids, NAMES, log_dir, args, compose=compose, realtime=realtime).start()
     bus = None
     stop = threading.Event()
-    observer = Observer(stack.endpoint, ids[0], zenoh_mode)  # r1's chain, in the services' mode
-    arm = Arm(stack.endpoint, args, log_dir / "relay-arm-sim.log", zenoh_mode, composed=bool(compose)) if beside else None
+    control_on = configured()  # the chain the stack runs
+    observer = Observer(stack.endpoint, ids[0], control_on, zenoh_mode)  # r1's chain, in the services' mode
+    arm = Arm(stack.endpoint, args, log_dir / "relay-arm-sim.log", control_on, zenoh_mode, composed=bool(compose)) if beside else None
     bare: Chain | None = None
     try:
         bus = ZenohBus.open(stack.endpoint)
@@ -171,7 +172,7 @@ def run(
         if during is not None:
             during(stack.pids())
         elif arm is not None and not compose:
-            bare = chain.measure(stack.endpoint, rate, window, zenoh_mode)  # the window: the chain's samples
+            bare = chain.measure(stack.endpoint, control_on, rate, window, zenoh_mode)  # the window: the chain's samples
         else:
             time.sleep(window)  # the window: the robots drive, the observer stamps
         stages = observer.stages()

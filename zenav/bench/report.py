@@ -16,7 +16,7 @@ from matplotlib.figure import Figure
 
 from zenav.bench import cost, peers, tables
 from zenav.bench.added import QS
-from zenav.bench.latency import END_TO_END, Stats
+from zenav.bench.latency import END_TO_END, Stats, present
 from zenav.bench.profile import RATE
 from zenav.bench.run import Results
 from zenav.bench.speed import highest_by_harness
@@ -104,9 +104,10 @@ def _targets(res: Results) -> list[str]:
                 else f"at p50 the stack took {fmt(-extra)} ms less than they did: "
                 "the hops and the host's load, not the services' work, set its latency"
             )
+            stages = present(res.base.chain)
             notes.append(
-                f"Latency: a sample crosses 5 hops (sim, odometry, localizer, navigator, motor, to the observer). The "
-                f"same five hops with no service work took {fmt(floor.p50)} ms at p50 and {fmt(floor.p99)} ms at p99 "
+                f"Latency: a sample crosses {len(stages)} hops (sim, {', '.join(stages[1:])}, to the observer). The "
+                f"same {len(stages)} hops with no service work took {fmt(floor.p50)} ms at p50 and {fmt(floor.p99)} ms at p99 "
                 f"in the same windows; {rest}. The machine was {res.base.machine_busy:.0%} busy (every process on it) during the window."
             )
         costs = cost.services(res.plain or res.base)
@@ -180,7 +181,7 @@ def _ratio_rows(res: Results) -> list[list[str]]:
         if live is None or mode not in res.chains:
             continue
         p50, p99 = ratios(live.chain[END_TO_END], res.chains[mode].latency)
-        rows.append([f"end to end / bare five-hop chain, {name}, same windows", "-", f"p50 {fmt(p50)}x, p99 {fmt(p99)}x", "-"])
+        rows.append([f"end to end / bare chain of its hops, {name}, same windows", "-", f"p50 {fmt(p50)}x, p99 {fmt(p99)}x", "-"])
     return rows
 
 

@@ -52,7 +52,7 @@ class Results:
     command: str
     started: float  # [s] epoch
     duration: float = 0.0  # [s] wall, whole run
-    chains: dict[str, Chain] = field(default_factory=dict)  # Zenoh mode -> the bare five-hop chain, beside the stack's runs
+    chains: dict[str, Chain] = field(default_factory=dict)  # Zenoh mode -> the bare chain of its hops, beside the stack's runs
     added: dict[str, Added] = field(default_factory=dict)  # deployment -> what the robot services add (bench/added.py)
     plain: Live | None = None  # the cost section's run: the stack alone on its router
     base: Live | None = None  # one robot at 100 Hz, realtime, its runs' chains pooled (beside its relay arm and the bare chain)
@@ -217,7 +217,7 @@ def _peers(plan: Plan, res: Results, logs: Path, note: Callable[[str], None]) ->
 
 def _latency(plan: Plan, res: Results, logs: Path, note: Callable[[str], None]) -> None:
     """Each deployment's latency runs, the deployments in turn run after run: the stack, its relay arm and (separate
-    processes) the bare five-hop chain over the same window of each run (live.run's `beside`)."""
+    processes) the bare chain of its hops over the same window of each run (live.run's `beside`)."""
     deployments: dict[str, tuple[str, tuple[str, ...]]] = {"clients": ("client", ())}
     if plan.peers:
         deployments["peers"] = ("peer", ())

@@ -27,7 +27,8 @@ class Role:
     stop: int  # stop rank: lower stops first
     profiles: tuple[str, ...]  # the `zenav up` profiles that run it
     control_loop: bool = False  # on the sensor-to-wheel path: `[deployment] realtime` raises its priority
-    stage: int | None = None  # its place on the sensor-to-wheel chain (0 first); these run on the robot's own computer
+    # its place on the sensor-to-wheel chain (0 first) with control on pose (`chain`); these run on the robot's own computer
+    stage: int | None = None
     drive: bool = False  # a goal needs it alive (the robot library's wait_ready)
     essential: bool = False  # if it cannot run, the robot stops: `zenav up` commands zero and stops the stack
 
@@ -83,6 +84,21 @@ ROBOT_SERVICES: tuple[str, ...] = tuple(r.name for r in sorted((r for r in TABLE
 DRIVE_SERVICES: tuple[str, ...] = tuple(r.name for r in TABLE if r.drive)
 ESSENTIAL: tuple[str, ...] = tuple(r.name for r in TABLE if r.essential)
 BY_NAME: dict[str, Role] = {r.name: r for r in TABLE}
+CONTROL_ON: tuple[str, ...] = ("odom", "pose")  # what the navigator's control loop runs on: `[navigator] control_on`
+OFF_CHAIN: dict[str, tuple[str, ...]] = {"odom": ("localizer",), "pose": ()}  # robot services off the chain, by control_on
+
+
+def chain(control_on: str) -> tuple[str, ...]:
+    """The services of the sensor-to-wheel chain in its order, the navigator's control loop on `control_on`: on odom
+    the navigator reads the odometry's output, and the localizer's pose only corrects the samples after it."""
+    return tuple(s for s in ROBOT_SERVICES if s not in OFF_CHAIN[control_on])
+
+
+def start_order(control_on: str) -> tuple[str, ...]:
+    """ALL, but a robot service off the chain after the others: in one process (`--compose`) a sample is then
+    served by the chain's services first, as their subscriptions come first."""
+    off = OFF_CHAIN[control_on]
+    return tuple(s for s in ALL if s not in off) + off
 
 
 def in_profile(profile: str) -> tuple[str, ...]:

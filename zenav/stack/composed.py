@@ -37,8 +37,9 @@ from zenav.common.app import (
 )
 from zenav.common.bus import MSGPACK, Handle, MemoryBus, QueryCallback, ReplyCallback, SampleCallback, TokenCallback, ZenohBus
 from zenav.common.config import ConfigError, Settings
-from zenav.common.roles import CONTROL_LOOP
+from zenav.common.roles import CONTROL_LOOP, start_order
 from zenav.common.runtime import Duplicate, Executor, Service
+from zenav.services.navigator.params import Params
 
 JOIN_TIMEOUT = 5.0  # [s] the worker thread gets this long to end after stop
 _MSGPACK = zenoh.Encoding(MSGPACK)
@@ -177,7 +178,8 @@ class ComposedStack:
 
     def __init__(self, settings: Settings, services: Iterable[str]) -> None:
         self.settings = settings
-        self.names = [n for n in registry.ALL if n in set(services)]  # the registry's start order
+        control_on = settings.section("navigator", Params).control_on
+        self.names = [n for n in start_order(control_on) if n in set(services)]  # the chain's services first
         self.bus: LocalBus | None = None
         self.services: dict[str, Service] = {}
         self.executors: dict[str, Executor] = {"composed": Executor()}  # worker thread name -> its executor

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 from zenav.bench import board
 from zenav.bench.cost import Load, ServiceCost, services
-from zenav.bench.latency import CHAIN
+from zenav.bench.latency import configured, input_of
 from zenav.bench.profile import RATE
 from zenav.bench.speed import METRICS, highest_by_harness
 from zenav.bench.spy import Deployed
@@ -276,7 +276,9 @@ def _inputs(res: Results) -> list[str]:
     """Each input topic of the robot's services: CPU per message, back to back and paced; one chain sample's sum."""
     paced = res.costs_paced
     rows, warm, idle = [], 0.0, 0.0
-    for name, topic in zip(ROBOT_SERVICES, CHAIN):  # each robot service's chain input is the chain's message before it
+    control_on = configured()
+    for name in ROBOT_SERVICES:
+        topic = input_of(name, control_on)  # the input the latency section follows
         cost = res.costs.get(name)
         if cost is None:
             continue

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 from zenav.bench import added as added_bench
 from zenav.bench.chain import Chain
-from zenav.bench.latency import AROUND_FIX, END_TO_END, NEAR_FIX, SPLIT, STAGES, Stats
+from zenav.bench.latency import AROUND_FIX, END_TO_END, NEAR_FIX, OUTPUT, SPLIT, Stats, present
 from zenav.bench.live import Live
 from zenav.bench.profile import RATE
 from zenav.bench.tables.markdown import fmt, stats_row, table
@@ -23,16 +23,17 @@ TARGET_ADDED = (0.25, 1.0)  # [ms] what the robot services add to end to end at 
 # ------------------------------------------------------------------ latency
 def _chain_rows(chain: dict[str, list[float]]) -> list[list[str]]:
     """A row per stage of the sensor-to-wheel chain, then end to end."""
-    return [stats_row(s, chain[s]) for s in STAGES] + [stats_row(f"**{END_TO_END}**", chain[END_TO_END])]
+    return [stats_row(s, chain[s]) for s in present(chain)] + [stats_row(f"**{END_TO_END}**", chain[END_TO_END])]
 
 
 def _composed_rows(chain: dict[str, list[float]]) -> list[list[str]]:
     """The chain's rows composed: delivery, the robot's services as one stage (from the encoder sample's arrival
     to the wheel command's: end to end less delivery, sample by sample), end to end."""
-    delivery, e2e = chain[STAGES[0]], chain[END_TO_END]
+    stages = present(chain)
+    delivery, e2e = chain[stages[0]], chain[END_TO_END]
     services = [e - d for e, d in zip(e2e, delivery)]
-    name = f"{STAGES[1]} to {STAGES[-1]}, in one process"
-    return [stats_row(STAGES[0], delivery), stats_row(name, services), stats_row(f"**{END_TO_END}**", e2e)]
+    name = f"{stages[1]} to {stages[-1]}, in one process"
+    return [stats_row(stages[0], delivery), stats_row(name, services), stats_row(f"**{END_TO_END}**", e2e)]
 
 
 def latency(res: Results) -> list[str]:
@@ -40,15 +41,18 @@ def latency(res: Results) -> list[str]:
     base = res.base
     if base is None:
         return []
-    biggest = max(STAGES[1:], key=lambda s: Stats.of(base.chain[s]).p50)
+    stages = present(base.chain)
+    biggest = max(stages[1:], key=lambda s: Stats.of(base.chain[s]).p50)
+    topics = ", ".join(f"`{OUTPUT[s]}`" for s in stages[1:-1])
     return [
         "## Latency",
         "",
         f"One robot, every service its own process, one router, realtime, {base.rate:g} Hz, {base.wall:.0f} s window "
         "while the navigator drives the square. Per encoder sample t: the sim's wall-clock stamp of t, then the wall "
-        "arrival of `sensors/encoders`, `odom`, `pose`, `cmd_vel` and `motors/wheels` of that t at an observer "
-        "process. `delivery` is sim to a subscriber (one hop); each service's row is the hop into it plus its work; "
-        "they add up to end to end (now - t on `motors/wheels`). Nothing else of the bench runs in the window. [ms]",
+        f"arrival of `sensors/encoders`, {topics} and `motors/wheels` of that t at an observer process (the "
+        "navigator's control loop as configured: `[navigator] control_on`). `delivery` is sim to a subscriber (one "
+        "hop); each service's row is the hop into it plus its work; they add up to end to end (now - t on "
+        "`motors/wheels`). Nothing else of the bench runs in the window. [ms]",
         "",
         *table(["stage", "n", "p50", "p90", "p99", "max"], _chain_rows(base.chain)),
         "",
@@ -196,11 +200,13 @@ def ratio_line(name: str, stack: Sequence[float], bare: Sequence[float]) -> str:
 
 
 def _floor(res: Results) -> list[str]:
-    """The stack's chain beside the bare five-hop chain (bench/chain.py), stage by stage, per Zenoh mode measured."""
+    """The stack's chain beside the bare chain of its hops (bench/chain.py), stage by stage, per Zenoh mode measured."""
     runs = {mode: live for mode, live in (("client", res.base), ("peer", res.peer)) if live is not None and mode in res.chains}
     if not res.chains:
         return []
-    stages = (*STAGES, END_TO_END)
+    stages = (*present(next(iter(res.chains.values())).stages), END_TO_END)
+    hops = len(stages) - 1
+    words = {3: "three", 4: "four", 5: "five"}
     header, rows = ["stage"], [[f"**{s}**" if s == END_TO_END else s] for s in stages]
     for mode, live in runs.items():
         header += [f"{mode}s p50: stack / bare", f"{mode}s p99: stack / bare"]
@@ -212,10 +218,10 @@ def _floor(res: Results) -> list[str]:
     notes += [line for m, live in runs.items() if (line := _waits_line(m, live, res.chains[m]))]
     return [
         "",
-        "### The floor: a bare chain of the same five hops",
+        f"### The floor: a bare chain of the same {words[hops]} hops",
         "",
-        "A publisher paced like the sim, four relay processes that only decode and publish again, and the same "
-        "observer process (bench/chain.py): the five hops of the chain with the same codec, publisher settings, "
+        f"A publisher paced like the sim, {words[hops - 1]} relay processes that only decode and publish again, and the "
+        f"same observer process (bench/chain.py): the {words[hops]} hops of the chain with the same codec, publisher settings, "
         "Zenoh mode and measuring, no service work, on the stack's router over the same window of each latency run, "
         "under a robot id of its own. Each stage is one hop and a relay's work in the bare chain, one hop and a "
         "service's in the stack. Their ratio is not a goal: whatever speeds Zenoh up speeds both; what the "
