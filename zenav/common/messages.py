@@ -147,7 +147,7 @@ class Pose(Topic, frozen=True, kw_only=True):
 
 
 class CmdVel(Topic, frozen=True, kw_only=True):
-    t: Time  # pose t acted on; 0 means "now" (clients without the stack clock)
+    t: Time  # odom (or pose) t acted on; 0 means "now" (clients without the stack clock)
     v: Velocity  # [m/s]
     omega: Velocity  # [rad/s]
 
