@@ -29,6 +29,19 @@ def test_every_section_and_target_is_written(tmp_path):
     assert (tmp_path / "latency.png").stat().st_size > 10_000
 
 
+def test_a_chain_with_control_on_odom_is_written_without_the_localizer(tmp_path):
+    res = results()
+    for run in (res.base, res.peer):
+        for name in [n for n in run.chain if n.startswith("localizer")]:
+            del run.chain[name]  # the observer of a control loop on odom has no localizer stage
+    text = report.write(res, tmp_path).read_text()
+    latency = text[text.index("## Latency") :].split("\n### ")[0]
+    assert "`sensors/encoders`, `odom`, `cmd_vel` and `motors/wheels`" in latency
+    assert "| delivery | 3 |" in latency and "| navigator | 3 |" in latency and "| localizer | 3 |" not in latency
+    around = text[text.index("### The localizer around a late fix") :].split("\n### ")[0]
+    assert "| clients: odom within 3 ms after a fix | 2 | - | - | - |" in around  # end to end only
+
+
 def test_an_empty_run_writes_only_the_header(tmp_path):
     res = Results(plan.only(plan.FULL, ["speed"]), "zenav bench --only speed", 1.7e9)
     text = report.write(res, tmp_path).read_text()
