@@ -110,6 +110,25 @@ def test_cancel_and_abort_stop(how, result):
     assert mc.on_pose(PoseSample(0.1, 0.0, 0.0, 0.0)) == (None, None)
 
 
+def test_a_pose_steered_on_through_odometry_ages_from_its_localizer_pose():
+    mc = machine()
+    mc.start(to_point(1.0, 0.0), 0.0)
+    for k in range(1, 61):  # odom samples every 10 ms, all corrected by the pose of t = 0
+        mc.on_pose(PoseSample(k * 0.01, k * 0.001, 0.0, 0.0, pose_t=0.0))
+    assert mc.pose.t == pytest.approx(0.6) and mc.pose.since == 0.0
+    end = mc.check(0.6)
+    assert end is not None and end.result == GoalResult.ABORTED and "stale" in end.message
+
+
+def test_a_pose_heard_between_odom_samples_counts_at_once():
+    mc = machine()
+    mc.on_pose(PoseSample(0.02, 0.2, 0.0, 0.0, pose_t=0.0))
+    mc.heard(PoseSample(0.01, 0.1, 0.0, 0.0, 0.0, 0.0, 0.3, 0.4))  # older than the sample steered on: its age and sigmas
+    assert (mc.pose.t, mc.pose.x, mc.pose.since, mc.pose.sigma_xy, mc.pose.sigma_theta) == (0.02, 0.2, 0.01, 0.3, 0.4)
+    mc.heard(PoseSample(0.03, 0.3, 0.0, 0.0))  # newer: the newest pose
+    assert (mc.pose.t, mc.pose.x, mc.pose.since) == (0.03, 0.3, 0.03)
+
+
 def test_stale_pose_aborts():
     mc = machine()
     mc.start(to_point(1.0, 0.0), 0.0)
