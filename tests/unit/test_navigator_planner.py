@@ -3,7 +3,7 @@
 import math
 
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from zenav.common.config import Field, Obstacle, Settings
@@ -80,8 +80,15 @@ def fields(draw):
         raise
 
 
+BOX = Field(x_min=-0.3, x_max=2.5, y_min=-0.3, y_max=2.5, obstacles=(Obstacle(polygon=((0.0, 0.0), (0.25, 0.0), (0.25, 0.25), (0.0, 0.25))),))
+NEAR_BOX = (0.0, 0.3715106341169761)  # clear of the box by CLEAR, inside its inflated outline's corner: stepped out of
+
+
 @settings(max_examples=60, deadline=None)
 @given(fields(), st.tuples(coord, coord), st.tuples(coord, coord))
+@example(BOX, (0.0, 1.0), NEAR_BOX)  # the way still ends on the goal, not where its step out ends
+@example(BOX, NEAR_BOX, NEAR_BOX)  # a goal where the robot is: the goal, not an empty way
+@example(BOX, (0.0, 1.0), (5e-324, 1.0))  # a leg all but parallel to a side
 def test_a_plan_never_enters_an_inflated_obstacle_and_is_no_shorter_than_the_straight_line(area, start, goal):
     p = Planner(area, CLEAR)
     assume(all(s.clearance(*start) >= CLEAR and s.clearance(*goal) >= CLEAR for s in p.shapes))

@@ -81,7 +81,7 @@ class Planner:
         d = b - a
         num = self._c[None, :] - a @ self._n.T  # (K, E): > 0 where a lies inside the edge's half-plane
         den = d @ self._n.T
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a side all but parallel: flat below
             ratio = num / den
         flat = np.abs(den) < 1e-15
         enter = np.where(den < 0.0, ratio, -np.inf)
@@ -102,7 +102,7 @@ class Planner:
         tail, g = self._escape(goal)
         tail.reverse()
         if self.free(s, g):
-            return _tidy(head + [s, g] + tail)[1:] if head or tail else [goal]
+            return (_tidy(head + [s, g] + tail)[1:] or [goal]) if head or tail else [goal]
         n = len(self.nodes)
         dist_s = self._reach(s)
         dist_g = self._reach(g)
@@ -197,10 +197,13 @@ def _out_of(poly: Polygon, p: Point) -> Point:
 
 
 def _tidy(points: Sequence[Point]) -> list[Point]:
-    """Without repeated points (closer than 1 mm to the one before), nor points on the straight way past them."""
+    """Without repeated points (closer than 1 mm to the one before), nor points on the straight way past them; the
+    last point kept as it is (a goal 1 mm from where an escape step ends is still the goal)."""
     out: list[Point] = []
-    for p in points:
+    for i, p in enumerate(points):
         if out and math.dist(out[-1], p) <= 1e-3:
+            if i == len(points) - 1 and len(out) > 1:
+                out[-1] = p
             continue
         if len(out) >= 2:
             (ax, ay), (bx, by) = out[-2], out[-1]
