@@ -80,7 +80,8 @@ def fields(draw):
         raise
 
 
-BOX = Field(x_min=-0.3, x_max=2.5, y_min=-0.3, y_max=2.5, obstacles=(Obstacle(polygon=((0.0, 0.0), (0.25, 0.0), (0.25, 0.25), (0.0, 0.25))),))
+SQUARE = ((0.0, 0.0), (0.25, 0.0), (0.25, 0.25), (0.0, 0.25))
+BOX = Field(x_min=-0.3, x_max=2.5, y_min=-0.3, y_max=2.5, obstacles=(Obstacle(polygon=SQUARE),))
 NEAR_BOX = (0.0, 0.3715106341169761)  # clear of the box by CLEAR, inside its inflated outline's corner: stepped out of
 
 
