@@ -210,9 +210,9 @@ class Ekf(Mode):
 
     def _start(self, pose: Pose2) -> None:
         calib, bias = self.cfg.calib_sigma**2, self.cfg.gyro_bias_sigma**2
-        variances = (*self._unknown, calib, calib, calib, bias, calib)  # x y theta es ew ed bg sg
+        variances = (*self._unknown, calib, calib, calib, bias, calib, model.rounding_var(self.noise))  # x y theta es ew ed bg sg ro
         P = [[v if i == j else 0.0 for j in range(model.N)] for i, v in enumerate(variances)]
-        self.history = [_Entry(self.last.t, model.Step(0.0, 0.0, 0.0), [*pose, 0.0, 0.0, 0.0, 0.0, 0.0], P)]
+        self.history = [_Entry(self.last.t, model.Step(0.0, 0.0, 0.0), [*pose, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], P)]
 
     def _move(self, ds: float, dth: float, t0: float, t: float) -> None:
         unmeasured = (self.last.unmeasured_left**2, self.last.unmeasured_right**2)
