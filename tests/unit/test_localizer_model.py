@@ -87,12 +87,16 @@ def test_update_pulls_to_the_fix_and_shrinks_the_covariance():
 
 
 def test_calibration_in_user_terms():
-    cal = model.calibration(state(es=0.01, ew=0.02, ed=-0.003), TRACK, 0.03, gyro=False)
+    P = np.diag([0.0, 0.0, 0.0, 1e-6, 4e-6, 1e-8, 0.0, 0.0, 0.0]).tolist()
+    cal = model.calibration(state(es=0.01, ew=0.02, ed=-0.003), P, TRACK, 0.03, gyro=False)
     assert cal["distance_scale"] == pytest.approx(1.01) and cal["track_width_scale"] == pytest.approx(1.02)
     assert cal["wheel_radius_ratio"] == pytest.approx(1.013 / 1.007) and "gyro_bias" not in cal
     # the geometry a config takes: the track and the mean diameter, and each wheel's radius
     assert cal["track_width"] == pytest.approx(TRACK * 1.02) and cal["wheel_diameter"] == pytest.approx(0.06 * 1.01)
     assert (cal["wheel_radius_left"], cal["wheel_radius_right"]) == pytest.approx((0.03 * 1.013, 0.03 * 1.007))
+    # how sure each scale is, relative to it: the ratio's from the radius difference's (ratio ~ 1 - 2 ed)
+    assert cal["distance_scale_sigma"] == pytest.approx(0.001 / 1.01) and cal["track_width_scale_sigma"] == pytest.approx(0.002 / 1.02)
+    assert cal["wheel_radius_ratio_sigma"] == pytest.approx(2e-4, rel=0.02)
 
 
 def turn_on_coarse_encoders(rate: float, seconds: float) -> float:

@@ -318,7 +318,8 @@ class Ekf(Mode):
         return Pose2(x, y, theta), (*P[0][:3], *P[1][:3], *P[2][:3])
 
     def calibration(self) -> dict[str, float]:
-        return model.calibration(self.history[-1].s, self.robot.track_width, self.robot.wheel_radius, self.gyro_used)
+        e = self.history[-1]
+        return model.calibration(e.s, e.P, self.robot.track_width, self.robot.wheel_radius, self.gyro_used)
 
     def slipping(self) -> bool:
         return self.odom is not None and self.slip[0] < self.odom.t <= self.slip[1]

@@ -237,14 +237,22 @@ def update(s: Vec, P: Mat, nu: np.ndarray, S: np.ndarray, R: np.ndarray) -> tupl
     return out.tolist(), ((P_new + P_new.T) / 2.0).tolist()
 
 
-def calibration(s: Vec, track: float, radius: float, gyro: bool) -> dict[str, float]:
+def calibration(s: Vec, P: Mat, track: float, radius: float, gyro: bool) -> dict[str, float]:
     """The calibration estimates in user terms (true / nominal, and the geometry they give from the nominal
-    track and wheel radius [m]); the gyro's once it has been used."""
+    track and wheel radius [m]), each scale's 1-sigma relative to it (`_sigma`); the gyro's once it has
+    been used."""
     es, ew, ed = s[ES], s[EW], s[ED]
+    ke, big = 1.0 + es, (1.0 + es + ed) ** 2
+    je, jd = 2.0 * ed / big, -2.0 * ke / big  # d(wheel_radius_ratio)/d(es, ed)
+    ratio_var = je * je * P[ES][ES] + 2.0 * je * jd * P[ES][ED] + jd * jd * P[ED][ED]
+    ratio = (1.0 + es - ed) / (1.0 + es + ed)
     out = {
+        "distance_scale_sigma": math.sqrt(P[ES][ES]) / ke,
+        "track_width_scale_sigma": math.sqrt(P[EW][EW]) / (1.0 + ew),
+        "wheel_radius_ratio_sigma": math.sqrt(ratio_var) / ratio,
         "distance_scale": 1.0 + es,  # true / nominal mean wheel radius
         "track_width_scale": 1.0 + ew,  # true / nominal track width
-        "wheel_radius_ratio": (1.0 + es - ed) / (1.0 + es + ed),  # left / right
+        "wheel_radius_ratio": ratio,  # left / right
         "track_width": track * (1.0 + ew),  # [m]
         "wheel_diameter": 2.0 * radius * (1.0 + es),  # [m] the mean of the two
         "wheel_radius_left": radius * (1.0 + es - ed),  # [m]
