@@ -83,11 +83,14 @@ def _wheel_vars(u: Step, nz: Noise) -> tuple[float, float]:
 
 def _fresh_rounding(s: Vec, P: Mat, nz: Noise) -> tuple[Vec, Mat]:
     """(state, covariance) with ro forgotten: the next comparison starts from a rounding nothing says yet."""
+    vr = rounding_var(nz)
+    if s[RO] == 0.0 and P[RO][RO] == vr and not any(row[RO] for row in P[:RO]):
+        return s, P  # forgotten already (each step without the gyro): no copy
     out = [row[:] for row in P]
     for row in out:
         row[RO] = 0.0
     out[RO] = [0.0] * N
-    out[RO][RO] = rounding_var(nz)
+    out[RO][RO] = vr
     return [*s[:RO], 0.0], out
 
 
