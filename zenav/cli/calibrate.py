@@ -110,6 +110,12 @@ def write(target: str | None, values: dict[str, float]) -> None:
 LEARNT = ("track_width", "wheel_diameter", "wheel_radius_left", "wheel_radius_right")  # the calibration's geometry [m]
 
 
+def _sigma(cal: dict[str, float], key: str) -> str:
+    """ ", +- the estimate's 1-sigma [%]" when the localizer gives it."""
+    sigma = cal.get(f"{key}_sigma")
+    return "" if sigma is None else f", +- {sigma * 100:.2f} %"
+
+
 def from_localizer(args: argparse.Namespace) -> int:
     """Read the running localizer's learnt geometry and write it into [robot]."""
     try:
@@ -125,9 +131,10 @@ def from_localizer(args: argparse.Namespace) -> int:
     if cal["distance_scale"] == 1.0 and cal["track_width_scale"] == 1.0:
         print("zenav calibrate: the localizer has learnt nothing yet: drive the robot where the camera sees it first", file=sys.stderr)
         return EXIT_FAILED
+    track, wheels = _sigma(cal, "track_width_scale"), _sigma(cal, "distance_scale")
     print(
-        f"track width  {cal['track_width'] * 1e3:.2f} mm (x{cal['track_width_scale']:.4f} of the running config's)\n"
-        f"wheels       {cal['wheel_diameter'] * 1e3:.3f} mm diameter (x{cal['distance_scale']:.4f}); radii left / right "
+        f"track width  {cal['track_width'] * 1e3:.2f} mm (x{cal['track_width_scale']:.4f} of the running config's{track})\n"
+        f"wheels       {cal['wheel_diameter'] * 1e3:.3f} mm diameter (x{cal['distance_scale']:.4f}{wheels}); radii left / right "
         f"{cal['wheel_radius_left'] * 1e3:.3f} / {cal['wheel_radius_right'] * 1e3:.3f} mm ([robot] takes their mean)"
     )
     write(args.write or args.config, {"wheel_diameter": round(cal["wheel_diameter"], 6), "track_width": round(cal["track_width"], 6)})

@@ -210,9 +210,9 @@ class Ekf(Mode):
 
     def _start(self, pose: Pose2) -> None:
         calib, bias = self.cfg.calib_sigma**2, self.cfg.gyro_bias_sigma**2
-        variances = (*self._unknown, calib, calib, calib, bias, calib)  # x y theta es ew ed bg sg
+        variances = (*self._unknown, calib, calib, calib, bias, calib, model.rounding_var(self.noise))  # x y theta es ew ed bg sg ro
         P = [[v if i == j else 0.0 for j in range(model.N)] for i, v in enumerate(variances)]
-        self.history = [_Entry(self.last.t, model.Step(0.0, 0.0, 0.0), [*pose, 0.0, 0.0, 0.0, 0.0, 0.0], P)]
+        self.history = [_Entry(self.last.t, model.Step(0.0, 0.0, 0.0), [*pose, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], P)]
 
     def _move(self, ds: float, dth: float, t0: float, t: float) -> None:
         unmeasured = (self.last.unmeasured_left**2, self.last.unmeasured_right**2)
@@ -318,7 +318,8 @@ class Ekf(Mode):
         return Pose2(x, y, theta), (*P[0][:3], *P[1][:3], *P[2][:3])
 
     def calibration(self) -> dict[str, float]:
-        return model.calibration(self.history[-1].s, self.robot.track_width, self.robot.wheel_radius, self.gyro_used)
+        e = self.history[-1]
+        return model.calibration(e.s, e.P, self.robot.track_width, self.robot.wheel_radius, self.gyro_used)
 
     def slipping(self) -> bool:
         return self.odom is not None and self.slip[0] < self.odom.t <= self.slip[1]

@@ -2,14 +2,17 @@
 
 State (map frame): x [m], y [m], theta [rad]; the odometry's calibration errors
 relative to the nominal geometry: es (distance scale: mean wheel radius), ew (track
-width), ed (half the right-minus-left wheel radius difference); and the gyro's bias
-bg [rad/s] and scale error sg.
+width), ed (half the right-minus-left wheel radius difference); the gyro's bias
+bg [rad/s] and scale error sg; and ro [rad], the tick rounding in the odometry's
+heading where it was last compared with the gyro's.
 
 Input: one odom increment (ds [m] forward, dth [rad]) computed with the nominal
 geometry, over dt [s], and optionally the gyro's integral over the same span. When
-the gyro is there, the two heading increments are fused by their variances and
-their difference is a measurement of the calibration states (that is how the track
-width is learnt while the gyro steers the heading).
+the gyro is there, it steers the heading, and the odometry's heading increment is a
+measurement of the calibration states: that is how the track width is learnt. The
+counts are cumulative, so their rounding does not add up from increment to increment:
+each increment's rounding at its end is the next one's at its start (ro), and over a
+turn the rounding stays one tick while the turned angle grows.
 """
 
 from __future__ import annotations
@@ -24,8 +27,8 @@ from zenav.common.geometry import wrap_angle
 # Squared sigmas: an odometry heading step further than this from the gyro's is not
 # the wheels' doing (an odometry that resets its heading from a compass, a glitch).
 ODOM_GATE = 25.0
-N = 8  # state size
-X, Y, TH, ES, EW, ED, BG, SG = range(N)
+N = 9  # state size
+X, Y, TH, ES, EW, ED, BG, SG, RO = range(N)
 POSE = slice(0, 3)
 Vec = list[float]  # the state
 Mat = list[list[float]]  # its covariance, row by row
@@ -59,17 +62,17 @@ class Step:
         return Step(self.ds * f, self.dth * f, self.dt * f, gyro, (self.unmeasured[0] * f, self.unmeasured[1] * f))
 
 
-def _wheel_vars(u: Step, nz: Noise) -> tuple[float, float, float]:
-    """(slip variance of each wheel [m^2] summed, their difference, and the tick rounding part)."""
+def rounding_var(nz: Noise) -> float:
+    """[rad^2] the variance of the tick rounding in the odometry's heading at one time: each wheel's count
+    is its travel rounded down to a tick (uniform: tick^2 / 12), the heading their difference over the track."""
+    return nz.tick**2 / (6.0 * nz.track**2)
+
+
+def _wheel_vars(u: Step, nz: Noise) -> tuple[float, float]:
+    """(slip variance of each wheel [m^2] summed, their difference)."""
     dl, dr = abs(u.ds - nz.track * u.dth / 2.0), abs(u.ds + nz.track * u.dth / 2.0)
     var_l, var_r = nz.wheel_var * dl + u.unmeasured[0], nz.wheel_var * dr + u.unmeasured[1]
-    # Rounding to ticks does not accumulate (counts are cumulative): it only matters when one
-    # increment is compared with the gyro's. Each wheel's increment is its count rounded at both
-    # ends (tick^2 / 6). The same for every increment: a variance that shrank with the travel the
-    # counts show would weigh the increments that show no tick above those that show one, and so
-    # bias the scales low (the track width by 5 % with 16-tick encoders).
-    rounding = nz.tick**2 / 3.0
-    return var_l + var_r, var_r - var_l, rounding
+    return var_l + var_r, var_r - var_l
 
 
 # The steps run on Python floats: deployed, each odom sample finds the localizer's process
@@ -78,27 +81,50 @@ def _wheel_vars(u: Step, nz: Noise) -> tuple[float, float, float]:
 # ten times fewer and off the control chain, use numpy.
 
 
-def _learn_from_gyro(s: Vec, P: Mat, u: Step, var_odom: float, nz: Noise) -> tuple[Vec, Mat]:
-    """Update (state, covariance) with the odometry's heading increment, predicted from the gyro's.
+def _fresh_rounding(s: Vec, P: Mat, nz: Noise) -> tuple[Vec, Mat]:
+    """(state, covariance) with ro forgotten: the next comparison starts from a rounding nothing says yet."""
+    vr = rounding_var(nz)
+    if s[RO] == 0.0 and P[RO][RO] == vr and not any(row[RO] for row in P[:RO]):
+        return s, P  # forgotten already (each step without the gyro): no copy
+    out = [row[:] for row in P]
+    for row in out:
+        row[RO] = 0.0
+    out[RO] = [0.0] * N
+    out[RO][RO] = vr
+    return [*s[:RO], 0.0], out
 
-    The gyro's is the far less noisy one; the other way round, tick rounding in the
-    odometry's increment would bias the scale estimates.
+
+def _learn_from_gyro(s: Vec, P: Mat, u: Step, slip: float, nz: Noise) -> tuple[Vec, Mat]:
+    """Update (state, covariance) with the odometry's heading increment, predicted from the gyro's (slip: the
+    wheels' travel variance [m^2] over it).
+
+    The odometry's increment is the true one plus the rounding at its end (a new state, ro_end) minus
+    that at its start (ro). The update takes ro_end into the state and drops the start's: the rounding
+    at each end is counted once, however many increments a turn is cut into, and the sample a count
+    moves at says where the wheel is to a fraction of a tick. Weighing each increment's rounding
+    afresh instead made the odometry's heading over a turn look many times noisier than it is, and the
+    prior held the track width near the nominal (by 1.5 % on 16-tick encoders).
     """
+    track = nz.track
     assert u.gyro is not None
-    _, _, _, es, ew, ed, bg, sg = s
+    _, _, _, es, ew, ed, bg, sg, ro = s
     kg, ke, kw = 1.0 + sg, 1.0 + es, 1.0 + ew
-    g = (u.gyro - bg * u.dt) / kg  # the gyro's increment corrected by its bias and scale
-    pred = (g * kw - 2.0 * ed * u.ds / nz.track) / ke  # the odometry's dth if the state is right
+    g = (u.gyro - bg * u.dt) / kg  # the gyro's change corrected by its bias and scale
+    pred = (g * kw - 2.0 * ed * u.ds / track) / ke  # the odometry's dth, but for the rounding, if the state is right
     r = kw / ke
-    # h = d(odometry's dth)/d(state): naught on the pose
-    h3, h4, h5, h6, h7 = -pred / ke, g / ke, -2.0 * u.ds / (nz.track * ke), -u.dt / kg * r, -g / kg * r
-    Ph = [p[3] * h3 + p[4] * h4 + p[5] * h5 + p[6] * h6 + p[7] * h7 for p in P]  # P is symmetric: h P = (P h)^T
-    S = Ph[3] * h3 + Ph[4] * h4 + Ph[5] * h5 + Ph[6] * h6 + Ph[7] * h7 + var_odom + nz.gyro_var * u.dt
-    nu = u.dth - pred
+    # h = d(odometry's dth)/d(state): naught on the pose, -1 on ro; +1 on ro_end (prior: naught, vr, independent)
+    h3, h4, h5, h6, h7 = -pred / ke, g / ke, -2.0 * u.ds / (track * ke), -u.dt / kg * r, -g / kg * r
+    Ph = [p[3] * h3 + p[4] * h4 + p[5] * h5 + p[6] * h6 + p[7] * h7 - p[RO] for p in P]  # P is symmetric: h P = (P h)^T
+    vr = rounding_var(nz)
+    S = Ph[3] * h3 + Ph[4] * h4 + Ph[5] * h5 + Ph[6] * h6 + Ph[7] * h7 - Ph[RO] + vr + slip / track**2 + nz.gyro_var * u.dt
+    nu = u.dth - pred + ro
     if nu * nu > ODOM_GATE * S:  # not the wheels' doing: the odometry's heading was corrected
-        return s, P
+        return _fresh_rounding(s, P, nz)
     K = [p / S for p in Ph]
-    return [a + k * nu for a, k in zip(s, K)], [[p - k * q for p, q in zip(row, Ph)] for row, k in zip(P, K)]
+    k_end = vr / S  # ro_end's gain; its covariance with the rest after the update: -K vr
+    out = [[p - k * q for p, q in zip(row[:RO], Ph[:RO])] + [-k * vr] for row, k in zip(P[:RO], K[:RO])]
+    out.append([*(-k * vr for k in K[:RO]), vr - k_end * vr])
+    return [*(a + k * nu for a, k in zip(s[:RO], K[:RO])), k_end * nu], out
 
 
 def predict(s: Vec, P: Mat, u: Step, nz: Noise) -> tuple[Vec, Mat]:
@@ -107,11 +133,10 @@ def predict(s: Vec, P: Mat, u: Step, nz: Noise) -> tuple[Vec, Mat]:
     Without the gyro, the calibrated odometry turns the heading; with it, the gyro
     does, and the odometry's heading increment teaches the calibration.
     """
-    var_sum, var_diff, rounding = _wheel_vars(u, nz)
+    var_sum, var_diff = _wheel_vars(u, nz)
     track = nz.track
-    if u.gyro is not None:
-        s, P = _learn_from_gyro(s, P, u, (var_sum + rounding) / track**2, nz)
-    x, y, th, es, ew, ed, bg, sg = s
+    s, P = _fresh_rounding(s, P, nz) if u.gyro is None else _learn_from_gyro(s, P, u, var_sum, nz)
+    x, y, th, es, ew, ed, bg, sg, ro = s
     if u.gyro is None:  # the odometry's heading increment corrected by the calibration
         k = 1.0 + ew
         # Wheels: nominal travel dl, dr = ds -+ track*dth/2; true = nominal*(1 + es -+ ed).
@@ -166,7 +191,7 @@ def predict(s: Vec, P: Mat, u: Step, nz: Noise) -> tuple[Vec, Mat]:
     out[EW][EW] += walk
     out[ED][ED] += walk
     out[BG][BG] += nz.bias_var * u.dt
-    return [x + ds_t * c, y + ds_t * sn, wrap_angle(th + dth), es, ew, ed, bg, sg], out
+    return [x + ds_t * c, y + ds_t * sn, wrap_angle(th + dth), es, ew, ed, bg, sg, ro], out
 
 
 def rounding_cov(nz: Noise, theta: float, heading: bool) -> np.ndarray:
@@ -215,14 +240,22 @@ def update(s: Vec, P: Mat, nu: np.ndarray, S: np.ndarray, R: np.ndarray) -> tupl
     return out.tolist(), ((P_new + P_new.T) / 2.0).tolist()
 
 
-def calibration(s: Vec, track: float, radius: float, gyro: bool) -> dict[str, float]:
+def calibration(s: Vec, P: Mat, track: float, radius: float, gyro: bool) -> dict[str, float]:
     """The calibration estimates in user terms (true / nominal, and the geometry they give from the nominal
-    track and wheel radius [m]); the gyro's once it has been used."""
+    track and wheel radius [m]), each scale's 1-sigma relative to it (`_sigma`); the gyro's once it has
+    been used."""
     es, ew, ed = s[ES], s[EW], s[ED]
+    ke, big = 1.0 + es, (1.0 + es + ed) ** 2
+    je, jd = 2.0 * ed / big, -2.0 * ke / big  # d(wheel_radius_ratio)/d(es, ed)
+    ratio_var = je * je * P[ES][ES] + 2.0 * je * jd * P[ES][ED] + jd * jd * P[ED][ED]
+    ratio = (1.0 + es - ed) / (1.0 + es + ed)
     out = {
+        "distance_scale_sigma": math.sqrt(P[ES][ES]) / ke,
+        "track_width_scale_sigma": math.sqrt(P[EW][EW]) / (1.0 + ew),
+        "wheel_radius_ratio_sigma": math.sqrt(ratio_var) / ratio,
         "distance_scale": 1.0 + es,  # true / nominal mean wheel radius
         "track_width_scale": 1.0 + ew,  # true / nominal track width
-        "wheel_radius_ratio": (1.0 + es - ed) / (1.0 + es + ed),  # left / right
+        "wheel_radius_ratio": ratio,  # left / right
         "track_width": track * (1.0 + ew),  # [m]
         "wheel_diameter": 2.0 * radius * (1.0 + es),  # [m] the mean of the two
         "wheel_radius_left": radius * (1.0 + es - ed),  # [m]
