@@ -91,7 +91,7 @@ def run(window: float, log_dir: Path, compose: tuple[str, ...] = ()) -> BoardRun
                 bot.client.wait_alive(NAMES, timeout=START_TIMEOUT)
                 bot.set_pose(0.0, 0.0, 0.0)
                 trials.wait_ready(bot, 1.0, START_TIMEOUT, NAMES)
-                with CameraFeed(bot.client):
+                with CameraFeed(bot.client, emu.counts, TICKS):
                     return _drive(bot, stack, window)
         finally:
             stack.stop()
