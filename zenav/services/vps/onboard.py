@@ -284,6 +284,12 @@ def _augmented(
     return np.concatenate([r, w * pose[3:]]), np.vstack([j, np.hstack([np.zeros((len(w), 3)), np.diag(w)])])
 
 
+def _residuals(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray, target: np.ndarray, priors: np.ndarray) -> np.ndarray:
+    """_augmented's residuals alone."""
+    r = _project(cfg, world, pose[None])[0] - target
+    return np.concatenate([r, cfg.corner_sigma / priors * pose[3:]]) if len(priors) else r
+
+
 def _refine(
     cfg: OnboardCamera, world: np.ndarray, image: np.ndarray, seed: tuple[float, float, float], priors: np.ndarray
 ) -> tuple[tuple[float, float, float], float]:
@@ -297,7 +303,7 @@ def _refine(
         pose = pose + step
         if np.max(np.abs(step)) < STEP_DONE:
             break
-    r, _ = _augmented(cfg, world, pose, target, priors)
+    r = _residuals(cfg, world, pose, target, priors)
     rms = float(np.sqrt(np.sum(r**2) / len(target)))
     return (float(pose[0]), float(pose[1]), wrap_angle(float(pose[2]))), rms
 
