@@ -54,7 +54,8 @@ DEPLOYMENTS: dict[str, tuple[str, ...]] = {
     "the four robot services in one process": ROBOT_SERVICES,
     "all six in one process": NAMES,
 }
-SEPARATE, COMPOSED = "every service its own process", "all six in one process"  # the budget's two deployments
+SEPARATE, COMPOSED = "every service its own process", "all six in one process"
+BUDGET = {SEPARATE: 0.15, COMPOSED: 0.08}  # [cores] the robot computer's goals, router aside
 
 
 @dataclass(frozen=True)
@@ -141,6 +142,11 @@ def _age(msg: m.Wheels, ages: list[float]) -> None:
 def _fix(fix: m.Fix, fixes: list[int]) -> None:
     """Count a fix the localizer took (fixes[0]) or refused (fixes[1])."""
     fixes[0 if fix.accepted else 1] += 1
+
+
+def budget(runs: dict[str, BoardRun]) -> list[tuple[str, float, float]]:
+    """(deployment, its cores router aside, the goal) for each of BUDGET's deployments among `runs`."""
+    return [(name, runs[name].robot, goal) for name, goal in BUDGET.items() if name in runs]
 
 
 def measure(window: float, log_dir: Path) -> dict[str, BoardRun]:
