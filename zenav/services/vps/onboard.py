@@ -31,7 +31,7 @@ from zenav.services.vps.detect import Tag
 from zenav.world.onboard import CAMERA_AXES, lens, mount, robot_to_camera
 
 ITERATIONS = 8  # Gauss-Newton steps of the floor refinement, at most
-STEP_DONE = 1e-7  # [m, rad] a step this small ends it
+STEP_DONE = 1e-6  # [m, rad] a step this small ends it (the next would move the pose by under a micrometre)
 SAME = (0.01, 0.01)  # [m, rad] two refined candidates this close are one pose (no ambiguity left) ...
 SAME_D2 = 9.0  # ... and so are two within 3 sigma of the fix's covariance (Mahalanobis d^2)
 PRIOR_GATE = (0.3, 0.3)  # [m, rad] the estimate chooses a candidate only when it lies this near it ...
