@@ -49,12 +49,8 @@ START_TIMEOUT = 30.0  # [s] for the services to come up and the navigator to tak
 SETTLE = 2.0  # [s] of driving before the window opens
 DIAG_WAIT = 5.0  # [s] for the odometry's diag after the window (one a second)
 NAMES = tuple(n for n in ALL if n in (*services.PROFILES["robot"].services, "vps"))  # the profile and the vps, in start order
-DEPLOYMENTS: dict[str, tuple[str, ...]] = {
-    "every service its own process": (),
-    "the four robot services in one process": ROBOT_SERVICES,
-    "all six in one process": NAMES,
-}
 SEPARATE, COMPOSED = "every service its own process", "all six in one process"
+DEPLOYMENTS: dict[str, tuple[str, ...]] = {SEPARATE: (), "the four robot services in one process": ROBOT_SERVICES, COMPOSED: NAMES}
 BUDGET = {SEPARATE: 0.15, COMPOSED: 0.08}  # [cores] the robot computer's goals, router aside
 
 

@@ -39,7 +39,6 @@ class CameraFeed:
         self.per_tick = 2.0 * math.pi * robot.wheel_radius / ticks_per_rev  # [m] a wheel's travel per tick
         self.track = robot.track_width
         self.frames = OnboardFrames(Settings.load(None, onboard_camera={"rate_hz": rate}))
-        self.sent = 0
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="camera-feed", daemon=True)
 
@@ -73,4 +72,3 @@ class CameraFeed:
             return  # lost on the way, as [onboard_camera] drop_rate loses them
         img = frames.decode(shot, shot.width, shot.height)  # as `zenav camera stream` sends it: raw
         self.client.publish(TOPIC, frames.encode(img, shot.t, shot.seq, shot.exposure))
-        self.sent += 1
