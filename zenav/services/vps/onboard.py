@@ -16,6 +16,7 @@ least-squares one, corner_sigma^2 (J^T J)^-1: it grows with the tags' distance a
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -243,33 +244,35 @@ def _about_y(angle: np.ndarray) -> np.ndarray:
     return np.stack([c, zero, s, zero, one, zero, -s, zero, c], axis=1).reshape(-1, 3, 3)
 
 
+@functools.lru_cache(maxsize=16)
+def _differences(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """How a pose of `n` values (x, y, theta[, pitch, scale, each tag's x, y, z]) is differenced: the moves (K x n),
+    their sizes (K,), and for each nuisance of a tag's place, the move it takes (its axis) and the rows it keeps (its
+    tag's 4 corners, u and v): one move along an axis for every tag at once."""
+    first = min(n, 5)
+    tags = max(n - 5, 0) // 3
+    moves = np.zeros((first + (3 if tags else 0), n))
+    for i in range(first):
+        moves[i, i] = 1e-6 if i in (2, 3) else 1e-5  # [rad] angles, [m] or [-] the rest
+    for axis in range(3) if tags else ():
+        moves[first + axis, 5 + axis :: 3] = 1e-5
+    axis_of = first + np.tile(np.arange(3), tags)  # column 5 + 3 t + a: tag t's axis a
+    keeps = np.repeat(np.arange(tags), 8)[None, :] == np.repeat(np.arange(tags), 3)[:, None]  # (3 tags x 8 tags)
+    return moves, 2.0 * moves.max(axis=1), axis_of, keeps
+
+
 def _projection(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The projection at `pose` (2N,) [px] and its Jacobian (2N x len(pose)) [px per m, px per rad] by central
     differences, every moved pose projected at once. A tag's place moves only its own corners: one difference moving
     every tag along an axis gives each tag's column (its rows, zeros elsewhere)."""
-    steps = []
-    for i in range(min(len(pose), 5)):
-        d = np.zeros(len(pose))
-        d[i] = 1e-6 if i in (2, 3) else 1e-5  # [rad] angles, [m] or [-] the rest
-        steps.append(d)
-    tags = max(len(pose) - 5, 0) // 3
-    for axis in range(3) if tags else ():
-        d = np.zeros(len(pose))
-        d[5 + axis :: 3] = 1e-5
-        steps.append(d)
-    d = np.array(steps)
-    got = _project(cfg, world, np.vstack([pose, pose + d, pose - d]))
-    k = len(d)
-    diffs = (got[1 : 1 + k] - got[1 + k :]) / (2.0 * d.max(axis=1))[:, None]
-    cols = list(diffs[:5])
-    owner = np.repeat(np.arange(tags), 8)  # each tag's 4 corners, u and v
-    for moved in diffs[5:]:  # one difference per axis serves every tag: each keeps its own corners' rows
-        cols += [np.where(owner == t, moved, 0.0) for t in range(tags)]
-    j = np.column_stack(cols)
-    if tags:  # the columns above are axis by axis; the pose's nuisances are tag by tag (x, y, z each)
-        order = [*range(5), *[5 + axis * tags + t for t in range(tags) for axis in range(3)]]
-        j = j[:, order]
-    return got[0], j
+    moves, sizes, axis_of, keeps = _differences(len(pose))
+    got = _project(cfg, world, np.vstack([pose, pose + moves, pose - moves]))
+    k = len(moves)
+    diffs = (got[1 : 1 + k] - got[1 + k :]) / sizes[:, None]
+    first = min(len(pose), 5)
+    if not len(axis_of):  # no tag's place solved
+        return got[0], diffs.T
+    return got[0], np.hstack([diffs[:first].T, (diffs[axis_of] * keeps).T])
 
 
 def _augmented(
