@@ -95,6 +95,25 @@ def test_an_undeclared_local_subscription_gets_nothing_more(pair):
     assert here.got == [(key, b"a")]
 
 
+def test_newest_keeps_the_last_sample_of_a_local_or_a_remote_publisher(pair):
+    local, remote = pair
+    key = keys.key("r1", "pose")
+    newest = local.newest(key)
+    local.publish(key, b"a")
+    local.publish(key, b"b")
+    assert newest.take() == b"b" and newest.take() is None  # from a service of the process: at once
+    here = Inbox()  # on the same network subscriber, after newest: once it has a sample, newest has it
+    local.subscribe(key, here)
+    for _ in range(20):
+        remote.publish(key, b"c")
+        if here.wait(1):
+            break
+    assert newest.take() == b"c"  # from the network
+    newest.undeclare()
+    local.publish(key, b"d")
+    assert newest.take() is None
+
+
 def test_composed_services_each_keep_their_token_and_diag(router, client):
     settings = Settings.load(None, deployment={"connect": router, "clock": "wall"})
     names = ["motor", "odometry", "localizer"]

@@ -69,13 +69,17 @@ def test_the_robot_profiles_deployments_on_the_emulated_board_are_a_table_of_the
     res = results()
     res.plan = replace(res.plan, board_window=20.0)  # the full run's part
     res.boards = {
-        "every service its own process": BoardRun({"router": 0.02, "driver": 0.06, "motor": 0.03}, 100.0, Stats.of([2.0, 3.0]), []),
-        "all five in one process": BoardRun({"router": 0.01, "composed": 0.064}, 99.6, Stats.of([]), ["(0.5, 0.0): aborted"]),
+        "every service its own process": BoardRun({"router": 0.02, "driver": 0.06, "vps": 0.10}, 100.0, Stats.of([2.0, 3.0]), [], (95, 2)),
+        "all six in one process": BoardRun({"router": 0.01, "composed": 0.064}, 99.6, Stats.of([]), ["(0.5, 0.0): aborted"]),
     }
     text = report.write(res, tmp_path).read_text()
-    assert "### The robot computer: the robot profile on the emulated board (20 s windows)" in text
-    assert "| every service its own process | **0.090** | driver 0.060, motor 0.030 | 0.020 | 100 | 2.50 / 2.99 | none |" in text
-    assert "| all five in one process | **0.064** | composed 0.064 | 0.010 | 100 | - / - | (0.5, 0.0): aborted |" in text
+    assert "### The robot computer: the robot profile and its camera on the emulated board (20 s windows)" in text
+    assert "| every service its own process | **0.160** | driver 0.060, vps 0.100 | 0.020 | 100 | 2.50 / 2.99 | 95 / 2 | none |" in text
+    assert "| all six in one process | **0.064** | composed 0.064 | 0.010 | 100 | - / - | 0 / 0 | (0.5, 0.0): aborted |" in text
+    assert "robot computer: 0.160 core (every service its own process; goal 0.15)" in text  # the budget's lines
+    assert "robot computer: 0.064 core (all six in one process; goal 0.08)" in text
+    assert "| robot computer, every service its own process (router aside) | <= 0.15 core | 0.160 core | **no** |" in text
+    assert "| robot computer, all six in one process (router aside) | <= 0.08 core | 0.064 core | yes |" in text
 
 
 def test_the_settle_section_writes_a_table_per_pose_error(tmp_path):

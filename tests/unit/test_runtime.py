@@ -107,6 +107,19 @@ def test_an_output_that_fails_to_go_out_is_counted_and_the_next_input_is_served(
     assert [w.t for w in published(bus, "motors/wheels")] == [2.0]
 
 
+def test_a_topic_followed_newest_keeps_its_last_sample_unserved_until_taken(svc):
+    s, bus, _ = svc
+    newest = s.newest("odom")
+    for i in range(3):
+        bus.publish(keys.key("r1", "odom"), codec.encode(i))
+    assert s.counters.values["msgs_in"] == 0  # no handler, no input served
+    assert newest.take() == codec.encode(2)
+    assert newest.take() is None  # nothing newer came
+    s.close()
+    bus.publish(keys.key("r1", "odom"), codec.encode(3))
+    assert newest.take() is None  # undeclared with the service
+
+
 def test_timers_follow_the_clock(svc):
     s, bus, clock = svc
     s.drain()  # first run schedules at now + period

@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from zenav.bench import cost, peers, tables
+from zenav.bench import board, cost, peers, tables
 from zenav.bench.added import QS
 from zenav.bench.latency import END_TO_END, Stats, present
 from zenav.bench.profile import RATE
@@ -142,6 +142,8 @@ def _targets(res: Results) -> list[str]:
             notes.append("CPU: the largest are " + ", ".join(f"{c.name} {fmt(c.cpu_per_sim_s, 3)}" for c in top) + ".")
         if "client" in res.chains:
             notes.append(_floor_note(costs, res.chains["client"].relay_cores))
+    for name, cores, goal in board.budget(res.boards):
+        rows.append([f"robot computer, {name} (router aside)", f"<= {goal:g} core", f"{fmt(cores, 3)} core", _met(cores <= goal)])
     if res.robots:
         kept = [ld.robots for ld in res.robots if ld.keeps_up]
         rows.append(["robots one router keeps up with (100 Hz)", "-", str(max(kept, default=0)), "-"])

@@ -62,7 +62,7 @@ class Results:
     busy_refused: str = ""  # why the busy runs were not made (real-time priority refused)
     rates: list[Load] = field(default_factory=list)
     robots: list[Load] = field(default_factory=list)
-    boards: dict[str, BoardRun] = field(default_factory=dict)  # deployment -> the robot profile on the emulated board
+    boards: dict[str, BoardRun] = field(default_factory=dict)  # deployment -> the robot profile and its camera on the emulated board
     speed: list[Row] = field(default_factory=list)
     rtf: float = 0.0  # the accuracy runs' realtime factor
     modes: dict[str, Summary] = field(default_factory=dict)  # live, default scenario, first seed
@@ -126,8 +126,8 @@ def _measure_live(plan: Plan, res: Results, logs: Path, note: Callable[[str], No
                 break  # more robots would not either: the table says where it stopped
         if plan.board_window:
             res.boards = board.measure(plan.board_window, logs)
-            cores = ", ".join(f"{r.robot:.3f}" for r in res.boards.values())
-            note(f"the robot profile on the emulated board: {cores} of a core besides the router")
+            for name, cores, goal in board.budget(res.boards):
+                note(f"robot computer: {cores:.3f} core ({name}; goal {goal:g})")
     if "profile" in plan.sections:
         res.costs, res.costs_paced, res.relays = profile.measure_both(plan.profile_seconds)
         res.hot = profile.profile(min(plan.profile_seconds, 5.0))

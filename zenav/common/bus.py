@@ -87,6 +87,9 @@ class Bus(Protocol):
 
     def subscribe(self, key: str, callback: SampleCallback) -> Handle: ...
 
+    def newest(self, key: str) -> Newest:
+        """Keep the newest sample of `key` for whoever takes it (no callback of the caller's per sample)."""
+
     def queryable(self, key: str, callback: QueryCallback, urgent: bool = False) -> Handle:
         """Serve queries on `key`. `urgent` (nav/stop): on a link of its own where the bus has links,
         so the query never waits behind other input still on the wire."""

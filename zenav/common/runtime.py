@@ -43,7 +43,7 @@ from typing import Any
 
 from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common.bus import Bus, Handle, undeclare_all
+from zenav.common.bus import Bus, Handle, Newest, undeclare_all
 from zenav.common.clock import FOREIGN, REFUSED, RESTARTED, Clock, SimClock, WallClock
 from zenav.common.config import Settings
 from zenav.common.diagnostics import WARN_LINES, Counters, CpuMeter, WarnLimit, shape
@@ -231,6 +231,13 @@ class Service(Intake, Dispatch):
         if other_clock:
             self._other_clock.add(suffix)
         self._handles.append(self.bus.subscribe(self.key(suffix), self._enqueuer(fn, suffix, typ, latest)))
+
+    def newest(self, suffix: str) -> Newest:
+        """Follow a topic without serving its samples (no handler, no wake per sample): its newest payload, taken when
+        the service asks (`Newest.take`), for a fast topic read at a slower one's pace. Undeclared as the service stops."""
+        newest = self.bus.newest(self.key(suffix))
+        self._handles.append(newest)
+        return newest
 
     def watch(self, key: str, fn: Callable[[bool], Any]) -> Handle:
         """Watch a liveliness token key at run time: `fn(alive)` runs in the worker on each

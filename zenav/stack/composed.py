@@ -35,7 +35,18 @@ from zenav.common.app import (
     stop_on_signals,
     watch_parent,
 )
-from zenav.common.bus import MSGPACK, Handle, MemoryBus, QueryCallback, ReplyCallback, SampleCallback, TokenCallback, ZenohBus
+from zenav.common.bus import (
+    MSGPACK,
+    Handle,
+    MemoryBus,
+    Newest,
+    QueryCallback,
+    ReplyCallback,
+    SampleCallback,
+    Subscribed,
+    TokenCallback,
+    ZenohBus,
+)
 from zenav.common.config import ConfigError, Settings
 from zenav.common.roles import CONTROL_LOOP, start_order
 from zenav.common.runtime import Duplicate, Executor, Service
@@ -143,6 +154,10 @@ class LocalBus:
                 if not rest:
                     remote.handle.undeclare()
                     del self._remote[key]
+
+    def newest(self, key: str) -> Newest:
+        """The newest sample of `key`, from a service of this process or from the network: kept as it comes, unserved."""
+        return Subscribed(self, key)
 
     def queryable(self, key: str, callback: QueryCallback, urgent: bool = False) -> Handle:
         return self.rest.queryable(key, callback, urgent)

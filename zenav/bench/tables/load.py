@@ -7,7 +7,7 @@ import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from zenav.bench import board
+from zenav.bench import board, camfeed
 from zenav.bench.cost import Load, ServiceCost, services
 from zenav.bench.latency import configured, input_of
 from zenav.bench.profile import RATE
@@ -118,29 +118,46 @@ def cost(res: Results) -> list[str]:
 
 
 def boards(res: Results) -> list[str]:
-    """What the robot computer spends: the robot profile on the emulated board, per deployment."""
+    """What the robot computer spends: the robot profile and the onboard camera's vps on the emulated board, per
+    deployment, then its `robot computer: N core` lines against the goals."""
     rows = []
     for name, r in res.boards.items():
         each = ", ".join(f"{p} {fmt(c, 3)}" for p, c in r.cores.items() if p != "router")
         failed = "; ".join(r.goal_failures) or "none"
         router, lat = fmt(r.cores.get("router", math.nan), 3), f"{fmt(r.latency.p50)} / {fmt(r.latency.p99)}"
-        rows.append([name, f"**{fmt(r.robot, 3)}**", each, router, fmt(r.encoders_hz, 0), lat, failed])
+        fixes = f"{r.fixes[0]} / {r.fixes[1]}"
+        rows.append([name, f"**{fmt(r.robot, 3)}**", each, router, fmt(r.encoders_hz, 0), lat, fixes, failed])
     return [
-        f"### The robot computer: the robot profile on the emulated board ({res.plan.board_window:g} s windows)",
+        f"### The robot computer: the robot profile and its camera on the emulated board ({res.plan.board_window:g} s windows)",
         "",
-        "A real robot runs the driver where the simulation runs the sim. `zenav up --profile robot`'s services (driver, "
-        "motor, odometry, localizer, navigator on the wall clock, as Zenoh peers) on the emulated ROSArduinoBridge "
-        f"board (a pseudo-terminal at {BAUD} baud, in the bench's process: its CPU is the board's), while a program "
-        f"drives a {board.SQUARE[0][0]:g} m square at {board.SPEED:g} m/s with no VPS. CPU per wall second from /proc; "
+        "A real robot runs the driver where the simulation runs the sim, and the vps of its own camera. `zenav up "
+        "--profile robot`'s services (driver, motor, odometry, localizer, navigator on the wall clock, as Zenoh peers) "
+        'and a vps with `[vps] source = "onboard"`, on the emulated ROSArduinoBridge board (a pseudo-terminal at '
+        f"{BAUD} baud, in the bench's process: its CPU is the board's), while a program drives a {board.SQUARE[0][0]:g} m "
+        f"square at {board.SPEED:g} m/s. The camera: {camfeed.RATE:g} frames a second of 640 x 480, raw as `zenav camera "
+        "stream --onboard` sends them, rendered with the sim's onboard camera (its realistic errors) where the board's "
+        "wheels took the robot, from the bench's process (its CPU is the camera's). CPU per wall second from /proc; "
         "the encoder samples the odometry took a second, over the window's last (the driver's `sensor_rate`: "
         f"{DriverConfig().sensor_rate:g}); `sample to wheels`: for half a window after it, from the driver's stamp of an "
         "encoder sample to the `motors/wheels` command made from it reaching the bench's process (composed, the "
-        "driver has it a hop sooner), the serial link's replies aside.",
+        "driver has it a hop sooner), the serial link's replies aside; `fixes`: the vps's fixes the localizer took and "
+        "refused over the same half window.",
         "",
         *table(
-            ["deployment", "cores, router aside", "by process", "router", "encoders/s", "sample to wheels p50 / p99 [ms]", "goals failed"],
+            [
+                "deployment",
+                "cores, router aside",
+                "by process",
+                "router",
+                "encoders/s",
+                "sample to wheels p50 / p99 [ms]",
+                "fixes taken / refused",
+                "goals failed",
+            ],
             rows,
         ),
+        "",
+        *[f"robot computer: {fmt(cores, 3)} core ({name}; goal {goal:g})" for name, cores, goal in board.budget(res.boards)],
     ]
 
 

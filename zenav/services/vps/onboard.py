@@ -16,12 +16,12 @@ least-squares one, corner_sigma^2 (J^T J)^-1: it grows with the tags' distance a
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import cv2
-import msgspec
 import numpy as np
 
 from zenav.common.config import FieldTag
@@ -29,10 +29,10 @@ from zenav.common.fieldtags import rotation
 from zenav.common.geometry import wrap_angle
 from zenav.common.onboardcam import OnboardCamera
 from zenav.services.vps.detect import Tag
-from zenav.world.onboard import lens, mount, robot_to_camera
+from zenav.world.onboard import CAMERA_AXES, lens, mount, robot_to_camera
 
 ITERATIONS = 8  # Gauss-Newton steps of the floor refinement, at most
-STEP_DONE = 1e-7  # [m, rad] a step this small ends it
+STEP_DONE = 1e-6  # [m, rad] a step this small ends it (the next would move the pose by under a micrometre)
 SAME = (0.01, 0.01)  # [m, rad] two refined candidates this close are one pose (no ambiguity left) ...
 SAME_D2 = 9.0  # ... and so are two within 3 sigma of the fix's covariance (Mahalanobis d^2)
 PRIOR_GATE = (0.3, 0.3)  # [m, rad] the estimate chooses a candidate only when it lies this near it ...
@@ -209,56 +209,88 @@ def nuisance(cfg: OnboardCamera, tags: int) -> np.ndarray:
     return np.maximum([tilt, cfg.print_scale_error, *[cfg.tag_position_error] * (3 * tags)], PRIOR_LEAST)
 
 
-def _project(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray) -> np.ndarray:
-    """(2N,) [px] where the camera of a robot at pose (x, y, theta[, the nuisances]) shows `world` (4 corners a tag)."""
-    if len(pose) > 3:
-        cfg = msgspec.structs.replace(cfg, pitch=cfg.pitch + float(pose[3]))
+def _project(cfg: OnboardCamera, world: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """(P x 2N) [px] where the camera of a robot at each of `poses` (P x (x, y, theta[, the nuisances])) shows `world`
+    (N x 3, 4 corners a tag): OpenCV's projection (its five-coefficient distortion), for every pose at once."""
+    n = len(poses)
+    pts = np.broadcast_to(world, (n, *world.shape))
+    pitch = np.full(n, cfg.pitch)
+    if poses.shape[1] > 3:  # the camera's pitch, the tags' print scale and places
+        pitch = pitch + poses[:, 3]
         centres = np.repeat(world.reshape(-1, 4, 3).mean(axis=1), 4, axis=0)
-        world = centres + (world - centres) * (1.0 + pose[4]) + np.repeat(pose[5:].reshape(-1, 3), 4, axis=0)
-    cam = mount(cfg, float(pose[0]), float(pose[1]), float(pose[2]))
-    rvec, _ = cv2.Rodrigues(cam.R)
-    lo = lens(cfg)
-    out, _ = cv2.projectPoints(world.reshape(-1, 1, 3), rvec, -cam.R @ cam.C, lo.K, lo.dist)
-    return out.reshape(-1)
+        shift = np.repeat(poses[:, 5:].reshape(n, -1, 3), 4, axis=1)
+        pts = centres + (world - centres) * (1.0 + poses[:, 4, None, None]) + shift
+    _, t_rc = robot_to_camera(cfg)
+    r_rc = rotation(cfg.yaw) @ _about_y(pitch) @ rotation(0.0, 0.0, cfg.roll) @ CAMERA_AXES  # robot -> camera axes
+    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    zero, one = np.zeros(n), np.ones(n)
+    body = np.stack([c, -s, zero, s, c, zero, zero, zero, one], axis=1).reshape(n, 3, 3)  # robot -> map
+    axes = body @ r_rc  # camera axes in the map (columns)
+    centre = np.stack([poses[:, 0], poses[:, 1], zero], axis=1) + body @ t_rc
+    cam = np.einsum("pji,pnj->pni", axes, pts - centre[:, None, :])  # camera frame
+    x, y = cam[..., 0] / cam[..., 2], cam[..., 1] / cam[..., 2]
+    r2 = x * x + y * y
+    radial = 1.0 + r2 * (cfg.k1 + r2 * (cfg.k2 + r2 * cfg.k3))
+    xd = x * radial + 2.0 * cfg.p1 * x * y + cfg.p2 * (r2 + 2.0 * x * x)
+    yd = y * radial + cfg.p1 * (r2 + 2.0 * y * y) + 2.0 * cfg.p2 * x * y
+    cx, cy = cfg.principal
+    return np.stack([cfg.fx * xd + cx, cfg.fy * yd + cy], axis=-1).reshape(n, -1)
 
 
-def _jacobian(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray) -> np.ndarray:
-    """(2N x len(pose)) [px per m, px per rad] of the projection, by central differences. A tag's place moves only its
-    own corners: one difference moving every tag along an axis gives each tag's column (its rows, zeros elsewhere)."""
+def _about_y(angle: np.ndarray) -> np.ndarray:
+    """(P x 3 x 3) rotations by each angle [rad] about y."""
+    c, s = np.cos(angle), np.sin(angle)
+    zero, one = np.zeros(len(angle)), np.ones(len(angle))
+    return np.stack([c, zero, s, zero, one, zero, -s, zero, c], axis=1).reshape(-1, 3, 3)
 
-    def column(d: np.ndarray) -> np.ndarray:
-        step = float(np.max(d))
-        return np.asarray((_project(cfg, world, pose + d) - _project(cfg, world, pose - d)) / (2.0 * step))
 
-    cols = []
-    for i in range(min(len(pose), 5)):
-        d = np.zeros(len(pose))
-        d[i] = 1e-6 if i in (2, 3) else 1e-5  # [rad] angles, [m] or [-] the rest
-        cols.append(column(d))
-    tags = max(len(pose) - 5, 0) // 3
-    owner = np.repeat(np.arange(tags), 8)  # each tag's 4 corners, u and v
+@functools.lru_cache(maxsize=16)
+def _differences(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """How a pose of `n` values (x, y, theta[, pitch, scale, each tag's x, y, z]) is differenced: the moves (K x n),
+    their sizes (K,), and for each nuisance of a tag's place, the move it takes (its axis) and the rows it keeps (its
+    tag's 4 corners, u and v): one move along an axis for every tag at once."""
+    first = min(n, 5)
+    tags = max(n - 5, 0) // 3
+    moves = np.zeros((first + (3 if tags else 0), n))
+    for i in range(first):
+        moves[i, i] = 1e-6 if i in (2, 3) else 1e-5  # [rad] angles, [m] or [-] the rest
     for axis in range(3) if tags else ():
-        d = np.zeros(len(pose))
-        d[5 + axis :: 3] = 1e-5
-        moved = column(d)  # one difference per axis serves every tag: each keeps its own corners' rows
-        cols += [np.where(owner == k, moved, 0.0) for k in range(tags)]
-    j = np.column_stack(cols)
-    if tags:  # the columns above are axis by axis; the pose's nuisances are tag by tag (x, y, z each)
-        order = [*range(5), *[5 + axis * tags + k for k in range(tags) for axis in range(3)]]
-        j = j[:, order]
-    return j
+        moves[first + axis, 5 + axis :: 3] = 1e-5
+    axis_of = first + np.tile(np.arange(3), tags)  # column 5 + 3 t + a: tag t's axis a
+    keeps = np.repeat(np.arange(tags), 8)[None, :] == np.repeat(np.arange(tags), 3)[:, None]  # (3 tags x 8 tags)
+    return moves, 2.0 * moves.max(axis=1), axis_of, keeps
+
+
+def _projection(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The projection at `pose` (2N,) [px] and its Jacobian (2N x len(pose)) [px per m, px per rad] by central
+    differences, every moved pose projected at once. A tag's place moves only its own corners: one difference moving
+    every tag along an axis gives each tag's column (its rows, zeros elsewhere)."""
+    moves, sizes, axis_of, keeps = _differences(len(pose))
+    got = _project(cfg, world, np.vstack([pose, pose + moves, pose - moves]))
+    k = len(moves)
+    diffs = (got[1 : 1 + k] - got[1 + k :]) / sizes[:, None]
+    first = min(len(pose), 5)
+    if not len(axis_of):  # no tag's place solved
+        return got[0], diffs.T
+    return got[0], np.hstack([diffs[:first].T, (diffs[axis_of] * keeps).T])
 
 
 def _augmented(
     cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray, target: np.ndarray, priors: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Residuals [px] and their Jacobian, with the nuisances' priors (0 +- priors) as more residuals in corner sigmas."""
-    r = _project(cfg, world, pose) - target
-    j = _jacobian(cfg, world, pose)
+    projected, j = _projection(cfg, world, pose)
+    r = projected - target
     if not len(priors):
         return r, j
     w = cfg.corner_sigma / priors  # [px per rad, px per m]
     return np.concatenate([r, w * pose[3:]]), np.vstack([j, np.hstack([np.zeros((len(w), 3)), np.diag(w)])])
+
+
+def _residuals(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray, target: np.ndarray, priors: np.ndarray) -> np.ndarray:
+    """_augmented's residuals alone."""
+    r = _project(cfg, world, pose[None])[0] - target
+    return np.concatenate([r, cfg.corner_sigma / priors * pose[3:]]) if len(priors) else r
 
 
 def _refine(
@@ -274,7 +306,7 @@ def _refine(
         pose = pose + step
         if np.max(np.abs(step)) < STEP_DONE:
             break
-    r, _ = _augmented(cfg, world, pose, target, priors)
+    r = _residuals(cfg, world, pose, target, priors)
     rms = float(np.sqrt(np.sum(r**2) / len(target)))
     return (float(pose[0]), float(pose[1]), wrap_angle(float(pose[2]))), rms
 
@@ -282,7 +314,7 @@ def _refine(
 def _covariance(cfg: OnboardCamera, world: np.ndarray, pose: tuple[float, float, float], priors: np.ndarray) -> tuple[float, ...]:
     """corner_sigma^2 (J^T J)^-1 (the nuisances' priors in J, then left out), 3x3 row-major, with the least variances added."""
     p = np.concatenate([pose, np.zeros(len(priors))])
-    _, j = _augmented(cfg, world, p, _project(cfg, world, p), priors)
+    _, j = _augmented(cfg, world, p, np.zeros(2 * len(world)), priors)  # the residuals unused
     try:
         cov = np.linalg.inv(j.T @ j)[:3, :3] * cfg.corner_sigma**2
     except np.linalg.LinAlgError:

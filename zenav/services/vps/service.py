@@ -12,7 +12,7 @@ from msgspec import Meta, Struct
 
 from zenav.common import codec, extras, keys
 from zenav.common import messages as m
-from zenav.common.bus import Bus
+from zenav.common.bus import Bus, Newest
 from zenav.common.clock import Clock
 from zenav.common.config import Camera as CameraConfig
 from zenav.common.config import Settings
@@ -79,7 +79,8 @@ class Vps(Service):
         self.reader: Reader | None = None
         self.host: HostClock | None = None  # the camera host's clock and its sync to each robot's stack (camera)
         self.onboard: OnboardReader | None = None
-        self.estimate: tuple[float, float, float] | None = None  # [m, m, rad] the localizer's newest pose, when sure enough
+        self._estimate: tuple[float, float, float] | None = None  # [m, m, rad] the localizer's newest pose, when sure enough
+        self._pose: Newest | None = None  # the localizer's 100 Hz pose, kept by the bus unserved: read as a frame comes
         if self.cfg.source == "camera":
             self.blocking = True  # a frame takes milliseconds to detect ...
             self.background = True  # ... and the control loop must not wait for a core meanwhile
@@ -104,7 +105,7 @@ class Vps(Service):
     def on_start(self) -> None:
         if self.onboard is not None:
             self.subscribe("camera/onboard/frame", m.CameraFrame, self.on_onboard_frame, latest=True)
-            self.subscribe("pose", m.Pose, self.on_pose)
+            self._pose = self.newest("pose")
         elif self.reader is None:
             self.subscribe("sim/truth", m.Truth, self.on_truth)
         else:
@@ -137,7 +138,7 @@ class Vps(Service):
             q.clear()
         if self.host is not None:
             self.host.forget()
-        self.estimate = None
+        self._estimate = None
 
     @timer(SYNC_PERIOD)
     def sync_clocks(self, now: float) -> None:
@@ -206,10 +207,21 @@ class Vps(Service):
         self._timing(host_now - msg.t, got.detect_time)  # exposure's middle to detection done, host clock
         self.reader.explore()  # the frame's periodic whole search, its fixes out
 
-    def on_pose(self, msg: m.Pose) -> None:
-        """The localizer's pose: what an ambiguous single tag is resolved against, while its position is sure enough."""
-        sure = msg.cov[0] + msg.cov[4] < ESTIMATE_SIGMA**2
-        self.estimate = (msg.x, msg.y, msg.theta) if sure else None
+    @property
+    def estimate(self) -> tuple[float, float, float] | None:
+        """[m, m, rad] the localizer's newest pose, what an ambiguous single tag is resolved against, while its position
+        is sure enough (None: not sure, or none came)."""
+        data = self._pose.take() if self._pose is not None else None
+        if data is not None:
+            try:
+                msg = codec.decode(data, m.Pose)
+            except codec.BadInput as e:
+                self.count("bad_input")
+                self.warn("bad:pose", f"dropped bad input on pose: {e}")
+                return self._estimate
+            sure = msg.cov[0] + msg.cov[4] < ESTIMATE_SIGMA**2
+            self._estimate = (msg.x, msg.y, msg.theta) if sure else None
+        return self._estimate
 
     def on_onboard_frame(self, msg: m.CameraFrame) -> None:
         """One frame of the robot's camera: the [field] tags in it become one fix, sent after the link delay."""
