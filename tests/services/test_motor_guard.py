@@ -23,11 +23,12 @@ class MotorRig:
         self.rig = Rig(Motor, t0=10.0, **sections)
         self.x, self.y, self.theta = 0.0, 0.0, 0.0
 
-    def step(self, v: float, omega: float, steps: int, every: int = 10) -> None:
-        """Send cmd_vel (t = 0: now, as teleop does) every `every` steps and drive the robot for `steps` steps of 10 ms."""
+    def step(self, v: float, omega: float, steps: int, every: int = 10, way: m.Way = ()) -> None:
+        """Send cmd_vel (t = 0: now, as teleop does; `way`: as the navigator tells it) every `every` steps and drive the
+        robot for `steps` steps of 10 ms."""
         for i in range(steps):
             if i % every == 0:
-                self.rig.put("cmd_vel", m.CmdVel(t=0.0, v=v, omega=omega))
+                self.rig.put("cmd_vel", m.CmdVel(t=0.0, v=v, omega=omega, way=way))
             wheels = self.rig.got("motors/wheels")
             left, right = (wheels[-1].left, wheels[-1].right) if wheels else (0.0, 0.0)
             speed, turn = (left + right) * R / 2.0, (right - left) * R / 0.1156
@@ -92,3 +93,14 @@ def test_it_sends_its_robots_body_and_passes_commands_it_cannot_judge():
     bot.step(0.0, 0.0, 20)
     bodies = [codec.decode(d, m.Body) for k, d in bot.rig.bus.published if k == keys.field_key("robots")]
     assert bodies and bodies[-1].robot == "r1" and bodies[-1].radius == RADIUS
+
+
+def test_its_body_tells_the_way_of_the_command_it_drives_and_none_standing():
+    bot = MotorRig()
+    way = ((1.0, 0.0), (1.0, 1.0))
+    bot.step(0.2, 0.0, 50, way=way)
+    bodies = [codec.decode(d, m.Body) for k, d in bot.rig.bus.published if k == keys.field_key("robots")]
+    assert bodies and bodies[-1].way == way
+    bot.step(0.0, 0.0, 20, way=way)
+    bodies = [codec.decode(d, m.Body) for k, d in bot.rig.bus.published if k == keys.field_key("robots")]
+    assert bodies[-1].way == ()  # standing: it goes nowhere

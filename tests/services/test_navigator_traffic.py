@@ -9,9 +9,9 @@ from zenav.common import messages as m
 REACH = 0.1 + 0.1 + 0.05  # [m] both footprints and the margin
 
 
-def body(rig, robot, x, y, v=0.0, theta=0.0):
+def body(rig, robot, x, y, v=0.0, theta=0.0, way=()):
     """Another robot's body, as its motor sends it."""
-    msg = m.Body(t=rig.clock.now(), robot=robot, x=x, y=y, radius=0.1, theta=theta, v=v)
+    msg = m.Body(t=rig.clock.now(), robot=robot, x=x, y=y, radius=0.1, theta=theta, v=v, way=way)
     rig.bus.publish(keys.field_key("robots"), codec.encode(msg))
 
 
@@ -57,21 +57,40 @@ def test_a_robot_standing_on_the_goal_makes_it_wait_saying_why_then_give_up_afte
     rig.nav.close()
 
 
-def test_a_robot_crossing_the_way_slows_it_counted_and_said_on_nav_state():
-    rig = NavigatorRig()
-    rig.pose()
-    q = rig.query("nav/move_to_point", {"x": 1.5, "y": 0.0, "wait": True})
-    why, y = set(), -0.45
+def cross(rig, q, sign):
+    """r0 (the right of way) crosses the way 0.6 m ahead at 0.2 m/s, from below (sign 1) or above (-1), to the goal's
+    reply: what nav/state said and how close it came."""
+    why, y, least = set(), -0.45 * sign, math.inf
     for _ in range(3000):
         if q.replies:
             break
-        y = min(y + 0.2 * 0.01, 1.0)  # r0 (the right of way) crosses the way 0.6 m ahead at 0.2 m/s, from below
-        body(rig, "r0", 0.6, y, v=0.2 if y < 1.0 else 0.0, theta=math.pi / 2)
+        y = min(max(y + sign * 0.2 * 0.01, -1.0), 1.0)
+        body(rig, "r0", 0.6, y, v=0.2 if abs(y) < 1.0 else 0.0, theta=sign * math.pi / 2)
         rig.step()
         why |= {s.traffic for s in rig.published("nav/state")}
-    assert reply(q).result == "succeeded"
+        least = min(least, math.hypot(rig.x - 0.6, rig.y - y))
+    return why, least
+
+
+def test_a_robot_crossing_the_way_from_the_left_slows_it_counted_and_said_on_nav_state():
+    rig = NavigatorRig()
+    rig.pose()
+    q = rig.query("nav/move_to_point", {"x": 1.5, "y": 0.0, "wait": True})
+    why, least = cross(rig, q, -1.0)
+    assert reply(q).result == "succeeded" and least >= REACH
     assert "slowing for robot r0 to pass" in why
     assert rig.nav.counters.values["robot_slowdowns"] >= 1
+    rig.nav.close()
+
+
+def test_a_robot_crossing_the_way_from_the_right_is_passed_behind_keeping_right_at_full_speed():
+    rig = NavigatorRig()
+    rig.pose()
+    q = rig.query("nav/move_to_point", {"x": 1.5, "y": 0.0, "wait": True})
+    why, least = cross(rig, q, 1.0)
+    assert reply(q).result == "succeeded" and least >= REACH
+    c = rig.nav.counters.values
+    assert c["robot_detours"] >= 1 and c["robot_slowdowns"] == 0 and why == {""}
     rig.nav.close()
 
 
@@ -83,4 +102,17 @@ def test_avoid_robots_false_leaves_them_to_the_guard():
         body(rig, "r2", 0.6, 0.0)
         rig.step()
     assert abs(rig.y) < 0.01  # straight on, at it
+    rig.nav.close()
+
+
+def test_its_commands_tell_its_way_and_another_robots_told_way_comes_in_with_its_body():
+    rig = NavigatorRig()
+    rig.pose()
+    rig.query("nav/move_to_point", {"x": 1.2, "y": 0.5})
+    for _ in range(50):
+        body(rig, "r2", 0.5, 1.0, v=0.2, way=((0.5, 1.5),))
+        rig.step()
+    cmds = rig.published("cmd_vel")
+    assert cmds and cmds[-1].v > 0.0 and cmds[-1].way == ((1.2, 0.5),)
+    assert rig.nav._bodies()[0].way == ((0.5, 1.5),)
     rig.nav.close()

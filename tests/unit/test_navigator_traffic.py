@@ -10,7 +10,7 @@ from zenav.services.navigator.controllers import PoseSample, Wheelbase
 from zenav.services.navigator.goals import Goal
 from zenav.services.navigator.params import Params
 from zenav.services.navigator.planner import Planner
-from zenav.services.navigator.traffic import Other, Traffic
+from zenav.services.navigator.traffic import Decision, Other, Traffic
 from zenav.services.navigator.traffic_machine import TrafficMachine
 
 AREA = Field(x_min=0.0, x_max=3.0, y_min=0.0, y_max=3.0)
@@ -125,3 +125,31 @@ def test_the_goal_machine_replaces_a_blocked_detour_whole():
     assert machine.counts["robot_detours"] == 2
     points = run.goal.points[run.index :]
     assert points[-1] == (2.5, 1.5) and not set(first) & set(points)  # no corner of the blocked detour is kept
+
+
+def test_a_robot_that_tells_its_way_is_foreseen_along_it_not_along_its_velocity():
+    told = Other("r1", 0.0, 0.0, 0.1, 0.2, 0.0, way=((0.3, 0.0), (0.3, 1.0)))  # heads +x, turns left at 0.3
+    assert told.at(0.0) == (0.0, 0.0)
+    x, y = told.at(2.5)  # 0.5 m along its way: round the corner
+    assert math.isclose(x, 0.3) and math.isclose(y, 0.2)
+    assert told.at(100.0) == (0.3, 1.0)  # standing at its way's end
+    x, y = Other("r1", 0.0, 0.0, 0.1, 0.2, 0.0).at(2.5)  # not told: along its velocity
+    assert math.isclose(x, 0.5) and y == 0.0
+
+
+def test_a_robot_whose_told_way_turns_off_before_the_crossing_is_not_given_way_to():
+    # r1 comes up towards r2's way at 0.2 m/s; along its velocity it crosses it 0.5 m ahead just when r2 gets there.
+    coming = Other("r1", 0.5, -0.4, 0.1, 0.0, 0.2)
+    assert Traffic("r2", 0.1, 0.05).decide((0.0, 0.0), [(2.0, 0.0)], [coming], speed=0.2) != Decision()
+    # It tells its way: it turns back down 0.1 m on, never reaching r2's way.
+    turning = Other("r1", 0.5, -0.4, 0.1, 0.0, 0.2, way=((0.5, -0.3), (1.5, -1.0)))
+    assert Traffic("r2", 0.1, 0.05).decide((0.0, 0.0), [(2.0, 0.0)], [turning], speed=0.2) == Decision()
+
+
+def test_a_crossing_robot_is_passed_in_a_lane_right_of_the_way_at_full_speed_before_slowing():
+    # r1 crosses r2's way from r2's right 0.75 m ahead, about when r2 gets there: r2 passes behind it, keeping right of
+    # its way (heading +x its right is -y), at full speed.
+    d = Traffic("r2", 0.1, 0.05).decide((0.0, 0.0), [(2.0, 0.0)], [Other("r1", 0.75, -0.45, 0.1, 0.0, 0.2)], speed=0.2)
+    assert d.detour is not None and d.scale == 1.0 and d.rejoin == 0
+    corner, end = d.detour
+    assert end == (2.0, 0.0) and math.isclose(corner[0], 1.0) and -0.41 < corner[1] < 0.0

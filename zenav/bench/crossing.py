@@ -2,10 +2,11 @@
 
     zenav bench planning   # with the planner's tables (bench/planning.py)
 
-Each robot runs the navigator's goal machine among the others (traffic_machine.py: right of way by id, slowing, waiting, detours
-round robots) and the motor's guard under its commands, on its own world-model robot (the default scenario's motor
-lag, slip and wheel errors; the pose the truth), the robots' bodies kept out of each other by the sim's contacts,
-which are counted. On an open 3 m field. Each run perturbs the starts and goals (up to PERTURB in x and y), the
+Each robot runs the navigator's goal machine among the others (traffic_machine.py: right of way by id, lanes, slowing,
+waiting, detours round robots; each robot's body telling the next points of its way, as its motor's does) and the
+motor's guard under its commands, on its own world-model robot (the default scenario's motor lag, slip and wheel
+errors; the pose the truth), the robots' bodies kept out of each other by the sim's contacts, which are counted. On an
+open 3 m field. Each run perturbs the starts and goals (up to PERTURB in x and y), the
 start headings (up to TURN off facing the goal) and seeds the world anew. Each robot's goal is also driven alone
 from the same start, on the same seed: a run's time is when its last robot arrived, against the longest of them alone.
 """
@@ -109,9 +110,10 @@ def simulate(robots: list[tuple[str, Point, Point, float]], seed: int, params: P
         if all(r.done for r in runs):
             break
         bodies = {r.name: r.trial.bot.state for r in runs}
+        ways = {r.name: r.machine.way() for r in runs}
         cmds = []
         for r in runs:
-            others = [_other(n, s) for n, s in bodies.items() if n != r.name]
+            others = [_other(n, s, ways[n]) for n, s in bodies.items() if n != r.name]
             cmds.append(_command(r, others, guard, step, every))
         for r, (left, right) in zip(runs, cmds):
             r.trial.others = {n: Disc(s.x, s.y, RADIUS) for n, s in bodies.items() if n != r.name}
@@ -124,8 +126,8 @@ def simulate(robots: list[tuple[str, Point, Point, float]], seed: int, params: P
     return runs, least, contacts
 
 
-def _other(name: str, s: State) -> Other:
-    return Other(name, s.x, s.y, RADIUS, s.v * math.cos(s.theta), s.v * math.sin(s.theta))
+def _other(name: str, s: State, way: tuple[Point, ...] = ()) -> Other:
+    return Other(name, s.x, s.y, RADIUS, s.v * math.cos(s.theta), s.v * math.sin(s.theta), way)
 
 
 def _pose(trial: Trial) -> PoseSample:

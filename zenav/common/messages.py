@@ -107,6 +107,10 @@ class CameraFrame(Topic, frozen=True, kw_only=True):
     data: bytes
 
 
+XY = Annotated[tuple[Coord, ...], Meta(min_length=2, max_length=2)]  # [m] [x, y]
+Way = Annotated[tuple[XY, ...], Meta(max_length=3)]  # [m] map frame: the next points a robot drives through
+
+
 class Body(Topic, frozen=True, kw_only=True):
     """Where a simulated robot's body is on the field (zenav/field/sim/body): the other robots' sims keep out of it."""
 
@@ -117,6 +121,7 @@ class Body(Topic, frozen=True, kw_only=True):
     radius: Annotated[float, Meta(gt=0.0, le=10.0)]  # [m] the footprint, a disc
     theta: Angle | None = None  # [rad] `robots`: its heading (None: not sent)
     v: Velocity | None = None  # [m/s] `robots`: its forward speed (None: not sent; taken as standing)
+    way: Way = ()  # `robots`: the next points it drives through, from its navigator's command (empty: not told)
 
 
 class Odom(Topic, frozen=True, kw_only=True):
@@ -150,6 +155,7 @@ class CmdVel(Topic, frozen=True, kw_only=True):
     t: Time  # odom (or pose) t acted on; 0 means "now" (clients without the stack clock)
     v: Velocity  # [m/s]
     omega: Velocity  # [rad/s]
+    way: Way = ()  # the next points the command drives toward (the navigator's goal; empty: none told)
 
 
 class Wheels(Topic, frozen=True, kw_only=True):

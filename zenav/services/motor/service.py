@@ -165,7 +165,9 @@ class Motor(Service):
         pose = self.pose
         if pose is None or now - pose.t > self.cfg.guard_pose_age:
             return None
-        return m.Body(t=pose.t, robot=self.robot, x=pose.x, y=pose.y, radius=self.radius, theta=pose.theta, v=pose.v)
+        asked = self.asked  # where its navigator drives it, while it does
+        way = asked.way if asked is not None and asked.v != 0.0 and now - self.last_cmd_t <= self.cfg.watchdog else ()
+        return m.Body(t=pose.t, robot=self.robot, x=pose.x, y=pose.y, radius=self.radius, theta=pose.theta, v=pose.v, way=way)
 
     @timer("watchdog_period")
     @publish("motors/wheels")

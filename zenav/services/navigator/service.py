@@ -154,7 +154,7 @@ class Navigator(Service):
         if cmd is not None:
             with self._cmd_lock:
                 if self._stops <= 0:  # -1 for a moment when the worker handles a stop before its hook ran
-                    self.publish("cmd_vel", m.CmdVel(t=sample.t, v=cmd[0], omega=cmd[1]))
+                    self.publish("cmd_vel", m.CmdVel(t=sample.t, v=cmd[0], omega=cmd[1], way=self.machine.way()))
 
     @timer("check_period")
     def check(self, now: float) -> None:
@@ -214,7 +214,8 @@ class Navigator(Service):
         if msg.robot != self.robot:
             v = msg.v or 0.0
             theta = msg.theta or 0.0
-            other = Other(msg.robot, msg.x, msg.y, msg.radius, v * math.cos(theta), v * math.sin(theta))
+            way = tuple((p[0], p[1]) for p in msg.way)  # where it is going, when it tells it
+            other = Other(msg.robot, msg.x, msg.y, msg.radius, v * math.cos(theta), v * math.sin(theta), way)
             self.robot_bodies[msg.robot] = (self.clock.now(), other)
 
     def on_start(self) -> None:

@@ -1,17 +1,22 @@
-"""Other robots on the way: give way by slowing, drive round them keeping right, step aside, or wait.
+"""Other robots on the way: give way in a lane to the right or by slowing, drive round them keeping right, step aside,
+or wait.
 
 Pure: the robot's position, its way (the points it drives through next) and the other robots' bodies (position,
-footprint, velocity) come in as arguments. Another robot's centre is kept `reach` = both footprints plus [field]
-margin plus BUFFER from this one's. Each pose:
+footprint, velocity, and the next points of their own way when they tell them) come in as arguments. Another robot's
+centre is kept `reach` = both footprints plus [field] margin plus BUFFER from this one's. Each pose:
 
 1. Right of way goes to the robot whose id sorts first (as text: "r1" before "r2", "r10" before "r2"). A robot
-   with the right of way that moves is seen where it is and where its velocity takes it within SWEEP (its swept
-   disc); any other robot (without the right of way, or standing) where it is. So the robot without the right of way
-   clears the other's course; the one with it only goes round where the other is: each pair agrees who gives way.
+   with the right of way that moves is seen where it is and where it goes within SWEEP (its swept disc): along the
+   way it tells at its speed (a robot keeping right of this one is seen passing beside it, a crossing one where it
+   crosses), else along its velocity. Any other robot (without the right of way, or standing) is seen where it is. So
+   the robot without the right of way clears the other's course; the one with it only goes round where the other is:
+   each pair agrees who gives way.
 2. When a robot (swept) lies within `reach` of the way's next LOOK_AHEAD metres and every such robot has the right of
-   way and moves (it crosses the way), the robot first tries to let it pass by slowing: the largest of SCALES of its
-   speed at which, driving along its way, it keeps `reach` from every robot (those with the right of way moving on
-   at their velocity) for HORIZON seconds. At full speed: it drives on.
+   way and moves (it crosses the way), the robot keeps going if, driving on along its way at full speed, it keeps
+   `reach` from every robot (those with the right of way going on as foreseen, the rest standing) for HORIZON seconds.
+   Else it takes the first of the lanes LANES right of its way (through a corner LANE_AT along the way to the way's
+   next point) that keeps so at full speed: keeping right, as the robots with the right of way do (3.). Else it lets
+   them pass by slowing: the largest of SCALES of its speed at which, along its way, it keeps so.
 3. Else it takes a detour to the first point of its way clear of every robot, planned by the visibility graph round
    the robots and the field's obstacles near it, inside the field's edges (moved in by the footprint and margin): a
    robot near the edge goes round on the side that has room. Each robot's shape is moved BIAS to the left of the line
@@ -45,10 +50,12 @@ LOOK_AHEAD = 1.0  # [m] of the way checked for robots in it
 MOVING = 0.03  # [m/s] a robot slower than this stands
 GOAL_NEAR = 0.6  # [m] a robot on the goal counts only once this close to the goal (two swapping robots: not at the start)
 DISC_SIDES = 8  # sides of the polygon a robot's disc is planned round as
-SCALES = (1.0, 0.8, 0.6, 0.45, 0.3, 0.15)  # [-] the speeds tried, as fractions of the goal's, to let a crossing robot pass
-HORIZON = 3.0  # [s] a slowed robot keeps clear of the others' predicted course for this long
+SCALES = (0.8, 0.6, 0.45, 0.3, 0.15)  # [-] the slower speeds tried, as fractions of the goal's, to let a crossing robot pass
+HORIZON = 3.0  # [s] a robot letting others pass (driving on, in a lane, slower) keeps clear of their foreseen course this long
 STEP = 0.1  # [s] the prediction's time step
 ASIDE = 0.1  # [m] a step aside goes this much farther than `reach` + BIAS off the line (its point may be passed early)
+LANES = (0.1, 0.2, 0.3, 0.4)  # [m] how far right of the way the lanes tried at full speed (before slowing) pass
+LANE_AT = 1.0  # [m] a lane's corner lies this far along the way (at most half way to its next point)
 NEARBY = 1.0  # [m] the field's obstacles this close to a detour's straight way are planned round with the robots
 
 
@@ -62,11 +69,18 @@ class Other:
     radius: float  # [m] footprint
     vx: float = 0.0  # [m/s] map frame
     vy: float = 0.0  # [m/s]
+    way: tuple[Point, ...] = ()  # the next points it drives through, as it tells them (empty: not told)
 
     @property
     def moving(self) -> bool:
         """Whether it drives (not slower than MOVING)."""
         return math.hypot(self.vx, self.vy) >= MOVING
+
+    def at(self, t: float) -> Point:
+        """Where it will be in `t` [s] driving on at its speed: along its way (standing at its end), else its velocity."""
+        if self.way:
+            return along((self.x, self.y), self.way, math.hypot(self.vx, self.vy) * t)
+        return (self.x + self.vx * t, self.y + self.vy * t)
 
 
 @dataclass(frozen=True)
@@ -146,33 +160,47 @@ class Traffic:
                 return Decision(detour=(step, way[-1]), rejoin=len(way) - 1, aside=True)
             return Decision(taken.name, f"waiting for robot {taken.name} to leave the goal")
         if all(o.name < self.robot and o.moving for o in near):
-            scale = self._slowed(here, way, others, speed)
-            if scale == 1.0:
+            if self._clear(here, way, others, speed):
                 return Decision()
+            lanes = (self._lane(here, way[base:], d) for d in LANES)
+            lane = next((w for w in lanes if w is not None and self._clear(here, w, others, speed)), None)
+            if lane is not None:
+                return Decision(detour=lane, rejoin=base)
+            scale = next((f for f in SCALES if self._clear(here, way, others, f * speed)), None)
             if scale is not None:
                 return Decision(why=f"slowing for robot {first.name} to pass", scale=scale)
         return self._detour(here, way, k, others, first)
 
     def swept(self, o: Other) -> list[Point]:
-        """Where another robot will be: a robot with the right of way that moves, along its velocity for SWEEP [s]
-        (sampled); any other, where it is."""
+        """Where another robot will be: a robot with the right of way that moves, where it goes within SWEEP [s] (Other.at,
+        sampled); any other, where it is."""
         if o.name >= self.robot or not o.moving:
             return [(o.x, o.y)]
-        return [(o.x + o.vx * SWEEP * s, o.y + o.vy * SWEEP * s) for s in (0.0, 0.25, 0.5, 0.75, 1.0)]
+        return [o.at(SWEEP * s) for s in (0.0, 0.25, 0.5, 0.75, 1.0)]
 
-    def _slowed(self, here: Point, way: Sequence[Point], others: Sequence[Other], speed: float) -> float | None:
-        """The largest of SCALES at which the robot keeps `reach` from every other for HORIZON [s] (those with the right
-        of way that move going on at their velocity, the rest standing), or None."""
-        ts = np.arange(0.0, HORIZON + STEP / 2, STEP)
-        course = [(o, self.reach(o), o.vx if o.name < self.robot else 0.0, o.vy if o.name < self.robot else 0.0) for o in others]
-        for scale in SCALES:
-            if all(
-                math.dist(along(here, way, scale * speed * t), (o.x + vx * t, o.y + vy * t)) >= r
-                for t in ts.tolist()
-                for o, r, vx, vy in course
-            ):
-                return scale
-        return None
+    def _lane(self, here: Point, way: Sequence[Point], d: float) -> tuple[Point, Point] | None:
+        """The way to its next point through a corner `d` [m] right of it, LANE_AT along it (None: the point is closer
+        than 2 `d`, or the corner is outside the field's edges or blocked by its obstacles)."""
+        b = way[0]
+        n = math.dist(here, b)
+        if n < 2.0 * d:
+            return None
+        f = min(LANE_AT, n / 2.0) / n
+        ux, uy = (b[0] - here[0]) / n, (b[1] - here[1]) / n
+        p = (here[0] + (b[0] - here[0]) * f + uy * d, here[1] + (b[1] - here[1]) * f - ux * d)
+        if self.field is not None and not (self._within(p) and self.field.free(here, p) and self.field.free(p, b)):
+            return None
+        return (p, b)
+
+    def _clear(self, here: Point, way: Sequence[Point], others: Sequence[Other], speed: float) -> bool:
+        """Whether driving along `way` at `speed` [m/s] keeps `reach` from every other for HORIZON [s] (those with the
+        right of way that move going on as predicted, the rest standing)."""
+        ts = np.arange(0.0, HORIZON + STEP / 2, STEP).tolist()
+        return all(
+            math.dist(along(here, way, speed * t), o.at(t) if o.name < self.robot else (o.x, o.y)) >= self.reach(o)
+            for t in ts
+            for o in others
+        )
 
     def _detour(self, here: Point, way: Sequence[Point], k: int, others: Sequence[Other], first: Other) -> Decision:
         """The way round the robots (and the field's obstacles near it) to the way's point k, or a wait for `first`."""
@@ -190,7 +218,7 @@ class Traffic:
 
     def _shape(self, here: Point, o: Other) -> Shape:
         """Another robot as a shape to plan round (the planner adds this robot's footprint and the margin): its disc
-        (swept: the hull of its discs along its velocity), moved BIAS left of the line from `here` to it and grown by
+        (swept: the hull of its discs where it goes), moved BIAS left of the line from `here` to it and grown by
         BUFFER and 2 BIAS."""
         dx, dy = o.x - here[0], o.y - here[1]
         n = math.hypot(dx, dy) or 1.0
@@ -200,7 +228,7 @@ class Traffic:
         if len(swept) == 1:
             return circle_shape(f"robot {o.name}", (o.x + sx, o.y + sy, r))
         ring = [(r * math.cos(a), r * math.sin(a)) for a in np.linspace(0.0, 2.0 * math.pi, DISC_SIDES, endpoint=False)]
-        return polygon_shape(f"robot {o.name}", hull([(x + sx + u, y + sy + v) for x, y in (swept[0], swept[-1]) for u, v in ring]))
+        return polygon_shape(f"robot {o.name}", hull([(x + sx + u, y + sy + v) for x, y in swept for u, v in ring]))
 
     def _aside(self, here: Point, o: Other, others: Sequence[Other]) -> Point | None:
         """Where to step off the line from `o` to here (to the right facing it, else to the left) so that it can drive
@@ -210,15 +238,16 @@ class Traffic:
         d = self.reach(o) + BIAS + ASIDE
         for side in (1.0, -1.0):  # facing o (heading -d), its right is (-dy, dx) / n
             p = (here[0] - side * dy / n * d, here[1] + side * dx / n * d)
-            if any(math.dist(p, (q.x, q.y)) < self.reach(q) for q in others):
+            if any(math.dist(p, (q.x, q.y)) < self.reach(q) for q in others) or not self._within(p):
                 continue
-            f = self.field
-            box = f.box if f is not None else None
-            if box is not None and not (box[0] <= p[0] <= box[2] and box[1] <= p[1] <= box[3]):
-                continue
-            if f is None or f.free(here, p):
+            if self.field is None or self.field.free(here, p):
                 return p
         return None
+
+    def _within(self, p: Point) -> bool:
+        """Whether p lies inside the field's edges (moved in by the footprint and margin)."""
+        box = self.field.box if self.field is not None else None
+        return box is None or (box[0] <= p[0] <= box[2] and box[1] <= p[1] <= box[3])
 
 
 def along(here: Point, way: Sequence[Point], length: float) -> Point:

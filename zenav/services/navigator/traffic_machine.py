@@ -103,6 +103,14 @@ class TrafficMachine(GoalMachine):
             cmd = self._cmd = (cmd[0] * self.scale, cmd[1])
         return cmd, end
 
+    def way(self, points: int = 3) -> tuple[tuple[float, float], ...]:
+        """The next `points` points the running goal drives through while steered round robots and driving (else none):
+        told to the other robots (in its commands, which the motor's body carries) so that they see where it goes."""
+        run = self._run
+        if run is None or self.traffic is None or not self._steered(run) or self.waiting:
+            return ()
+        return tuple((p[0], p[1]) for p in run.goal.points[run.index : run.index + points])
+
     @staticmethod
     def _steered(run: Run) -> bool:
         """Whether the run drives between points now (not turning at its end, facing, settling or chained)."""
