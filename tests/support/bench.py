@@ -15,13 +15,15 @@ import math
 
 from zenav.bench import cost, plan, speed
 from zenav.bench.accuracy import Spec, Summary
-from zenav.bench.latency import AROUND_FIX, END_TO_END, SPLIT, STAGES
+from zenav.bench.latency import AROUND_FIX, END_TO_END, SPLIT, STAGES, configured, stages
 from zenav.bench.live import Live
 from zenav.bench.run import Results
 from zenav.bench.scoring import Score
 from zenav.bench.studies.navigator import Outcome
 from zenav.services import NAMES
 from zenav.stack.launcher import ProcStack
+
+FLOOR_HOPS = {3: "three", 4: "four", 5: "five"}[len(stages(configured()))]  # the floor's heading: the configured chain's hops
 
 
 def live(robots=1, cpu=0.5, speed=1.0, overruns=0, busy=0.3, failures=(), hot=None) -> Live:
@@ -120,7 +122,7 @@ def sections(
         "# zenav benchmark",
         "## Targets",
         "## Latency",
-        *(["### What the services add", "### The floor: a bare chain of the same five hops"] if floor else []),
+        *(["### What the services add", f"### The floor: a bare chain of the same {FLOOR_HOPS} hops"] if floor else []),
         *(["### Services as Zenoh peers"] if peers else []),
         *(["### The localizer around a late fix"] if around_fix else []),
         *(["### A busy computer: the control loop at real-time priority"] if busy else []),
