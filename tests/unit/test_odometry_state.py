@@ -15,7 +15,7 @@ R, L, TPR = ROBOT.wheel_radius, ROBOT.track_width, ROBOT.ticks_per_rev
 DT = 0.01  # [s] 100 Hz
 
 
-def params(source="encoders", integrator="arc", weights=(1.0, 1.0, 0.0), k=1e-4, robot=ROBOT, compass_gain=1.0):
+def params(source="encoders", integrator="arc", weights=(1.0, 1.0, 0.0), k=1e-4, robot=ROBOT, compass_gain=1.0, subtick=True):
     heading = hd.HeadingParams(
         source=source,
         weights=weights,
@@ -30,7 +30,7 @@ def params(source="encoders", integrator="arc", weights=(1.0, 1.0, 0.0), k=1e-4,
         imu_timeout=0.1,
         compass_timeout=0.5,
     )
-    return od.make_params(robot, integrator, k, k, 3.0, heading, (2.0, 5.0, 0.3))
+    return od.make_params(robot, integrator, k, k, 3.0, heading, (2.0, 5.0, 0.3), subtick)
 
 
 def ticks(angle, tpr=TPR, start=0):
@@ -179,7 +179,7 @@ def test_gyro_heading_does_not_depend_on_arrival_order():
 
 
 def test_gyro_missing_falls_back_to_encoders():
-    p = params("gyro")
+    p = params("gyro", subtick=False)  # whole ticks: the encoders' turn is two ticks' difference
     s, odoms, events = feed(p, [(1.0, 0.2, 0.5)])
     assert events[-1] == od.OK
     s, o, ev = od.update(s, p, s.left + 1, s.right + 3, s.t + 0.2)  # IMU silent for 0.2 s
