@@ -148,7 +148,8 @@ def update(
         return s._replace(t=t, left=left, right=right, t_moved=t, watch=watch, wheels=OdometryState().wheels), None, RESET
     wheels = s.wheels
     if p.subtick:
-        wheels = subtick.step(s.wheels[0], n_left, t, dt), subtick.step(s.wheels[1], n_right, t, dt)
+        per_rad = p.stall.ticks_per_rad
+        wheels = subtick.step(s.wheels[0], n_left, t, dt, cmd[0] * per_rad), subtick.step(s.wheels[1], n_right, t, dt, cmd[1] * per_rad)
         d_left = subtick.travel(s.wheels[0], wheels[0], n_left) * p.metres_per_tick
         d_right = subtick.travel(s.wheels[1], wheels[1], n_right) * p.metres_per_tick
     else:

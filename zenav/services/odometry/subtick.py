@@ -16,6 +16,7 @@ counter's wrap-around never reaches a float.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 
@@ -28,17 +29,18 @@ class Wheel(NamedTuple):
     speed: float = 0.0  # [ticks/s] signed, between the last two edges in one direction; 0: not known
 
 
-def _extrapolate(w: Wheel, t: float) -> float:
-    """The fraction at time t [s] from the newest edge and speed, clamped inside the tick."""
-    if w.edge_t is None:
-        return w.frac
-    return min(1.0, max(0.0, w.edge + w.speed * (t - w.edge_t)))
+def _clamp(frac: float) -> float:
+    return min(1.0, max(0.0, frac))
 
 
-def step(w: Wheel, ticks: int, t: float, dt: float) -> Wheel:
-    """The estimate after a sample at t [s], dt [s] after the previous one, in which the count moved `ticks`."""
+def step(w: Wheel, ticks: int, t: float, dt: float, cmd: float) -> Wheel:
+    """The estimate after a sample at t [s], dt [s] after the previous one, in which the count moved `ticks`
+    while the wheel was commanded `cmd` [ticks/s]."""
     if ticks == 0:
-        return w._replace(frac=_extrapolate(w, t))
+        if w.speed * cmd <= 0.0:  # commanded to stop or to turn back: the wheel runs on no further
+            return w
+        rate = min(abs(w.speed), abs(cmd))  # a wheel commanded slower slows down
+        return w._replace(frac=_clamp(w.frac + math.copysign(rate * dt, w.speed)))
     edge = 0.0 if ticks > 0 else 1.0
     edge_t = t - dt / (2.0 * abs(ticks))
     speed = 0.0
@@ -46,8 +48,7 @@ def step(w: Wheel, ticks: int, t: float, dt: float) -> Wheel:
         travel = ticks + edge - w.edge  # [ticks] from the previous edge to this one
         if travel * ticks > 0.0:  # both edges in one direction (0: the wheel turned back within the tick)
             speed = travel / (edge_t - w.edge_t)
-    out = Wheel(edge, edge_t, edge, speed)
-    return out._replace(frac=_extrapolate(out, t))
+    return Wheel(_clamp(edge + speed * (t - edge_t)), edge_t, edge, speed)
 
 
 def travel(old: Wheel, new: Wheel, ticks: int) -> float:
