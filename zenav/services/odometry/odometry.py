@@ -162,7 +162,17 @@ def update(
     if n_left or n_right:
         t_moved, imu = t, hd.moved(imu)
     state = s._replace(
-        t=t, left=left, right=right, x=st.x, y=st.y, theta=st.theta, cov=cov, imu=imu, compass=compass, watch=watch, t_moved=t_moved,
+        t=t,
+        left=left,
+        right=right,
+        x=st.x,
+        y=st.y,
+        theta=st.theta,
+        cov=cov,
+        imu=imu,
+        compass=compass,
+        watch=watch,
+        t_moved=t_moved,
         wheels=wheels,
     )
     odom = m.Odom(

@@ -29,18 +29,19 @@ class Wheel(NamedTuple):
     speed: float = 0.0  # [ticks/s] signed, between the last two edges in one direction; 0: not known
 
 
-def _clamp(frac: float) -> float:
-    return min(1.0, max(0.0, frac))
+def _run(w: Wheel, frac: float, span: float, cmd: float) -> float:
+    """The fraction `span` [s] on from `frac` at the edges' speed, no faster than commanded, inside the tick."""
+    if w.speed * cmd <= 0.0:  # not known, or commanded to stop or to turn back: the wheel runs on no further
+        return frac
+    rate = min(abs(w.speed), abs(cmd))  # a wheel commanded slower slows down
+    return min(1.0, max(0.0, frac + math.copysign(rate * span, w.speed)))
 
 
 def step(w: Wheel, ticks: int, t: float, dt: float, cmd: float) -> Wheel:
     """The estimate after a sample at t [s], dt [s] after the previous one, in which the count moved `ticks`
     while the wheel was commanded `cmd` [ticks/s]."""
     if ticks == 0:
-        if w.speed * cmd <= 0.0:  # commanded to stop or to turn back: the wheel runs on no further
-            return w
-        rate = min(abs(w.speed), abs(cmd))  # a wheel commanded slower slows down
-        return w._replace(frac=_clamp(w.frac + math.copysign(rate * dt, w.speed)))
+        return w._replace(frac=_run(w, w.frac, dt, cmd))
     edge = 0.0 if ticks > 0 else 1.0
     edge_t = t - dt / (2.0 * abs(ticks))
     speed = 0.0
@@ -48,7 +49,8 @@ def step(w: Wheel, ticks: int, t: float, dt: float, cmd: float) -> Wheel:
         travel = ticks + edge - w.edge  # [ticks] from the previous edge to this one
         if travel * ticks > 0.0:  # both edges in one direction (0: the wheel turned back within the tick)
             speed = travel / (edge_t - w.edge_t)
-    return Wheel(_clamp(edge + speed * (t - edge_t)), edge_t, edge, speed)
+    out = Wheel(edge, edge_t, edge, speed)
+    return out._replace(frac=_run(out, edge, t - edge_t, cmd))
 
 
 def travel(old: Wheel, new: Wheel, ticks: int) -> float:
