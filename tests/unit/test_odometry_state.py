@@ -82,6 +82,28 @@ def test_quarter_circle_from_quantised_ticks(integrator):
     assert o.omega == pytest.approx(0.5, abs=0.6)  # per-step rate, one tick of heading noise
 
 
+def test_subtick_places_a_coarse_robot_between_its_ticks():
+    """16 ticks/rev (13 mm a tick), straight at 0.1 m/s with the wheels' commands in the samples: the pose
+    from the tick timing errs by a fraction of what whole ticks do."""
+    coarse = ROBOT.__class__(ticks_per_rev=16)
+    w = 0.1 / R  # [rad/s] each wheel
+    errors = {}
+    for sub in (False, True):
+        p = params(robot=coarse, subtick=sub)
+        s, _, _ = od.update(od.OdometryState(), p, 0, 0, 0.0)
+        sq = []
+        for i in range(1, 301):
+            t = i * DT
+            count = ticks(w * t, 16)
+            s, o, _ = od.update(s, p, count, count, t, (w, w))
+            if t > 1.0:
+                sq.append((o.x - 0.1 * t) ** 2)
+        errors[sub] = math.sqrt(sum(sq) / len(sq))
+    tick = math.pi * ROBOT.wheel_diameter / 16
+    assert errors[False] > 0.4 * tick  # uniform in a tick: 0.58 tick rms
+    assert errors[True] < 0.1 * tick
+
+
 def test_ticks_wrap_around_the_signed_32_bit_range():
     seg = [(2.0, 0.3, 0.4)]
     _, plain = drive(params(), seg)

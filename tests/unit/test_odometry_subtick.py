@@ -51,6 +51,25 @@ def test_a_stopped_wheel_waits_at_its_tick_and_stays():
     assert len({est for _, est, _ in stopped}) == 1  # still: the estimate no longer moves
 
 
+def test_a_stalled_wheel_still_commanded_waits_at_its_ticks_end():
+    """Commanded on at 10 ticks/s but held at 10.3: the estimate runs to the tick's end and no further."""
+    positions = [10.0 * i * DT for i in range(101)] + [10.3] * 100
+    samples = follow(positions, cmds=[10.0] * 200)
+    assert all(count == 10 and est <= 11.0 for _, est, count in samples[100:])
+    assert samples[-1][1] == 11.0
+
+
+def test_a_wheel_commanded_slower_or_not_at_all_runs_on_slower_or_not():
+    """After edges at 10 ticks/s: commanded 4 ticks/s it runs on at 4, commanded 0 or back it holds."""
+    w = st.step(st.Wheel(), 1, 0.1, 0.1, 10.0)  # the first edge (taken at 0.05 s): no speed yet
+    assert (w.speed, w.frac) == (0.0, 0.0)
+    w = st.step(w, 1, 0.2, 0.1, 10.0)  # the next at 0.15 s: 10 ticks/s
+    assert w.speed == pytest.approx(10.0) and w.frac == pytest.approx(0.5)  # 0.05 s after the edge
+    assert st.step(w, 0, 0.21, 0.01, 4.0).frac == pytest.approx(0.54)
+    assert st.step(w, 0, 0.21, 0.01, 0.0) == w
+    assert st.step(w, 0, 0.21, 0.01, -4.0) == w
+
+
 def test_a_reversal_within_a_tick_jumps_back_only_to_the_new_counts_edge():
     """Forward into tick 5 (edge at 5.0), back out through 5.0: the count 4 says the wheel is below 5.0."""
     fwd = [4.0 + 0.1 * i for i in range(18)]  # 4.0 .. 5.7

@@ -2,9 +2,10 @@
 
 Pure: `update(state, params, left, right, t, cmd)` returns the new state, the odom message
 of the sample (None when the sample only sets a baseline or is dropped) and what
-happened. The covariance carries a per-wheel noise model (variance of a wheel's
-travel = k * |travel|) and the heading source's noise through the integrator's
-Jacobians.
+happened. Each wheel's travel is its count's change, plus (`subtick`) the change of its
+estimated position within the tick (subtick.py). The covariance carries a per-wheel
+noise model (variance of a wheel's travel = k * |travel|) and the heading source's
+noise through the integrator's Jacobians.
 """
 
 from __future__ import annotations
@@ -127,6 +128,19 @@ def _propagate(
     return (c00, c01, c02, c01, c11, c12, c02, c12, c22)  # symmetric: the upper triangle mirrored
 
 
+def _travel(
+    wheels: tuple[subtick.Wheel, subtick.Wheel], p: Params, ticks: tuple[int, int], t: float, dt: float, cmd: tuple[float, float]
+) -> tuple[tuple[subtick.Wheel, subtick.Wheel], tuple[float, float]]:
+    """Each wheel's sub-tick state and travel [m] over a step in which the counts moved `ticks`, commanded `cmd` [rad/s]."""
+    if not p.subtick:
+        return wheels, (ticks[0] * p.metres_per_tick, ticks[1] * p.metres_per_tick)
+    per_rad = p.stall.ticks_per_rad
+    left, right = (subtick.step(w, n, t, dt, c * per_rad) for w, n, c in zip(wheels, ticks, cmd))
+    d_left = subtick.travel(wheels[0], left, ticks[0]) * p.metres_per_tick
+    d_right = subtick.travel(wheels[1], right, ticks[1]) * p.metres_per_tick
+    return (left, right), (d_left, d_right)
+
+
 def update(
     s: OdometryState, p: Params, left: int, right: int, t: float, cmd: tuple[float, float] = (0.0, 0.0)
 ) -> tuple[OdometryState, m.Odom | None, str]:
@@ -146,14 +160,7 @@ def update(
     limit = p.max_tick_rate * dt + 1.0  # one tick of quantisation always passes
     if abs(n_left) > limit or abs(n_right) > limit:
         return s._replace(t=t, left=left, right=right, t_moved=t, watch=watch, wheels=OdometryState().wheels), None, RESET
-    wheels = s.wheels
-    if p.subtick:
-        per_rad = p.stall.ticks_per_rad
-        wheels = subtick.step(s.wheels[0], n_left, t, dt, cmd[0] * per_rad), subtick.step(s.wheels[1], n_right, t, dt, cmd[1] * per_rad)
-        d_left = subtick.travel(s.wheels[0], wheels[0], n_left) * p.metres_per_tick
-        d_right = subtick.travel(s.wheels[1], wheels[1], n_right) * p.metres_per_tick
-    else:
-        d_left, d_right = n_left * p.metres_per_tick, n_right * p.metres_per_tick
+    wheels, (d_left, d_right) = _travel(s.wheels, p, (n_left, n_right), t, dt, cmd)
     d = (d_left + d_right) / 2.0
     imu, compass, h = hd.heading_step(s.imu, s.compass, s.theta, s.t0, t, dt, (d_right - d_left) / p.track, d / dt, p.heading)
     st = integrators.step(s.x, s.y, s.theta, d, h.dtheta, p.integrator)

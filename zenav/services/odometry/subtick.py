@@ -6,11 +6,13 @@ ticks. A count that rises to n was crossing n at that moment, one that falls to 
 was crossing n + 1. Between samples the edge time is unknown; it is taken at the
 middle of the span the newest edge can have happened in (half the sample period,
 or half a tick's time when several ticks came in one sample). From the last edge
-the wheel runs on at the speed between its last two edges in the same direction,
-clamped inside the tick the count says it is in: a wheel that stops waits at the
-tick's end, one that reverses jumps back no further than the new count's edge, and
-after a reversal (or at the start) it holds at its edge until the next one gives a
-speed. Positions are kept as the fraction of a tick above the count, so the
+the wheel runs on at the speed between its last two edges in the same direction, but
+no faster than the encoder sample says it was commanded (a wheel told to slow down
+slows), not at all once commanded to stop or turn back (or when the sample carries no
+command), and always inside the tick the count says it is in: a wheel that stalls
+waits at the tick's end, one that reverses jumps back no further than the new count's
+edge, and after a reversal (or at the start) it holds at its edge until the next one
+gives a speed. Positions are kept as the fraction of a tick above the count, so the
 counter's wrap-around never reaches a float.
 """
 
