@@ -15,7 +15,7 @@ R, L, TPR = ROBOT.wheel_radius, ROBOT.track_width, ROBOT.ticks_per_rev
 DT = 0.01  # [s] 100 Hz
 
 
-def params(source="encoders", integrator="arc", weights=(1.0, 1.0, 0.0), k=1e-4, robot=ROBOT, compass_gain=1.0):
+def params(source="encoders", integrator="arc", weights=(1.0, 1.0, 0.0), k=1e-4, robot=ROBOT, compass_gain=1.0, subtick=True):
     heading = hd.HeadingParams(
         source=source,
         weights=weights,
@@ -30,7 +30,7 @@ def params(source="encoders", integrator="arc", weights=(1.0, 1.0, 0.0), k=1e-4,
         imu_timeout=0.1,
         compass_timeout=0.5,
     )
-    return od.make_params(robot, integrator, k, k, 3.0, heading, (2.0, 5.0, 0.3))
+    return od.make_params(robot, integrator, k, k, 3.0, heading, (2.0, 5.0, 0.3), subtick)
 
 
 def ticks(angle, tpr=TPR, start=0):
@@ -80,6 +80,28 @@ def test_quarter_circle_from_quantised_ticks(integrator):
     assert (o.x, o.y) == pytest.approx((0.4, 0.4), abs=0.005)  # quantisation: about a tick
     assert o.theta == pytest.approx(math.pi / 2, abs=0.01)
     assert o.omega == pytest.approx(0.5, abs=0.6)  # per-step rate, one tick of heading noise
+
+
+def test_subtick_places_a_coarse_robot_between_its_ticks():
+    """16 ticks/rev (13 mm a tick), straight at 0.1 m/s with the wheels' commands in the samples: the pose
+    from the tick timing errs by a fraction of what whole ticks do."""
+    coarse = ROBOT.__class__(ticks_per_rev=16)
+    w = 0.1 / R  # [rad/s] each wheel
+    errors = {}
+    for sub in (False, True):
+        p = params(robot=coarse, subtick=sub)
+        s, _, _ = od.update(od.OdometryState(), p, 0, 0, 0.0)
+        sq = []
+        for i in range(1, 301):
+            t = i * DT
+            count = ticks(w * t, 16)
+            s, o, _ = od.update(s, p, count, count, t, (w, w))
+            if t > 1.0:
+                sq.append((o.x - 0.1 * t) ** 2)
+        errors[sub] = math.sqrt(sum(sq) / len(sq))
+    tick = math.pi * ROBOT.wheel_diameter / 16
+    assert errors[False] > 0.4 * tick  # uniform in a tick: 0.58 tick rms
+    assert errors[True] < 0.1 * tick
 
 
 def test_ticks_wrap_around_the_signed_32_bit_range():
@@ -179,7 +201,7 @@ def test_gyro_heading_does_not_depend_on_arrival_order():
 
 
 def test_gyro_missing_falls_back_to_encoders():
-    p = params("gyro")
+    p = params("gyro", subtick=False)  # whole ticks: the encoders' turn is two ticks' difference
     s, odoms, events = feed(p, [(1.0, 0.2, 0.5)])
     assert events[-1] == od.OK
     s, o, ev = od.update(s, p, s.left + 1, s.right + 3, s.t + 0.2)  # IMU silent for 0.2 s

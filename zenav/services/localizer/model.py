@@ -64,7 +64,8 @@ class Step:
 
 def rounding_var(nz: Noise) -> float:
     """[rad^2] the variance of the tick rounding in the odometry's heading at one time: each wheel's count
-    is its travel rounded down to a tick (uniform: tick^2 / 12), the heading their difference over the track."""
+    is its travel rounded down to a tick (uniform: tick^2 / 12), the heading their difference over the track.
+    Kept whole with the odometry's sub-tick estimate too: a smaller rounding made the pose less accurate."""
     return nz.tick**2 / (6.0 * nz.track**2)
 
 

@@ -2,9 +2,10 @@
 
 Pure: `update(state, params, left, right, t, cmd)` returns the new state, the odom message
 of the sample (None when the sample only sets a baseline or is dropped) and what
-happened. The covariance carries a per-wheel noise model (variance of a wheel's
-travel = k * |travel|) and the heading source's noise through the integrator's
-Jacobians.
+happened. Each wheel's travel is its count's change, plus (`subtick`) the change of its
+estimated position within the tick (subtick.py). The covariance carries a per-wheel
+noise model (variance of a wheel's travel = k * |travel|) and the heading source's
+noise through the integrator's Jacobians.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from typing import NamedTuple
 from zenav.common import messages as m
 from zenav.common.config import RobotConfig
 from zenav.services.odometry import heading as hd
-from zenav.services.odometry import integrators, stall
+from zenav.services.odometry import integrators, stall, subtick
 
 # What a sample did (the service counts and logs these).
 OK = "ok"  # an odom pose
@@ -36,6 +37,7 @@ class Params(NamedTuple):
     k_right: float  # [m]
     heading: hd.HeadingParams
     stall: stall.StallParams  # when a commanded wheel's silent encoder counts as silent
+    subtick: bool = True  # each wheel's position within its tick from the tick timing (subtick.py); False: whole ticks
 
 
 def make_params(
@@ -46,6 +48,7 @@ def make_params(
     reset_factor: float,
     heading: hd.HeadingParams,
     stall_limits: tuple[float, float, float],
+    subtick: bool = True,
 ) -> Params:
     """Params from the nominal robot; reset_factor times the max wheel speed is impossible;
     stall_limits: (stall_speed [rad/s], min_ticks, min_time [s]) of a silent encoder (stall.py)."""
@@ -61,6 +64,7 @@ def make_params(
         k_right=k_right,
         heading=heading,
         stall=stall.params(ticks, robot.wheel_radius, *stall_limits),
+        subtick=subtick,
     )
 
 
@@ -79,6 +83,7 @@ class OdometryState(NamedTuple):
     imu: hd.Imu = hd.Imu()
     compass: hd.Compass = hd.Compass()
     watch: stall.Watch = stall.Watch()  # each encoder's silence while commanded
+    wheels: tuple[subtick.Wheel, subtick.Wheel] = (subtick.Wheel(), subtick.Wheel())  # (left, right) within their ticks
 
 
 def tick_delta(new: int, old: int) -> int:
@@ -123,6 +128,19 @@ def _propagate(
     return (c00, c01, c02, c01, c11, c12, c02, c12, c22)  # symmetric: the upper triangle mirrored
 
 
+def _travel(
+    wheels: tuple[subtick.Wheel, subtick.Wheel], p: Params, ticks: tuple[int, int], t: float, dt: float, cmd: tuple[float, float]
+) -> tuple[tuple[subtick.Wheel, subtick.Wheel], tuple[float, float]]:
+    """Each wheel's sub-tick state and travel [m] over a step in which the counts moved `ticks`, commanded `cmd` [rad/s]."""
+    if not p.subtick:
+        return wheels, (ticks[0] * p.metres_per_tick, ticks[1] * p.metres_per_tick)
+    per_rad = p.stall.ticks_per_rad
+    left, right = (subtick.step(w, n, t, dt, c * per_rad) for w, n, c in zip(wheels, ticks, cmd))
+    d_left = subtick.travel(wheels[0], left, ticks[0]) * p.metres_per_tick
+    d_right = subtick.travel(wheels[1], right, ticks[1]) * p.metres_per_tick
+    return (left, right), (d_left, d_right)
+
+
 def update(
     s: OdometryState, p: Params, left: int, right: int, t: float, cmd: tuple[float, float] = (0.0, 0.0)
 ) -> tuple[OdometryState, m.Odom | None, str]:
@@ -141,8 +159,8 @@ def update(
     watch, unmeasured, _ = stall.step(s.watch, p.stall, t, dt, (n_left, n_right), cmd)
     limit = p.max_tick_rate * dt + 1.0  # one tick of quantisation always passes
     if abs(n_left) > limit or abs(n_right) > limit:
-        return s._replace(t=t, left=left, right=right, t_moved=t, watch=watch), None, RESET
-    d_left, d_right = n_left * p.metres_per_tick, n_right * p.metres_per_tick
+        return s._replace(t=t, left=left, right=right, t_moved=t, watch=watch, wheels=OdometryState().wheels), None, RESET
+    wheels, (d_left, d_right) = _travel(s.wheels, p, (n_left, n_right), t, dt, cmd)
     d = (d_left + d_right) / 2.0
     imu, compass, h = hd.heading_step(s.imu, s.compass, s.theta, s.t0, t, dt, (d_right - d_left) / p.track, d / dt, p.heading)
     st = integrators.step(s.x, s.y, s.theta, d, h.dtheta, p.integrator)
@@ -151,7 +169,18 @@ def update(
     if n_left or n_right:
         t_moved, imu = t, hd.moved(imu)
     state = s._replace(
-        t=t, left=left, right=right, x=st.x, y=st.y, theta=st.theta, cov=cov, imu=imu, compass=compass, watch=watch, t_moved=t_moved
+        t=t,
+        left=left,
+        right=right,
+        x=st.x,
+        y=st.y,
+        theta=st.theta,
+        cov=cov,
+        imu=imu,
+        compass=compass,
+        watch=watch,
+        t_moved=t_moved,
+        wheels=wheels,
     )
     odom = m.Odom(
         t=t,
