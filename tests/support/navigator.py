@@ -169,3 +169,8 @@ class World(NavigatorRig):
     def goals_sent(self):
         """The requests of every goal query the library sent."""
         return [req for suffix, req in self.sent if suffix.startswith("nav/") and suffix not in ("nav/stop", "nav/status")]
+
+
+def long_path(n, y=0.0):
+    """A follow_path request of n points along y, ending 1 m out."""
+    return {"points": [[1.0 * (i + 1) / n, y] for i in range(n)]}
