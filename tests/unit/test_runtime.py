@@ -106,17 +106,24 @@ def test_an_output_that_fails_to_go_out_is_counted_and_the_next_input_is_served(
     assert [w.t for w in published(bus, "motors/wheels")] == [2.0]
 
 
-def test_a_topic_followed_newest_keeps_its_last_sample_unserved_until_taken(svc):
+def test_a_topic_followed_newest_keeps_its_last_sample_unserved_until_read(svc):
     s, bus, _ = svc
     newest = s.newest("odom")
+
+    def odom(t):
+        bus.publish(keys.key("r1", "odom"), codec.encode(m.Odom(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
+
     for i in range(3):
-        bus.publish(keys.key("r1", "odom"), codec.encode(i))
+        odom(float(i))
     assert s.counters.values["msgs_in"] == 0  # no handler, no input served
-    assert newest.take() == codec.encode(2)
-    assert newest.take() is None  # nothing newer came
+    assert newest.msg.t == 2.0
+    bus.publish(keys.key("r1", "odom"), b"\xc1")  # a payload that does not decode: counted, the one before kept
+    assert newest.msg.t == 2.0 and s.counters.values["bad_input"] == 1
+    newest.forget()
+    assert newest.msg is None  # nothing newer came
     s.close()
-    bus.publish(keys.key("r1", "odom"), codec.encode(3))
-    assert newest.take() is None  # undeclared with the service
+    odom(3.0)
+    assert newest.msg is None  # undeclared with the service
 
 
 def test_timers_follow_the_clock(svc):

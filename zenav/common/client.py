@@ -108,22 +108,28 @@ class Latest:
 
 
 class Sampled:
-    """The newest message of one topic as of each read of `msg`: a view's rate, not the topic's (Client.newest)."""
+    """The newest message of one topic as of each read of `msg`: a view's rate, not the topic's (Client.newest,
+    Service.newest). A payload that does not decode is left out (`on_bad` told of it) and the one before kept."""
 
-    def __init__(self, newest: Newest, typ: type) -> None:
-        self._newest, self._typ = newest, typ
+    def __init__(self, newest: Newest, typ: type, on_bad: Callable[[codec.BadInput], None] | None = None) -> None:
+        self._newest, self._typ, self._on_bad = newest, typ, on_bad
         self._msg: Any = None
 
     @property
     def msg(self) -> Any:
-        """The newest valid message yet (None: none came)."""
+        """The newest valid message yet (None: none came, or forgotten since)."""
         data = self._newest.take()
         if data is not None:
             try:
                 self._msg = codec.decode(data, self._typ)
-            except codec.BadInput:
-                pass
+            except codec.BadInput as e:
+                if self._on_bad is not None:
+                    self._on_bad(e)
         return self._msg
+
+    def forget(self) -> None:
+        """Drop the message kept: None until another comes."""
+        self._msg = None
 
 
 class Client:

@@ -43,7 +43,8 @@ from typing import Any
 
 from zenav.common import codec, keys
 from zenav.common import messages as m
-from zenav.common.bus import Bus, Handle, Newest, undeclare_all
+from zenav.common.bus import Bus, Handle, undeclare_all
+from zenav.common.client import Sampled
 from zenav.common.clock import FOREIGN, REFUSED, RESTARTED, Clock, SimClock, WallClock
 from zenav.common.config import Settings
 from zenav.common.diagnostics import WARN_LINES, Counters, CpuMeter, WarnLimit, shape
@@ -232,12 +233,18 @@ class Service(Intake, Dispatch):
             self._other_clock.add(suffix)
         self._handles.append(self.bus.subscribe(self.key(suffix), self._enqueuer(fn, suffix, typ, latest)))
 
-    def newest(self, suffix: str) -> Newest:
-        """Follow a topic without serving its samples (no handler, no wake per sample): its newest payload, taken when
-        the service asks (`Newest.take`), for a fast topic read at a slower one's pace. Undeclared as the service stops."""
+    def newest(self, suffix: str) -> Sampled:
+        """Follow a topic without serving its samples (no handler, no wake per sample): its newest message, read when
+        the service asks (`Sampled.msg`), for a fast topic read at a slower one's pace; a payload that does not decode is
+        counted (`bad_input`) and logged as a served one is. Undeclared as the service stops."""
         newest = self.bus.newest(self.key(suffix))
         self._handles.append(newest)
-        return newest
+
+        def bad(e: codec.BadInput) -> None:
+            self.counters.inc("bad_input")
+            self.warn(f"bad:{suffix}", f"dropped bad input on {suffix}: {e}")
+
+        return Sampled(newest, keys.topic_type(suffix), bad)
 
     def watch(self, key: str, fn: Callable[[bool], Any]) -> Handle:
         """Watch a liveliness token key at run time: `fn(alive)` runs in the worker on each

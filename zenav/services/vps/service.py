@@ -12,7 +12,8 @@ from msgspec import Meta, Struct
 
 from zenav.common import codec, extras, keys
 from zenav.common import messages as m
-from zenav.common.bus import Bus, Newest
+from zenav.common.bus import Bus
+from zenav.common.client import Sampled
 from zenav.common.clock import Clock
 from zenav.common.config import Camera as CameraConfig
 from zenav.common.config import Settings
@@ -79,8 +80,7 @@ class Vps(Service):
         self.reader: Reader | None = None
         self.host: HostClock | None = None  # the camera host's clock and its sync to each robot's stack (camera)
         self.onboard: OnboardReader | None = None
-        self._estimate: tuple[float, float, float] | None = None  # [m, m, rad] the localizer's newest pose, when sure enough
-        self._pose: Newest | None = None  # the localizer's 100 Hz pose, kept by the bus unserved: read as a frame comes
+        self._pose: Sampled | None = None  # the localizer's 100 Hz pose, kept by the bus unserved: read as a frame comes
         if self.cfg.source == "camera":
             self.blocking = True  # a frame takes milliseconds to detect ...
             self.background = True  # ... and the control loop must not wait for a core meanwhile
@@ -138,7 +138,8 @@ class Vps(Service):
             q.clear()
         if self.host is not None:
             self.host.forget()
-        self._estimate = None
+        if self._pose is not None:
+            self._pose.forget()
 
     @timer(SYNC_PERIOD)
     def sync_clocks(self, now: float) -> None:
@@ -211,17 +212,10 @@ class Vps(Service):
     def estimate(self) -> tuple[float, float, float] | None:
         """[m, m, rad] the localizer's newest pose, what an ambiguous single tag is resolved against, while its position
         is sure enough (None: not sure, or none came)."""
-        data = self._pose.take() if self._pose is not None else None
-        if data is not None:
-            try:
-                msg = codec.decode(data, m.Pose)
-            except codec.BadInput as e:
-                self.count("bad_input")
-                self.warn("bad:pose", f"dropped bad input on pose: {e}")
-                return self._estimate
-            sure = msg.cov[0] + msg.cov[4] < ESTIMATE_SIGMA**2
-            self._estimate = (msg.x, msg.y, msg.theta) if sure else None
-        return self._estimate
+        msg = self._pose.msg if self._pose is not None else None
+        if msg is None or msg.cov[0] + msg.cov[4] >= ESTIMATE_SIGMA**2:
+            return None
+        return (msg.x, msg.y, msg.theta)
 
     def on_onboard_frame(self, msg: m.CameraFrame) -> None:
         """One frame of the robot's camera: the [field] tags in it become one fix, sent after the link delay."""
