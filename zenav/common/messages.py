@@ -108,7 +108,8 @@ class CameraFrame(Topic, frozen=True, kw_only=True):
 
 
 XY = Annotated[tuple[Coord, ...], Meta(min_length=2, max_length=2)]  # [m] [x, y]
-Way = Annotated[tuple[XY, ...], Meta(max_length=3)]  # [m] map frame: the next points a robot drives through
+WAY_POINTS = 3  # the most points a robot tells of its way
+Way = Annotated[tuple[XY, ...], Meta(max_length=WAY_POINTS)]  # [m] map frame: the next points a robot drives through
 
 
 class Body(Topic, frozen=True, kw_only=True):

@@ -18,6 +18,7 @@ from collections import Counter
 from collections.abc import Sequence
 from dataclasses import replace
 
+from zenav.common import messages as m
 from zenav.common.config import Field
 from zenav.common.contract import Exit, State
 from zenav.services.navigator.controllers import PoseSample, Wheelbase
@@ -103,7 +104,7 @@ class TrafficMachine(GoalMachine):
             cmd = self._cmd = (cmd[0] * self.scale, cmd[1])
         return cmd, end
 
-    def way(self, points: int = 3) -> tuple[tuple[float, float], ...]:
+    def way(self, points: int = m.WAY_POINTS) -> tuple[tuple[float, float], ...]:
         """The next `points` points the running goal drives through while steered round robots and driving (else none):
         told to the other robots (in its commands, which the motor's body carries) so that they see where it goes."""
         run = self._run
