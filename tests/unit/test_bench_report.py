@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from tests.support.bench import headings, results, sections, summary
+from tests.support.bench import headings, live, results, sections, summary
 from zenav.bench import camera as camera_bench
 from zenav.bench import plan, report
 from zenav.bench.accuracy import Spec
@@ -112,6 +112,17 @@ def test_the_targets_say_what_the_cpu_goals_stand_on_here(tmp_path):
         "CPU floor: a bare relay (one topic in and out at 100 Hz) took 0.040 of a core in this run. At its price per "
         "message, the 400 messages a second the robot's services take (and 80 sim clock ticks) and the 200 they send "
         "would cost 0.136 of a core with no work of theirs (goal 0.15), every stack process's but the router's 0.200 "
-        "(goal for the whole stack, the router's 0.080 included: 0.35)."
+        "(goal for the whole stack, the router's 0.080 included: 0.3)."
     ) in text
     assert "CPU floor" not in report.write(results(), tmp_path).read_text()  # no bare chain run, no floor
+
+
+def test_the_whole_stack_with_the_camera_vps_has_its_own_target_and_rows(tmp_path):
+    res = results()
+    res.camera_vps = live(cpu=0.3)
+    text = report.write(res, tmp_path).read_text()
+    assert "| whole stack CPU at 100 Hz, camera VPS | <= 0.3 core | 0.260 CPU s per simulated s | yes |" in text
+    assert "| whole stack, camera VPS | 0.260 |" in text and "| vps, camera VPS | 0.030 |" in text
+    res.camera_vps = live(cpu=0.5)
+    text = report.write(res, tmp_path).read_text()
+    assert "| whole stack CPU at 100 Hz, camera VPS | <= 0.3 core | 0.380 CPU s per simulated s | **no** |" in text

@@ -96,10 +96,12 @@ def _diags(client: Client) -> dict[str, Latest]:
     return {svc: client.latest(f"diag/{svc}") for svc in NAMES}
 
 
-def _stack_args(robots: int, rate: float, rtf: float, scenario: str, zenoh_mode: str, realtime: int) -> list[str]:
+def _stack_args(
+    robots: int, rate: float, rtf: float, scenario: str, zenoh_mode: str, realtime: int, sets: tuple[str, ...] = ()
+) -> list[str]:
     """`zenav up`'s options for the measured stack."""
     args = ["--scenario", scenario, "--set", f"sim.rtf={rtf}", "--set", f"scenario.sensor_rate_hz={rate}", "--zenoh-mode", zenoh_mode]
-    args += ["--set", f"deployment.realtime={realtime}"]
+    args += ["--set", f"deployment.realtime={realtime}", *(a for s in sets for a in ("--set", s))]
     if robots > 1:  # they drive one square from one start: through one another (one robot's body is measured)
         args += ["--set", "sim.body_radius=0"]
     return args
@@ -129,6 +131,7 @@ def run(
     realtime: int = 0,
     during: Callable[[dict[tuple[str, str], int]], object] | None = None,
     beside: bool = False,
+    sets: tuple[str, ...] = (),
 ) -> Live:
     """Start robots r1..rN at `rate` [Hz] and `rtf`, drive them, measure `window` wall seconds.
 
@@ -139,9 +142,10 @@ def run(
     about `window` seconds (bench/spy.py's sampling).
     beside: in the same window on the same router, the relay arm (bench/arm.py) in the same deployment and, with
     the services as separate processes, the bare chain of its hops (bench/chain.py), which then sets the window's length.
+    sets: more config settings of the stack ("section.key=value"), e.g. the camera VPS.
     """
     ids = tuple(f"r{i + 1}" for i in range(robots))
-    args = _stack_args(robots, rate, rtf, scenario, zenoh_mode, realtime)
+    args = _stack_args(robots, rate, rtf, scenario, zenoh_mode, realtime, sets)
     stack = ProcStack(ids, NAMES, log_dir, args, compose=compose, realtime=realtime).start()
     bus = None
     stop = threading.Event()

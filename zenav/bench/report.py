@@ -24,7 +24,7 @@ from zenav.bench.tables import TARGET_ADDED, fmt, ratios, table
 from zenav.common.roles import ROBOT_SERVICES
 
 TARGET_P50, TARGET_P99 = 3.0, 8.0  # [ms] end to end at 100 Hz
-TARGET_CPU = 0.35  # [CPU s per simulated s] the whole stack at 100 Hz
+TARGET_CPU = 0.30  # [CPU s per simulated s] the whole stack at 100 Hz, whatever VPS runs
 TARGET_ROBOT_CPU = 0.15  # [CPU s per simulated s] the four services a real robot runs, at 100 Hz
 STACK_COLOURS = ("tab:blue", "tab:green", "tab:purple")  # the latency histogram: clients, peers, composed
 BARE_COLOURS = {"client": "tab:gray", "peer": "tab:orange"}  # ... and the bare chain per Zenoh mode
@@ -114,6 +114,10 @@ def _targets(res: Results) -> list[str]:
         cpu = sum(c.cpu_per_sim_s for c in costs)
         measured = f"{fmt(cpu, 3)} CPU s per simulated s"
         rows.append(["whole stack CPU at 100 Hz", f"<= {TARGET_CPU:g} core", measured, _met(cpu <= TARGET_CPU)])
+        if res.camera_vps is not None:
+            ccpu = sum(c.cpu_per_sim_s for c in cost.services(res.camera_vps))
+            row = ["whole stack CPU at 100 Hz, camera VPS", f"<= {TARGET_CPU:g} core", f"{fmt(ccpu, 3)} CPU s per simulated s"]
+            rows.append([*row, _met(ccpu <= TARGET_CPU)])
         robot = sum(c.cpu_per_sim_s for c in costs if c.name in ROBOT_SERVICES)
         rows.append(
             [

@@ -42,6 +42,7 @@ from zenav.services.navigator.params import Params
 from zenav.tools.plot import plot_run
 
 RATE = 100.0  # [Hz] the reference sensor rate (scenarios.md)
+CAMERA_VPS = ('vps.source="camera"',)  # the stack's VPS from the overhead camera's frames
 
 
 @dataclass
@@ -55,6 +56,7 @@ class Results:
     chains: dict[str, Chain] = field(default_factory=dict)  # Zenoh mode -> the bare chain of its hops, beside the stack's runs
     added: dict[str, Added] = field(default_factory=dict)  # deployment -> what the robot services add (bench/added.py)
     plain: Live | None = None  # the cost section's run: the stack alone on its router
+    camera_vps: Live | None = None  # the same with the camera VPS (the sim renders the overhead camera, the vps reads it)
     base: Live | None = None  # one robot at 100 Hz, realtime, its runs' chains pooled (beside its relay arm and the bare chain)
     peer: Live | None = None  # the same with the services as Zenoh peers
     composed: Live | None = None  # the same with the robot's services composed in one process
@@ -115,6 +117,8 @@ def _measure_live(plan: Plan, res: Results, logs: Path, note: Callable[[str], No
     if "cost" in plan.sections:
         res.plain = base = live.run(1, RATE, 1.0, plan.latency_window, logs / "plain")  # the stack alone on its router
         note(f"one robot at {RATE:g} Hz, realtime, alone: {len(base.chain['end to end'])} chains")
+        res.camera_vps = live.run(1, RATE, 1.0, plan.sweep_window, logs / "camera-vps", sets=CAMERA_VPS)
+        note(f"one robot at {RATE:g} Hz with the camera VPS: {len(res.camera_vps.chain['end to end'])} chains")
         one = cost.load(base)
         for rate in plan.rates:
             res.rates.append(one if rate == RATE else _sweep_point(1, rate, plan.sweep_window, logs))

@@ -78,6 +78,21 @@ def cost(res: Results) -> list[str]:
         comp = services(res.composed)
         rows += [_sum_row("robot's services composed in one process", [c]) for c in comp if c.name == "composed"]
         rows.append(_sum_row("whole stack, robot's services composed", comp))
+    if res.camera_vps is not None:
+        cam = services(res.camera_vps)
+        rows += [
+            [
+                f"{c.name}, camera VPS",
+                fmt(c.cpu_per_sim_s, 3),
+                f"{c.cpu_per_sim_s:.1%}",
+                f"{c.rss_mb:.0f}",
+                fmt(c.msgs_in, 0),
+                fmt(c.msgs_out, 0),
+            ]
+            for c in cam
+            if c.name in ("sim", "vps")
+        ]
+        rows.append(_sum_row("whole stack, camera VPS", cam))
     if res.peer is not None:
         peers = services(res.peer)
         cpu = sum(c.cpu_per_sim_s for c in peers)
@@ -95,7 +110,9 @@ def cost(res: Results) -> list[str]:
         f"resident memory at the end, messages per simulated second from the services' diag counters. This bench "
         f"process (driving the robot, following its diag) used {fmt(base.bench_cpu / base.wall, 3)} of a core beside "
         f"it, the latency observer (a process of its own) not counted. The rows of the peers and of the composed "
-        "deployment come from their latency runs, whose router also carried the relay arm and the bare chain.",
+        "deployment come from their latency runs, whose router also carried the relay arm and the bare chain; the "
+        f"camera VPS's from a run of its own ({res.plan.sweep_window:g} s): the sim renders the overhead camera's frames and the vps "
+        "reads the robot's tag in them instead of the synthetic fixes.",
         "",
         *table(["process", "CPU s per sim s", "of one core", "RSS [MiB]", "msgs in/s", "msgs out/s"], rows),
     ]
