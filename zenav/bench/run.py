@@ -42,7 +42,7 @@ from zenav.services.navigator.params import Params
 from zenav.tools.plot import plot_run
 
 RATE = 100.0  # [Hz] the reference sensor rate (scenarios.md)
-CAMERA_VPS = ('vps.source="camera"',)  # the stack's VPS from the overhead camera's frames
+CAMERA_VPS = ('vps.source="camera"', "sim.camera=true")  # the stack's VPS from the overhead camera's frames
 
 
 @dataclass
