@@ -84,16 +84,16 @@ def solve(
     seeds = _candidates(known, layout, cfg, world, image)
     if not seeds:
         return Refused("no_solution", f"no PnP solution places the camera on its mount over tags {[t.id for t in known]}")
-    priors = nuisance(cfg, len(known))
-    refined = sorted((_refine(cfg, world, image, s, priors) for s in seeds), key=lambda r: r[1])
+    p = _problem(cfg, world, image, nuisance(cfg, len(known)))
+    refined = sorted(_outcomes(p, _refine(p, seeds)), key=lambda r: r[1])
     ids = tuple(t.id for t in known)
-    best, err = refined[0]
-    cov = _covariance(cfg, world, best, priors)
+    best, err, j = refined[0]
+    cov = _covariance(cfg, j)
     rest = [r for r in refined[1:] if not _same(best, r[0], cov)]  # the other minima (seeds that converged apart)
     ambiguity = 0.0
     chosen = False
     if len(known) == 1 and rest:
-        other, err2 = rest[0]
+        other, err2, j2 = rest[0]
         ambiguity = err / max(err2, 1e-12)
         if ambiguity > cfg.max_ambiguity:
             pick = _by_estimate(best, other, estimate)
@@ -101,8 +101,7 @@ def solve(
                 why = "no estimate to choose by" if estimate is None else "the estimate is near neither, or near both"
                 return Refused("ambiguous", f"tag {ids[0]}: its two poses fit alike (ambiguity {ambiguity:.2f}); {why}")
             if pick is other:
-                best, err = other, err2
-                cov = _covariance(cfg, world, best, priors)
+                best, err, cov = other, err2, _covariance(cfg, j2)
             chosen = True
     return TagFix(*best, widen(cfg, cov), ids, distance, err, ambiguity, chosen, float(image[:, 1].mean()))
 
@@ -209,24 +208,49 @@ def nuisance(cfg: OnboardCamera, tags: int) -> np.ndarray:
     return np.maximum([tilt, cfg.print_scale_error, *[cfg.tag_position_error] * (3 * tags)], PRIOR_LEAST)
 
 
-def _project(cfg: OnboardCamera, world: np.ndarray, poses: np.ndarray) -> np.ndarray:
-    """(P x 2N) [px] where the camera of a robot at each of `poses` (P x (x, y, theta[, the nuisances])) shows `world`
-    (N x 3, 4 corners a tag): OpenCV's projection (its five-coefficient distortion), for every pose at once."""
-    n = len(poses)
-    pts = np.broadcast_to(world, (n, *world.shape))
+@dataclass(frozen=True)
+class _Problem:
+    """One frame's least squares: the corners, where the lens shows them, the nuisances' priors, and what every
+    projection of them shares (worked out once a frame, not once a projection)."""
+
+    cfg: OnboardCamera
+    world: np.ndarray  # N x 3 [m] the tags' corners on the field, 4 a tag
+    target: np.ndarray  # (2N,) [px] where the lens shows them, u and v a corner
+    weights: np.ndarray  # [px per rad, px per m] corner_sigma / each nuisance's prior (nuisance()); none for an ideal camera
+    prior_rows: np.ndarray  # the priors' rows under the Jacobian, [0 | diag(weights)]
+    centres: np.ndarray  # N x 3 [m] each corner's tag's centre (the print scale grows a tag about it)
+    arms: np.ndarray  # N x 3 [m] each corner off its tag's centre
+    yaw: np.ndarray  # 3 x 3 the mount's yaw, left of its pitch in robot -> camera axes ...
+    roll: np.ndarray  # 3 x 3 ... and its roll and the camera's axes, right of it
+    t_rc: np.ndarray  # [m] the optical centre in the robot frame
+
+
+def _problem(cfg: OnboardCamera, world: np.ndarray, image: np.ndarray, priors: np.ndarray) -> _Problem:
+    """The least squares of the corners `world` the lens shows at `image` (N x 2 [px]), nuisances of sizes `priors`."""
+    centres = np.repeat(world.reshape(-1, 4, 3).mean(axis=1), 4, axis=0)
+    weights = cfg.corner_sigma / priors
+    roll = rotation(0.0, 0.0, cfg.roll) @ CAMERA_AXES  # CAMERA_AXES only permutes and negates: folded in first, the same bits
+    prior_rows = np.hstack([np.zeros((len(weights), 3)), np.diag(weights)])
+    t_rc = robot_to_camera(cfg)[1]
+    return _Problem(cfg, world, image.reshape(-1), weights, prior_rows, centres, world - centres, rotation(cfg.yaw), roll, t_rc)
+
+
+def _project(p: _Problem, poses: np.ndarray) -> np.ndarray:
+    """(P x 2N) [px] where the camera of a robot at each of `poses` (P x (x, y, theta[, the nuisances])) shows the
+    corners: OpenCV's projection (its five-coefficient distortion), for every pose at once."""
+    cfg, n = p.cfg, len(poses)
+    pts = np.broadcast_to(p.world, (n, *p.world.shape))
     pitch = np.full(n, cfg.pitch)
     if poses.shape[1] > 3:  # the camera's pitch, the tags' print scale and places
         pitch = pitch + poses[:, 3]
-        centres = np.repeat(world.reshape(-1, 4, 3).mean(axis=1), 4, axis=0)
         shift = np.repeat(poses[:, 5:].reshape(n, -1, 3), 4, axis=1)
-        pts = centres + (world - centres) * (1.0 + poses[:, 4, None, None]) + shift
-    _, t_rc = robot_to_camera(cfg)
-    r_rc = rotation(cfg.yaw) @ _about_y(pitch) @ rotation(0.0, 0.0, cfg.roll) @ CAMERA_AXES  # robot -> camera axes
+        pts = p.centres + p.arms * (1.0 + poses[:, 4, None, None]) + shift
+    r_rc = p.yaw @ _about_y(pitch) @ p.roll  # robot -> camera axes
     c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
     zero, one = np.zeros(n), np.ones(n)
     body = np.stack([c, -s, zero, s, c, zero, zero, zero, one], axis=1).reshape(n, 3, 3)  # robot -> map
     axes = body @ r_rc  # camera axes in the map (columns)
-    centre = np.stack([poses[:, 0], poses[:, 1], zero], axis=1) + body @ t_rc
+    centre = np.stack([poses[:, 0], poses[:, 1], zero], axis=1) + body @ p.t_rc
     cam = np.einsum("pji,pnj->pni", axes, pts - centre[:, None, :])  # camera frame
     x, y = cam[..., 0] / cam[..., 2], cam[..., 1] / cam[..., 2]
     r2 = x * x + y * y
@@ -261,60 +285,66 @@ def _differences(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray
     return moves, 2.0 * moves.max(axis=1), axis_of, keeps
 
 
-def _projection(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The projection at `pose` (2N,) [px] and its Jacobian (2N x len(pose)) [px per m, px per rad] by central
-    differences, every moved pose projected at once. A tag's place moves only its own corners: one difference moving
-    every tag along an axis gives each tag's column (its rows, zeros elsewhere)."""
-    moves, sizes, axis_of, keeps = _differences(len(pose))
-    got = _project(cfg, world, np.vstack([pose, pose + moves, pose - moves]))
-    k = len(moves)
-    diffs = (got[1 : 1 + k] - got[1 + k :]) / sizes[:, None]
-    first = min(len(pose), 5)
-    if not len(axis_of):  # no tag's place solved
-        return got[0], diffs.T
-    return got[0], np.hstack([diffs[:first].T, (diffs[axis_of] * keeps).T])
+def _moved(poses: np.ndarray) -> np.ndarray:
+    """(2 S K x n) what _jacobians projects about the poses (S x n): each moved by each of _differences' moves, then
+    back by each."""
+    moves = _differences(poses.shape[1])[0]
+    return np.concatenate([poses[:, None] + moves, poses[:, None] - moves], axis=1).reshape(-1, poses.shape[1])
 
 
-def _augmented(
-    cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray, target: np.ndarray, priors: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Residuals [px] and their Jacobian, with the nuisances' priors (0 +- priors) as more residuals in corner sigmas."""
-    projected, j = _projection(cfg, world, pose)
-    r = projected - target
-    if not len(priors):
-        return r, j
-    w = cfg.corner_sigma / priors  # [px per rad, px per m]
-    return np.concatenate([r, w * pose[3:]]), np.vstack([j, np.hstack([np.zeros((len(w), 3)), np.diag(w)])])
+def _jacobians(p: _Problem, projected: np.ndarray, n: int) -> np.ndarray:
+    """(S x M x n) the Jacobians [px per m, px per rad] of the residuals at S poses of `n` values: the projection's by
+    central differences, from the projections of their _moved poses, and under it the nuisances' priors' (constant).
+    A tag's place moves only its own corners: one difference moving every tag along an axis gives each tag's column
+    (its rows, zeros elsewhere)."""
+    _, sizes, axis_of, keeps = _differences(n)
+    got = projected.reshape(-1, 2, len(sizes), projected.shape[1])
+    diffs = (got[:, 0] - got[:, 1]) / sizes[:, None]  # S x K x 2N
+    if len(axis_of):
+        diffs = np.concatenate([diffs[:, :5], diffs[:, axis_of] * keeps], axis=1)
+    j: np.ndarray = diffs.transpose(0, 2, 1)
+    if not len(p.weights):
+        return j
+    return np.concatenate([j, np.broadcast_to(p.prior_rows, (len(j), *p.prior_rows.shape))], axis=1)
 
 
-def _residuals(cfg: OnboardCamera, world: np.ndarray, pose: np.ndarray, target: np.ndarray, priors: np.ndarray) -> np.ndarray:
-    """_augmented's residuals alone."""
-    r = _project(cfg, world, pose[None])[0] - target
-    return np.concatenate([r, cfg.corner_sigma / priors * pose[3:]]) if len(priors) else r
+def _residuals(p: _Problem, poses: np.ndarray, projected: np.ndarray) -> np.ndarray:
+    """(S x M) [px] the corners' reprojection errors at each of `poses`, from their projections, and the nuisances'
+    priors (0 +- priors) as more residuals in corner sigmas."""
+    return np.concatenate([projected - p.target, p.weights * poses[:, 3:]], axis=1)
 
 
-def _refine(
-    cfg: OnboardCamera, world: np.ndarray, image: np.ndarray, seed: tuple[float, float, float], priors: np.ndarray
-) -> tuple[tuple[float, float, float], float]:
-    """The floor pose nearest `seed` that best reprojects the corners (Gauss-Newton), and its rms error [px], the
-    nuisances (`priors`' sizes) solved beside it."""
-    pose = np.concatenate([seed, np.zeros(len(priors))])
-    target = image.reshape(-1)
+def _refine(p: _Problem, seeds: Sequence[tuple[float, float, float]]) -> np.ndarray:
+    """(S x n) the floor poses nearest each seed that best reproject the corners (Gauss-Newton), the nuisances
+    solved beside them. The seeds are refined together, their moved poses projected in one call a step; a seed whose
+    step is done stops there."""
+    poses = np.hstack([np.array(seeds, dtype=np.float64), np.zeros((len(seeds), len(p.weights)))])
+    moving = np.arange(len(seeds))
     for _ in range(ITERATIONS):
-        r, j = _augmented(cfg, world, pose, target, priors)
-        step, *_ = np.linalg.lstsq(j, -r, rcond=None)
-        pose = pose + step
-        if np.max(np.abs(step)) < STEP_DONE:
+        at = poses[moving]
+        got = _project(p, np.vstack([at, _moved(at)]))
+        r, j = _residuals(p, at, got[: len(at)]), _jacobians(p, got[len(at) :], at.shape[1])
+        step = np.array([np.linalg.lstsq(ji, -ri, rcond=None)[0] for ji, ri in zip(j, r)])
+        poses[moving] = at + step
+        moving = moving[np.max(np.abs(step), axis=1) >= STEP_DONE]
+        if not len(moving):
             break
-    r = _residuals(cfg, world, pose, target, priors)
-    rms = float(np.sqrt(np.sum(r**2) / len(target)))
-    return (float(pose[0]), float(pose[1]), wrap_angle(float(pose[2]))), rms
+    return poses
 
 
-def _covariance(cfg: OnboardCamera, world: np.ndarray, pose: tuple[float, float, float], priors: np.ndarray) -> tuple[float, ...]:
+def _outcomes(p: _Problem, poses: np.ndarray) -> list[tuple[tuple[float, float, float], float, np.ndarray]]:
+    """Each refined pose (S x n) on the floor, its rms reprojection error [px], and the Jacobian (M x n) its
+    covariance is drawn from: at the pose with its nuisances back at 0. One projection for all of them."""
+    floor = [(float(x), float(y), wrap_angle(float(t))) for x, y, t in poses[:, :3]]
+    at = np.hstack([np.array(floor), np.zeros((len(poses), len(p.weights)))])
+    got = _project(p, np.vstack([poses, _moved(at)]))
+    r = _residuals(p, poses, got[: len(poses)])
+    rms = [float(np.sqrt(np.sum(ri**2) / len(p.target))) for ri in r]
+    return list(zip(floor, rms, _jacobians(p, got[len(poses) :], poses.shape[1])))
+
+
+def _covariance(cfg: OnboardCamera, j: np.ndarray) -> tuple[float, ...]:
     """corner_sigma^2 (J^T J)^-1 (the nuisances' priors in J, then left out), 3x3 row-major, with the least variances added."""
-    p = np.concatenate([pose, np.zeros(len(priors))])
-    _, j = _augmented(cfg, world, p, np.zeros(2 * len(world)), priors)  # the residuals unused
     try:
         cov = np.linalg.inv(j.T @ j)[:3, :3] * cfg.corner_sigma**2
     except np.linalg.LinAlgError:
