@@ -76,9 +76,8 @@ class Motor(Service):
         bounds = (area.x_min, area.y_min, area.x_max, area.y_max) if area.enabled and self.cfg.guard_edges else None
         self.guard = Guard(area.shapes(), robot.radius, self.cfg.guard_gap, self.cfg.guard_decel, bounds)
         self.body_period = self.cfg.body_period  # read by @timer
-        self.pose: m.Pose | None = None  # the newest read, in order and admitted
+        self.pose: m.Pose | None = None  # the newest read, in order
         self._poses: Sampled | None = None  # the pose topic, read when a command needs it (on_start)
-        self._read: m.Pose | None = None  # the message last read from it (judged once)
         self._checked = 0.0  # [s] clock time the command in force was last guarded
         self._recheck = False  # a re-check is asked of the clock (call_at)
         self.others: dict[str, tuple[float, tuple[float, float, float]]] = {}  # robot -> (clock time heard, its disc)
@@ -150,16 +149,9 @@ class Motor(Service):
         return [(r, disc) for r, (_, disc) in self.others.items()]
 
     def _pose(self) -> m.Pose | None:
-        """The newest pose: one older than the one in use (out of order), or stamped past the clock's horizon, is not
-        taken (the latter counted, as a served input's is)."""
-        msg = self._poses.msg if self._poses is not None else None
-        if msg is None or msg is self._read:
-            return self.pose
-        self._read = msg
-        if not self.clock.admits(msg.t):
-            self.count("dropped_future")
-            self.warn("future:pose", f"dropped pose stamped t={msg.t:.3f}, {msg.t - self.clock.now():.3f} s ahead of the clock")
-        elif self.pose is None or msg.t >= self.pose.t:
+        """The newest pose read: one older than the one in use (out of order) is not taken."""
+        msg = self._poses.fresh() if self._poses is not None else None
+        if msg is not None and (self.pose is None or msg.t >= self.pose.t):
             self.pose = msg
         return self.pose
 
