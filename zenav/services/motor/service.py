@@ -91,8 +91,6 @@ class Motor(Service):
         self.last_out_t = None
         self.last_cmd_t = self.clock.now()
         self.pose, self._recheck = None, False  # the clock forgot its calls; a pose of the old clock would look fresh
-        if self._poses is not None:
-            self._poses.forget()
 
     def _output(self, t: float, ramp: tuple[float, float], wheels: tuple[float, float], now: float) -> m.Wheels:
         self.ramp, self.last_out_t = ramp, now
