@@ -104,3 +104,45 @@ def test_its_body_tells_the_way_of_the_command_it_drives_and_none_standing():
     bot.step(0.0, 0.0, 20, way=way)
     bodies = [codec.decode(d, m.Body) for k, d in bot.rig.bus.published if k == keys.field_key("robots")]
     assert bodies[-1].way == ()  # standing: it goes nowhere
+
+
+def test_a_10_hz_teleop_stops_before_the_box_on_the_re_check_not_on_pose_wakes():
+    # Braking hard (2 m/s^2) from 0.5 m/s, a check per command (every 5 cm) would run it into the box: the re-check
+    # every guard_period between the commands stops it, and no pose is ever served (each is read when needed).
+    box = polygon_shape("box", BOX)
+    for period, stops in ((0.02, True), (1.0, False)):
+        bot = MotorRig(field=FIELD, motor={"guard_decel": 2.0, "guard_period": period})
+        bot.step(0.5, 0.0, 300)
+        gap = box.clearance(bot.x, bot.y) - RADIUS
+        assert (0.0 < gap < 0.03) == stops, (period, gap)
+        bodies = sum(1 for k, _ in bot.rig.bus.published if k == keys.field_key("robots"))
+        assert bot.rig.svc.counters.values["msgs_in"] == 30 + bodies  # its cmd_vel and the robots' bodies, no pose
+
+
+def test_the_re_check_is_asked_only_while_a_moving_command_is_in_force():
+    bot = MotorRig(field=FIELD)
+    svc = bot.rig.svc
+    asked = []
+    call_at = svc.call_at
+
+    def spy(t, fn):  # the re-checks asked of the clock
+        asked.append(t)
+        call_at(t, fn)
+
+    svc.call_at = spy
+    bot.step(0.3, 0.0, 200)  # up to the box, stopped there, the command still in force
+    assert asked and bot.rig.got("motor/guard")[-1].stopped
+    n = len(bot.rig.got("motors/wheels"))
+    bot.step(0.3, 0.0, 10)  # held at the box: the re-check keeps its zero going between the commands
+    assert len(bot.rig.got("motors/wheels")) > n + 1 and bot.rig.got("motors/wheels")[-1].left == 0.0
+    bot.step(0.0, 0.0, 20, every=100)  # standing
+    n = len(asked)
+    bot.step(0.0, 0.0, 50)
+    assert len(asked) == n  # nothing to re-check: the service sleeps
+    bot.step(0.3, 0.0, 1)
+    n = len(asked)
+    bot.rig.run(1.0)  # the command runs out (watchdog): the re-checks end
+    assert len(asked) - n < 0.6 / 0.02
+    n = len(asked)
+    bot.rig.run(0.5)
+    assert len(asked) == n

@@ -126,6 +126,25 @@ def test_a_topic_followed_newest_keeps_its_last_sample_unserved_until_read(svc):
     assert newest.msg is None  # undeclared with the service
 
 
+def test_a_topic_followed_newest_gives_each_message_once_and_none_from_the_future(sim_svc):
+    s, bus, _ = sim_svc
+    newest = s.newest("pose")
+
+    def pose(t):
+        bus.publish(keys.key("r1", "pose"), codec.encode(m.Pose(t=t, x=0.0, y=0.0, theta=0.0, v=0.0, omega=0.0)))
+
+    tick(bus, s, 10.0)
+    tick(bus, s, 10.01)
+    assert newest.fresh() is None  # nothing came
+    pose(10.0)
+    assert newest.fresh().t == 10.0
+    assert newest.fresh() is None and newest.msg.t == 10.0  # given once; still the newest
+    pose(10.91)  # 0.9 s ahead: counted, the one before kept
+    assert newest.fresh() is None and newest.msg.t == 10.0 and s.counters.values["dropped_future"] == 1
+    pose(10.02)
+    assert newest.fresh().t == 10.02 and s.counters.values["msgs_in"] == 0
+
+
 def test_timers_follow_the_clock(svc):
     s, bus, clock = svc
     s.drain()  # first run schedules at now + period

@@ -109,11 +109,19 @@ class Latest:
 
 class Sampled:
     """The newest message of one topic as of each read of `msg`: a view's rate, not the topic's (Client.newest,
-    Service.newest). A payload that does not decode is left out (`on_bad` told of it) and the one before kept."""
+    Service.newest). A payload that does not decode is left out (`on_bad` told of it) and the one before kept, as is a
+    message `admit` refuses."""
 
-    def __init__(self, newest: Newest, typ: type, on_bad: Callable[[codec.BadInput], None] | None = None) -> None:
-        self._newest, self._typ, self._on_bad = newest, typ, on_bad
+    def __init__(
+        self,
+        newest: Newest,
+        typ: type,
+        on_bad: Callable[[codec.BadInput], None] | None = None,
+        admit: Callable[[Any], bool] | None = None,
+    ) -> None:
+        self._newest, self._typ, self._on_bad, self._admit = newest, typ, on_bad, admit
         self._msg: Any = None
+        self._given: Any = None  # the message `fresh` gave last
 
     @property
     def msg(self) -> Any:
@@ -121,11 +129,23 @@ class Sampled:
         data = self._newest.take()
         if data is not None:
             try:
-                self._msg = codec.decode(data, self._typ)
+                msg: Any = codec.decode(data, self._typ)
             except codec.BadInput as e:
                 if self._on_bad is not None:
                     self._on_bad(e)
+            else:
+                if self._admit is None or self._admit(msg):
+                    self._msg = msg
         return self._msg
+
+    def fresh(self) -> Any:
+        """The newest valid message if it came since the last `fresh` (None: none did): each is given once, for a
+        reader that acts on a message when it first sees it."""
+        msg = self.msg
+        if msg is None or msg is self._given:
+            return None
+        self._given = msg
+        return msg
 
     def forget(self) -> None:
         """Drop the message kept: None until another comes."""

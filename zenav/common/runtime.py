@@ -235,8 +235,9 @@ class Service(Intake, Dispatch):
 
     def newest(self, suffix: str) -> Sampled:
         """Follow a topic without serving its samples (no handler, no wake per sample): its newest message, read when
-        the service asks (`Sampled.msg`), for a fast topic read at a slower one's pace; a payload that does not decode is
-        counted (`bad_input`) and logged as a served one is. Undeclared as the service stops."""
+        the service asks (`Sampled.msg`, or `fresh`), for a fast topic read at a slower one's pace; a payload that does
+        not decode (`bad_input`), or a message stamped past the clock's horizon (`dropped_future`), is counted, logged
+        and left out as a served one is. Undeclared as the service stops."""
         newest = self.bus.newest(self.key(suffix))
         self._handles.append(newest)
 
@@ -244,7 +245,15 @@ class Service(Intake, Dispatch):
             self.counters.inc("bad_input")
             self.warn(f"bad:{suffix}", f"dropped bad input on {suffix}: {e}")
 
-        return Sampled(newest, keys.topic_type(suffix), bad)
+        def admit(msg: Any) -> bool:
+            t = getattr(msg, "t", None)
+            if t is None or self.clock.admits(t):
+                return True
+            self.counters.inc("dropped_future")
+            self.warn(f"future:{suffix}", f"dropped {suffix} stamped t={t:.3f}, {t - self.clock.now():.3f} s ahead of the clock")
+            return False
+
+        return Sampled(newest, keys.topic_type(suffix), bad, admit)
 
     def watch(self, key: str, fn: Callable[[bool], Any]) -> Handle:
         """Watch a liveliness token key at run time: `fn(alive)` runs in the worker on each
