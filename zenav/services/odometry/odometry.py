@@ -38,6 +38,7 @@ class Params(NamedTuple):
     heading: hd.HeadingParams
     stall: stall.StallParams  # when a commanded wheel's silent encoder counts as silent
     subtick: bool = True  # each wheel's position within its tick from the tick timing (subtick.py); False: whole ticks
+    motor_lag: float = 0.05  # [s] the motors' time constant, the sub-tick estimate's wheel model
 
 
 def make_params(
@@ -49,6 +50,7 @@ def make_params(
     heading: hd.HeadingParams,
     stall_limits: tuple[float, float, float],
     subtick: bool = True,
+    motor_lag: float = 0.05,
 ) -> Params:
     """Params from the nominal robot; reset_factor times the max wheel speed is impossible;
     stall_limits: (stall_speed [rad/s], min_ticks, min_time [s]) of a silent encoder (stall.py)."""
@@ -65,6 +67,7 @@ def make_params(
         heading=heading,
         stall=stall.params(ticks, robot.wheel_radius, *stall_limits),
         subtick=subtick,
+        motor_lag=motor_lag,
     )
 
 
@@ -135,7 +138,7 @@ def _travel(
     if not p.subtick:
         return wheels, (ticks[0] * p.metres_per_tick, ticks[1] * p.metres_per_tick)
     per_rad = p.stall.ticks_per_rad
-    left, right = (subtick.step(w, n, t, dt, c * per_rad) for w, n, c in zip(wheels, ticks, cmd))
+    left, right = (subtick.step(w, n, t, dt, c * per_rad, p.motor_lag) for w, n, c in zip(wheels, ticks, cmd))
     d_left = subtick.travel(wheels[0], left, ticks[0]) * p.metres_per_tick
     d_right = subtick.travel(wheels[1], right, ticks[1]) * p.metres_per_tick
     return (left, right), (d_left, d_right)

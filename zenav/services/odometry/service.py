@@ -49,6 +49,7 @@ class OdometryConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=Tr
     stall_ticks: Positive = 5.0  # [ticks] ... once the command should have turned it this far
     stall_time: Positive = 0.3  # [s] ... and at least this long
     subtick: bool = True  # each wheel's position within its tick from the tick timing; false: whole ticks
+    motor_lag: NonNeg = 0.05  # [s] the motors' time constant: how a wheel's speed follows its command (subtick)
 
 
 def params(robot: RobotConfig, c: OdometryConfig) -> od.Params:
@@ -68,7 +69,8 @@ def params(robot: RobotConfig, c: OdometryConfig) -> od.Params:
         compass_timeout=c.compass_timeout,
     )
     stall_limits = (c.stall_speed, c.stall_ticks, c.stall_time)
-    return od.make_params(robot, c.integrator, c.noise_k_left, c.noise_k_right, c.reset_factor, heading, stall_limits, c.subtick)
+    noise = (c.noise_k_left, c.noise_k_right)
+    return od.make_params(robot, c.integrator, *noise, c.reset_factor, heading, stall_limits, c.subtick, c.motor_lag)
 
 
 class Odometry(Service):
