@@ -31,6 +31,7 @@ GRID = 0.5  # [m] spacing of the lines drawn on the floor
 GRID_WIDTH = 0.01  # [m]
 RNG_STREAM = 0x43414D  # "CAM": the sensor noise's seed stream
 MAX_BLUR_STEPS = 8  # instants of the exposure a moving robot is drawn at, at most
+SUB = (-1.0 / 3.0, 0.0, 1.0 / 3.0)  # [px] where across a pixel (each way) a robot is sampled
 
 
 @dataclass(frozen=True)
@@ -63,6 +64,34 @@ def pose_at(b: Body, tau: Any) -> tuple[Any, Any, Any]:
     return b.x + b.v * tau * np.cos(mid), b.y + b.v * tau * np.sin(mid), th
 
 
+class Top:
+    """A robot's top as `Renderer._draw` reads it: its tag's cells amid BODY cells as far as the top reaches."""
+
+    def __init__(self, bitmap: np.ndarray, cell: float, radius: float) -> None:
+        """bitmap: the printed tag [grey levels], cell [m] its cells' edge, radius [m] the top's."""
+        self.n, self.cell = bitmap.shape[0], cell
+        self.pad = math.ceil(radius / cell) + 2  # [cells] BODY each side of the tag: the top and more
+        self.side = self.n + 2 * self.pad
+        self.cells = np.pad(bitmap, self.pad, constant_values=BODY).ravel()
+
+    def read(self, lu: np.ndarray, lv: np.ndarray, out: np.ndarray, work: np.ndarray, col: np.ndarray, index: np.ndarray) -> None:
+        """out [grey levels]: the top at body-frame points lu (forward), lv (left) [m] on it, the tag's cells found
+        as `_square` finds them (BODY off the tag); off the top, any of these. work, col, index: scratch of lu's shape."""
+        half = self.n / 2.0
+        np.divide(lu, self.cell, out=work)
+        work += half
+        np.floor(work, out=work)
+        np.copyto(col, work, casting="unsafe")
+        np.divide(lv, self.cell, out=work)
+        np.subtract(half, work, out=work)
+        np.floor(work, out=work)
+        np.copyto(index, work, casting="unsafe")  # the tag's row, then the cell's index in `cells`
+        index *= self.side
+        index += col
+        index += self.pad * self.side + self.pad
+        self.cells.take(index, mode="clip", out=out)
+
+
 class Renderer:
     """Draws frames of the field and the robots on it, as the configured camera sees them."""
 
@@ -77,6 +106,7 @@ class Renderer:
         self.d_u = np.gradient(self.rays, axis=1)  # ray change per pixel along u
         self.d_v = np.gradient(self.rays, axis=0)
         self.tags: dict[int, np.ndarray] = {}  # tag id -> its printed image [grey levels]
+        self.tops: dict[int, Top] = {}  # tag id -> a robot's top with that tag
         # Sensor noise: a bank drawn once, read from a random offset each frame (a fresh draw costs 4 ms).
         self.noise = self.rng.standard_normal(2 * h * w, dtype=np.float32) * np.float32(cfg.noise)
         self.background = self._floor()
@@ -88,6 +118,11 @@ class Renderer:
         if tag not in self.tags:
             self.tags[tag] = BLACK + (WHITE - BLACK) * tag_bitmap(tag)
         return self.tags[tag]
+
+    def _top(self, tag: int) -> Top:
+        if tag not in self.tops:
+            self.tops[tag] = Top(self._bitmap(tag), self.cfg.tag_size / TAG_CELLS, self.cfg.robot_radius)
+        return self.tops[tag]
 
     def _floor(self) -> np.ndarray:
         """The floor with its grid and the fixed tags, under the nominal light (2 x 2 samples a pixel)."""
@@ -152,19 +187,33 @@ class Renderer:
             return
         rays, d_u, d_v = (a[v0:v1, u0:u1] for a in (self.rays, self.d_u, self.d_v))
         under = img[v0:v1, u0:u1]
-        bitmap, cell = self._bitmap(b.tag), cfg.tag_size / TAG_CELLS
-        acc = np.zeros(under.shape, np.float32)
+        top = self._top(b.tag)
+        # The robot's pose at each instant and row (rolling shutter), full size and in float64: each sample's sums
+        # below are then plain array operations, to the bit those of the float32 factors broadcast in them.
         rows = row_time(np.arange(v0, v1, dtype=np.float32)[:, None], h, rs)  # [s] (rows x 1)
-        offsets = (-1.0 / 3.0, 0.0, 1.0 / 3.0)
-        for du in offsets:
-            for dv in offsets:
+        px_, py_, th = pose_at(b, np.array(instants, np.float32)[:, None, None] + rows)  # each row at its own time
+        c, s = np.cos(th), np.sin(th)
+        shape = (len(instants), *under.shape)
+        px_, py_, c, s = (np.broadcast_to(a, shape).astype(np.float64) for a in (px_, py_, c, s))
+        minus_s = -s
+        fx, fy, lu, lv, work = (np.empty(shape) for _ in range(5))
+        col, index = np.empty(shape, np.intp), np.empty(shape, np.intp)
+        off_top, seen = np.empty(shape, bool), np.empty(shape, np.float32)
+        acc = np.zeros(under.shape, np.float32)
+        for du in SUB:  # one sub-sample of every pixel at every instant at a time: a working set the cache holds
+            for dv in SUB:
                 x, y = plane_hits(self.mount, rays + du * d_u + dv * d_v, cfg.tag_height)
-                for tau in instants:
-                    px_, py_, th = pose_at(b, tau + rows)  # rolling shutter: each row at its own time
-                    c, s = np.cos(th), np.sin(th)
-                    fx, fy = x - px_, y - py_
-                    lu, lv = c * fx + s * fy, -s * fx + c * fy  # body frame: u forward, v left
-                    on_top = lu * lu + lv * lv <= r * r
-                    inside, value = _square(bitmap, lu, lv, cell)
-                    acc += np.where(inside & on_top, value, np.where(on_top, BODY, under))
-        under[...] = acc / (len(offsets) ** 2 * len(instants))
+                np.subtract(x, px_, out=fx)
+                np.subtract(y, py_, out=fy)
+                np.multiply(c, fx, out=lu)  # body frame: u forward, v left
+                lu += np.multiply(s, fy, out=work)
+                np.multiply(minus_s, fx, out=lv)
+                lv += np.multiply(c, fy, out=work)
+                np.multiply(lu, lu, out=fx)
+                fx += np.multiply(lv, lv, out=fy)
+                np.greater(fx, r * r, out=off_top)
+                top.read(lu, lv, seen, work, col, index)
+                np.copyto(seen, under, where=off_top)
+                for one in seen:  # summed in the order of the instants
+                    acc += one
+        under[...] = acc / (len(SUB) ** 2 * len(instants))
