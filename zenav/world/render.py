@@ -93,7 +93,8 @@ class Top:
 
 
 class Renderer:
-    """Draws frames of the field and the robots on it, as the configured camera sees them."""
+    """Draws frames of the field and the robots on it, as the configured camera sees them (one frame at a time:
+    a frame's working images are kept and drawn into again)."""
 
     def __init__(self, cfg: Camera, seed: int, readout: float = 0.0) -> None:
         """`readout` [s]: a rolling shutter's, top row to bottom row (0: a global shutter)."""
@@ -111,8 +112,11 @@ class Renderer:
         self.noise = self.rng.standard_normal(2 * h * w, dtype=np.float32) * np.float32(cfg.noise)
         self.background = self._floor()
         vx, vy = (u - self.lens.K[0, 2]) / w, (v - self.lens.K[1, 2]) / h
-        self.ramp_x, self.ramp_y = vx.astype(np.float32), vy.astype(np.float32)
+        # The gradient's ramps: one along u (1 x W), one along v (H x 1)
+        self.ramp_x, self.ramp_y = vx[:1].astype(np.float32), vy[:, :1].astype(np.float32)
         self.vignette = (1.0 - 0.5 * cfg.lighting * (vx**2 + vy**2) * 4.0).astype(np.float32)
+        # A frame's working images, drawn into again each frame
+        self.canvas, self.gain, self.work = (np.empty((h, w), np.float32) for _ in range(3))
 
     def _bitmap(self, tag: int) -> np.ndarray:
         if tag not in self.tags:
@@ -141,23 +145,29 @@ class Renderer:
                 total += img
         return (total / 4.0).astype(np.float32)
 
-    def light(self, t: float) -> np.ndarray:
-        """The light's gain over the image at time t [s]: a slow swing, a moving gradient, vignetting."""
+    def light(self, t: float, out: np.ndarray | None = None) -> np.ndarray:
+        """The light's gain over the image at time t [s]: a slow swing, a moving gradient, vignetting (in `out`,
+        an H x W float32 array, when given)."""
         a = self.cfg.lighting
         g = 1.0 + a * (0.6 * math.sin(2 * math.pi * t / 7.3) + 0.4 * math.sin(2 * math.pi * t / 2.9 + 1.0))
         gx, gy = a * math.sin(2 * math.pi * t / 11.0), a * math.cos(2 * math.pi * t / 13.0)
-        return cast(np.ndarray, g * self.vignette * (1.0 + gx * self.ramp_x + gy * self.ramp_y))
+        gain = np.multiply(self.vignette, g, out=out)
+        # The gradient's terms along a row and down a column, then over the image in one pass
+        gain *= np.add(1.0 + gx * self.ramp_x, gy * self.ramp_y, out=self.work)
+        return cast(np.ndarray, gain)
 
     def render(self, t: float, bodies: Sequence[Body]) -> np.ndarray:
         """The frame whose exposure is centred on t [s] (H x W, uint8 grey levels)."""
-        img = self.background.copy()
+        img = self.canvas
+        np.copyto(img, self.background)
         for b in bodies:
             self._draw(img, b)
-        img *= self.light(t)
+        img *= self.light(t, out=self.gain)
         if self.cfg.noise > 0.0:
             start = int(self.rng.integers(0, self.noise.size - img.size))
             img += self.noise[start : start + img.size].reshape(img.shape)
-        return cast(np.ndarray, np.clip(img, 0.0, 255.0).astype(np.uint8))
+        # Clipped and truncated to grey levels in one pass (the cast astype makes, once the value is in range)
+        return cast(np.ndarray, np.clip(img, 0.0, 255.0, out=np.empty(img.shape, np.uint8), casting="unsafe"))
 
     def instants(self, b: Body) -> list[float]:
         """[s] the instants of the exposure, from its middle, a body is drawn at (more the faster it moves)."""
