@@ -116,7 +116,7 @@ class Renderer:
         self.ramp_x, self.ramp_y = vx[:1].astype(np.float32), vy[:, :1].astype(np.float32)
         self.vignette = (1.0 - 0.5 * cfg.lighting * (vx**2 + vy**2) * 4.0).astype(np.float32)
         # A frame's working images, drawn into again each frame
-        self.canvas, self.gain, self.work = (np.empty((h, w), np.float32) for _ in range(3))
+        self.canvas, self.gain, self.lit, self.work = self.background.copy(), *(np.empty((h, w), np.float32) for _ in range(3))
 
     def _bitmap(self, tag: int) -> np.ndarray:
         if tag not in self.tags:
@@ -158,11 +158,19 @@ class Renderer:
 
     def render(self, t: float, bodies: Sequence[Body]) -> np.ndarray:
         """The frame whose exposure is centred on t [s] (H x W, uint8 grey levels)."""
-        img = self.canvas
-        np.copyto(img, self.background)
-        for b in bodies:
-            self._draw(img, b)
-        img *= self.light(t, out=self.gain)
+        # The robots are drawn on the canvas, the background between frames; the floor is lit from the background
+        # and the robots' boxes from the canvas, which is then the background again.
+        canvas, boxes = self.canvas, []
+        try:
+            for b in bodies:
+                boxes.append(self._draw(canvas, b))
+            gain = self.light(t, out=self.gain)
+            img = np.multiply(self.background, gain, out=self.lit)
+            for box in filter(None, boxes):
+                np.multiply(canvas[box], gain[box], out=img[box])
+        finally:
+            for box in filter(None, boxes):
+                canvas[box] = self.background[box]
         if self.cfg.noise > 0.0:
             start = int(self.rng.integers(0, self.noise.size - img.size))
             img += self.noise[start : start + img.size].reshape(img.shape)
@@ -181,8 +189,9 @@ class Renderer:
         """(x, y, theta) of a body at the instants of the exposure it is drawn at (constant twist)."""
         return [tuple(float(a) for a in pose_at(b, tau)) for tau in self.instants(b)]  # type: ignore[misc]
 
-    def _draw(self, img: np.ndarray, b: Body) -> None:
-        """Draw one robot's top (a disc) and its tag over the floor, blurred by its motion."""
+    def _draw(self, img: np.ndarray, b: Body) -> tuple[slice, slice] | None:
+        """Draw one robot's top (a disc) and its tag over the floor, blurred by its motion; the rows and columns
+        drawn (None: the robot is out of the frame)."""
         cfg, rs = self.cfg, self.readout
         instants = self.instants(b)
         r = cfg.robot_radius
@@ -194,9 +203,10 @@ class Renderer:
         u1, v1 = np.ceil(px.max(axis=0)).astype(int) + 3
         u0, v0, u1, v1 = max(u0, 0), max(v0, 0), min(u1, w), min(v1, h)
         if u0 >= u1 or v0 >= v1:
-            return
-        rays, d_u, d_v = (a[v0:v1, u0:u1] for a in (self.rays, self.d_u, self.d_v))
-        under = img[v0:v1, u0:u1]
+            return None
+        box = slice(v0, v1), slice(u0, u1)
+        rays, d_u, d_v = (a[box] for a in (self.rays, self.d_u, self.d_v))
+        under = img[box]
         top = self._top(b.tag)
         # The robot's pose at each instant and row (rolling shutter), full size and in float64: each sample's sums
         # below are then plain array operations, to the bit those of the float32 factors broadcast in them.
@@ -227,3 +237,4 @@ class Renderer:
                 for one in seen:  # summed in the order of the instants
                     acc += one
         under[...] = acc / (len(SUB) ** 2 * len(instants))
+        return box
