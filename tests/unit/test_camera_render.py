@@ -102,3 +102,15 @@ def test_a_frame_leaves_no_trace_on_the_next() -> None:
         r.render(0.0, [robots[0], Body(10**6, 0.0, 0.0, 0.0)])
     assert np.array_equal(r.render(0.0, []), empty)
     assert np.array_equal(r.render(0.0, robots), first)
+
+
+def test_a_robot_standing_still_is_drawn_over_what_is_under_it_now() -> None:
+    cfg = msgspec.structs.replace(SMALL, noise=0.0)
+    r = Renderer(cfg, seed=1)
+    still = Body(0, 0.5, 0.5, 0.3)
+    for k in range(3):  # the other robot, drawn first, passes under the still one's edge
+        bodies = [Body(1, 0.3 + 0.1 * k, 0.42, 0.0, v=0.2), still]
+        assert np.array_equal(r.render(0.1 * k, bodies), Renderer(cfg, seed=1).render(0.1 * k, bodies))
+    turned = Body(0, 0.5, 0.5, 1.2)  # the same box, over the same floor
+    for b in (still, turned):
+        assert np.array_equal(r.render(0.0, [b]), Renderer(cfg, seed=1).render(0.0, [b]))
