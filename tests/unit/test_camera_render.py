@@ -114,3 +114,10 @@ def test_a_robot_standing_still_is_drawn_over_what_is_under_it_now() -> None:
     turned = Body(0, 0.5, 0.5, 1.2)  # the same box, over the same floor
     for b in (still, turned):
         assert np.array_equal(r.render(0.0, [b]), Renderer(cfg, seed=1).render(0.0, [b]))
+
+
+def test_a_frame_is_the_floor_under_the_light() -> None:
+    r = Renderer(msgspec.structs.replace(TILTED, noise=0.0), seed=1)
+    for t in (0.0, 1.7, 5.5):
+        lit = np.clip(r.background * r.light(t), 0.0, 255.0).astype(np.uint8)
+        assert np.array_equal(r.render(t, []), lit)

@@ -32,6 +32,7 @@ GRID = 0.5  # [m] spacing of the lines drawn on the floor
 GRID_WIDTH = 0.01  # [m]
 RNG_STREAM = 0x43414D  # "CAM": the sensor noise's seed stream
 MAX_BLUR_STEPS = 8  # instants of the exposure a moving robot is drawn at, at most
+BAND = 128  # [rows] the frame is lit and cast a band at a time: the band's working images stay in the cache
 SUB = (-1.0 / 3.0, 0.0, 1.0 / 3.0)  # [px] where across a pixel (each way) a robot is sampled
 
 
@@ -156,16 +157,18 @@ class Renderer:
                 total += img
         return (total / 4.0).astype(np.float32)
 
-    def light(self, t: float, out: np.ndarray | None = None) -> np.ndarray:
-        """The light's gain over the image at time t [s]: a slow swing, a moving gradient, vignetting (in `out`,
-        an H x W float32 array, when given)."""
+    def _light_terms(self, t: float) -> tuple[float, np.ndarray, np.ndarray]:
+        """(swing, gradient along a row (1 x W), gradient down a column (H x 1)) of the light at time t [s]: its gain
+        is swing x vignette x (along + down)."""
         a = self.cfg.lighting
         g = 1.0 + a * (0.6 * math.sin(2 * math.pi * t / 7.3) + 0.4 * math.sin(2 * math.pi * t / 2.9 + 1.0))
         gx, gy = a * math.sin(2 * math.pi * t / 11.0), a * math.cos(2 * math.pi * t / 13.0)
-        gain = np.multiply(self.vignette, g, out=out)
-        # The gradient's terms along a row and down a column, then over the image in one pass
-        gain *= np.add(1.0 + gx * self.ramp_x, gy * self.ramp_y, out=self.work)
-        return cast(np.ndarray, gain)
+        return g, 1.0 + gx * self.ramp_x, gy * self.ramp_y
+
+    def light(self, t: float) -> np.ndarray:
+        """The light's gain over the image at time t [s]: a slow swing, a moving gradient, vignetting."""
+        g, along, down = self._light_terms(t)
+        return cast(np.ndarray, g * self.vignette * (along + down))
 
     def render(self, t: float, bodies: Sequence[Body]) -> np.ndarray:
         """The frame whose exposure is centred on t [s] (H x W, uint8 grey levels)."""
@@ -174,19 +177,36 @@ class Renderer:
         canvas, boxes = self.canvas, []
         try:
             for b in bodies:
-                boxes.append(self._draw(canvas, b))
-            gain = self.light(t, out=self.gain)
-            img = np.multiply(self.background, gain, out=self.lit)
-            for box in filter(None, boxes):
-                np.multiply(canvas[box], gain[box], out=img[box])
+                if (box := self._draw(canvas, b)) is not None:
+                    boxes.append(box)
+            return self._expose(t, boxes)
         finally:
-            for box in filter(None, boxes):
+            for box in boxes:
                 canvas[box] = self.background[box]
+
+    def _expose(self, t: float, boxes: Sequence[tuple[slice, slice]]) -> np.ndarray:
+        """The frame at time t [s] of the canvas drawn in `boxes` (the background elsewhere): lit, noised, clipped
+        and truncated to grey levels (the cast astype makes, once the value is in range), a band of rows at a time."""
+        g, along, down = self._light_terms(t)
+        h, w = self.canvas.shape
+        noise = None
         if self.cfg.noise > 0.0:
-            start = int(self.rng.integers(0, self.noise.size - img.size))
-            img += self.noise[start : start + img.size].reshape(img.shape)
-        # Clipped and truncated to grey levels in one pass (the cast astype makes, once the value is in range)
-        return cast(np.ndarray, np.clip(img, 0.0, 255.0, out=np.empty(img.shape, np.uint8), casting="unsafe"))
+            start = int(self.rng.integers(0, self.noise.size - h * w))
+            noise = self.noise[start : start + h * w].reshape(h, w)
+        frame = np.empty((h, w), np.uint8)
+        for top in range(0, h, BAND):
+            rows = slice(top, top + BAND)
+            gain = np.multiply(self.vignette[rows], g, out=self.gain[rows])
+            gain *= np.add(along, down[rows], out=self.work[rows])
+            img = np.multiply(self.background[rows], gain, out=self.lit[rows])
+            for box_rows, cols in boxes:
+                on = slice(max(box_rows.start, top), min(box_rows.stop, top + BAND))
+                if on.start < on.stop:
+                    np.multiply(self.canvas[on, cols], self.gain[on, cols], out=self.lit[on, cols])
+            if noise is not None:
+                img += noise[rows]
+            np.clip(img, 0.0, 255.0, out=frame[rows], casting="unsafe")
+        return frame
 
     def instants(self, b: Body) -> list[float]:
         """[s] the instants of the exposure, from its middle, a body is drawn at (more the faster it moves)."""
