@@ -2,6 +2,7 @@
 
 import math
 
+import cv2
 import msgspec
 import numpy as np
 import pytest
@@ -86,3 +87,37 @@ def test_the_light_changes_over_time_and_noise_is_there(renderer):
     noisy = Renderer(msgspec.structs.replace(SMALL, lighting=0.0, noise=5.0), seed=1)
     diff = noisy.render(0.0, []).astype(float) - noisy.render(1.0, []).astype(float)
     assert math.isclose(diff.std(), 5.0 * math.sqrt(2), rel_tol=0.2)
+
+
+def test_a_frame_leaves_no_trace_on_the_next() -> None:
+    r = Renderer(msgspec.structs.replace(SMALL, noise=0.0), seed=1)
+    empty = r.render(0.0, [])
+    robots = [Body(0, 0.5, 0.5, 0.0, v=0.5), Body(1, 0.55, 0.5, 1.0)]  # overlapping
+    first = r.render(0.0, robots)
+    kept = first.copy()
+    assert not np.array_equal(first, empty)
+    assert np.array_equal(r.render(0.0, []), empty)
+    assert np.array_equal(first, kept)  # a frame is its own array, not drawn over by the next
+    with pytest.raises(cv2.error):  # no such tag: the frame fails after the first robot is drawn
+        r.render(0.0, [robots[0], Body(10**6, 0.0, 0.0, 0.0)])
+    assert np.array_equal(r.render(0.0, []), empty)
+    assert np.array_equal(r.render(0.0, robots), first)
+
+
+def test_a_robot_standing_still_is_drawn_over_what_is_under_it_now() -> None:
+    cfg = msgspec.structs.replace(SMALL, noise=0.0)
+    r = Renderer(cfg, seed=1)
+    still = Body(0, 0.5, 0.5, 0.3)
+    for k in range(3):  # the other robot, drawn first, passes under the still one's edge
+        bodies = [Body(1, 0.3 + 0.1 * k, 0.42, 0.0, v=0.2), still]
+        assert np.array_equal(r.render(0.1 * k, bodies), Renderer(cfg, seed=1).render(0.1 * k, bodies))
+    turned = Body(0, 0.5, 0.5, 1.2)  # the same box, over the same floor
+    for b in (still, turned):
+        assert np.array_equal(r.render(0.0, [b]), Renderer(cfg, seed=1).render(0.0, [b]))
+
+
+def test_a_frame_is_the_floor_under_the_light() -> None:
+    r = Renderer(msgspec.structs.replace(TILTED, noise=0.0), seed=1)
+    for t in (0.0, 1.7, 5.5):
+        lit = np.clip(r.background * r.light(t), 0.0, 255.0).astype(np.uint8)
+        assert np.array_equal(r.render(t, []), lit)
