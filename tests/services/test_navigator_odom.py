@@ -1,6 +1,5 @@
 """The navigator's control loop on odometry ([navigator] control_on = "odom"): each odom sample is steered on in the
-map frame, by the correction of the newest pose paired with the odom sample of its t. The poses are not served: the
-newest is read when the navigator looks (an odom sample, its checks, a goal request, nav/status)."""
+map frame, by the correction of the newest pose paired with the odom sample of its t."""
 
 import math
 
@@ -57,8 +56,7 @@ def test_a_fix_moves_the_pose_steered_on_from_the_next_odom_sample(rig):
     rig.odom_frame = (rig.odom_frame[0], rig.odom_frame[1] + 0.05, rig.odom_frame[2])  # a fix: 5 cm left
     rig.bot.state = rig.bot.state._replace(y=rig.y + 0.05)  # the pose moves, the odometry's does not
     rig.localize()  # the pose of the odom sample's t, with the fix
-    st = reply(rig.query("nav/status"), m.StatusReply)
-    assert st.pose.y == pytest.approx(before.y + 0.05, abs=1e-9)  # the newest pose, as soon as it is asked for
+    assert rig.nav.machine.pose.y == pytest.approx(before.y + 0.05, abs=1e-9)  # the newest pose, at once
     assert rig.published("cmd_vel")[-1].t == before.t  # no command until the next sample
     rig.clock.advance(0.01)
     rig.odom()
@@ -77,7 +75,7 @@ def test_poses_that_stop_while_odom_flows_are_stale(rig):
     assert rig.cmd == (0.0, 0.0) and rig.nav.status == "error"
     err = reply(rig.query("nav/move_to_point", {"x": 1.0, "y": 0.0}))
     assert err.error == "unavailable" and "stale" in err.message
-    rig.step(2)  # the poses return: each read with the odom sample after it
+    rig.step()  # the poses return
     assert rig.nav.status == "ok"
 
 
@@ -91,7 +89,7 @@ def test_the_uncertainty_comes_from_the_newest_pose(rig):
     rig.odom()
     assert rig.nav.machine.pose.sigma_theta == 0.0
     rig.localize()
-    assert reply(rig.query("nav/status"), m.StatusReply).heading_sigma == pytest.approx(0.36)
+    assert rig.nav.machine.pose.sigma_theta == pytest.approx(0.36)
     rig.clock.advance(0.06)
     rig.nav.drain()
     assert rig.nav.machine.result == "aborted" and "heading sigma" in rig.nav.machine.message
@@ -101,24 +99,11 @@ def test_a_pose_out_of_order_is_dropped_and_the_correction_kept(rig):
     rig.step(3)
     pose = m.Pose(t=rig.clock.now() - 0.02, x=5.0, y=5.0, theta=0.0, v=0.0, omega=0.0)
     rig.bus.publish("zenav/r1/pose", codec.encode(pose))
-    rig.clock.advance(0.01)
-    rig.odom()  # reads it first
+    rig.nav.drain()
     assert rig.nav.counters.values["dropped_stale"] == 1
+    rig.clock.advance(0.01)
+    rig.odom()
     assert rig.nav.machine.pose.x == pytest.approx(rig.x, abs=1e-9)
-
-
-def test_it_steers_on_poses_it_is_never_woken_for(rig):
-    q = rig.query("nav/move_to_point", {"x": 0.4, "y": 0.0, "wait": True})
-    odoms = 1  # the fixture's
-    for _ in range(3000):
-        if q.replies:
-            break
-        rig.step()
-        odoms += 1
-        assert rig.nav.machine.pose.t == pytest.approx(rig.clock.now())  # the sample steered on, by the pose before's correction
-    assert reply(q).result == "succeeded" and math.hypot(rig.x - 0.4, rig.y) < 0.01
-    assert rig.nav.counters.values["msgs_in"] == odoms  # served: the odom samples alone
-    assert rig.nav.counters.values.get("poses_unpaired", 0) == 0 and rig.nav.counters.values["dropped_stale"] == 0
 
 
 def test_control_on_pose_reads_no_odom():

@@ -60,8 +60,8 @@ def test_stop_commands_zero_on_arrival_and_nothing_computed_before_it_follows(ri
     assert rig.cmd[0] > 0.0
     stop = rig.bus.query("zenav/r1/nav/stop")  # arrived; the worker has not taken it yet
     assert rig.published("cmd_vel")[sent:] == [m.CmdVel(t=0.0, v=0.0, omega=0.0)] and not stop.replies
-    [(_, odom), _] = rig.samples()  # the odom sample the worker had in hand when the stop arrived
-    rig.nav.on_odom(codec.decode(odom, m.Odom))
+    s = rig.bot.state  # the pose the worker had in hand when the stop arrived
+    rig.nav.on_pose(m.Pose(t=rig.clock.now(), x=s.x, y=s.y, theta=s.theta, v=s.v, omega=s.omega))
     assert len(rig.published("cmd_vel")) == sent + 1 and rig.cmd == (0.0, 0.0)
     rig.nav.drain()
     assert reply(stop, m.StopReply).state == "STOPPED" and rig.nav.machine.result == "cancelled"

@@ -11,13 +11,13 @@ def test_every_service_is_timed_and_the_chain_runs():
     costs = profile.measure(seconds=1.0, warmup=3.0)
     assert list(costs) == list(profile.ORDER)
     assert all(c.steps == 100 and c.cpu > 0.0 for c in costs.values())
-    # the navigator drives: a command per odom sample, a wheel command per command, an odom per encoder sample
+    # the navigator drives: a command per pose, a wheel command per command, an odom per encoder sample
     assert costs["odometry"].outputs >= 100 and costs["navigator"].outputs >= 90 and costs["motor"].outputs >= 90
     assert costs["localizer"].inputs >= 200  # odom and imu at least
     assert 0.0 < costs["odometry"].cores(100.0) < 1.0
     # each input timed by its topic: every encoder sample of the window, and the chain's sample at each service
     assert costs["odometry"].topics["sensors/encoders"][0] == 100
-    assert all(costs[s].per_message(t) > 0.0 for s, t in (("localizer", "odom"), ("navigator", "odom"), ("motor", "cmd_vel")))
+    assert all(costs[s].per_message(t) > 0.0 for s, t in (("localizer", "odom"), ("navigator", "pose"), ("motor", "cmd_vel")))
     assert sum(n for n, _ in costs["localizer"].topics.values()) == costs["localizer"].inputs
 
 

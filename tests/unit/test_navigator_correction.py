@@ -50,10 +50,25 @@ def test_a_pose_before_its_odom_sample_pairs_when_the_sample_comes():
     assert p.t == 0.02 and p.pose == "pose 2"
 
 
-def test_a_waiting_pose_whose_sample_never_comes_is_dropped():
+def test_a_waiting_pose_whose_sample_was_skipped_pairs_with_the_odometry_between():
     p = Pairing()
     p.on_odom(0.01, (0.0, 0.0, 0.0))
-    p.on_pose(0.02, (0.0, 0.0, 0.0), "late")
+    assert p.on_pose(0.02, (1.0, 0.0, 0.0), "skipped") == Paired.WAITING
+    assert close(p.on_odom(0.05, (0.4, 0.0, 0.0)), (1.3, 0.0, 0.0))  # odom at 0.02 was 0.1: correction +0.9
+    assert p.t == 0.02 and p.pose == "skipped"
+
+
+def test_a_pose_of_a_skipped_sample_pairs_with_the_odometry_between():
+    p = Pairing()
+    p.on_odom(0.01, (0.0, 0.0, 3.1))
+    p.on_odom(0.03, (0.2, 0.2, -3.1))  # turned through pi, not back round
+    assert p.on_pose(0.02, (5.0, 5.0, 0.0), "between") == Paired.PAIRED
+    assert close(p.correction, correction((5.0, 5.0, 0.0), (0.1, 0.1, 3.1 + (math.tau - 6.2) / 2)))
+
+
+def test_a_waiting_pose_with_no_sample_before_it_is_dropped():
+    p = Pairing()
+    p.on_pose(0.02, (0.0, 0.0, 0.0), "first")
     assert p.on_odom(0.03, (0.0, 0.0, 0.0)) is None and p.correction is None
 
 

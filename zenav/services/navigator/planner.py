@@ -18,7 +18,6 @@ from typing import cast
 
 import numpy as np
 
-from zenav.common import messages as m
 from zenav.common.config import Field
 from zenav.common.field import ARC_SIDES, Point, Polygon, Shape, inflate
 
@@ -75,28 +74,6 @@ class Planner:
                 self.edges[j].append((i, d))
 
     # ------------------------------------------------------------ queries
-    def field_map(self, t: float, radius: float) -> m.FieldMap:
-        """The field as this planner knows it (its area and the obstacles it plans round), and the footprint's
-        `radius` [m], at time t [s], for views and recordings."""
-        a = self.area
-        shapes = [
-            {"name": s.name, "circle": list(s.circle)}
-            if s.circle is not None
-            else {"name": s.name, "polygon": [list(p) for p in s.polygon]}
-            for s in self.shapes
-        ]
-        return m.FieldMap(
-            t=t,
-            enabled=a.enabled,
-            x_min=a.x_min,
-            x_max=a.x_max,
-            y_min=a.y_min,
-            y_max=a.y_max,
-            obstacles=shapes,
-            radius=radius,
-            margin=a.margin,
-        )
-
     def blocked(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """For K segments a[k]-b[k] ((K, 2) arrays): whether each enters the interior of an inflated piece."""
         if len(self._c) == 0 or len(a) == 0:

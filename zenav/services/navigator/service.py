@@ -3,9 +3,7 @@
 Its control loop runs on each odom sample (`[navigator] control_on = "odom"`), placed in the
 map frame by the localizer's newest correction (correction.py: the pose less the odom sample
 of the pose's t), or on each of the localizer's poses ("pose"). On odom the localizer is off
-the sensor-to-wheel path, and its poses are not served but read when the navigator looks (each
-odom sample, its checks, a goal request or nav/status); the pose's age still counts for
-staleness, its cov for uncertainty.
+the sensor-to-wheel path; the pose's age still counts for staleness, its cov for uncertainty.
 
 Goal queries reply at once with the goal id, or with `wait` when the goal ends.
 A `lease` names a liveliness token the caller holds: the goal starts once the token
@@ -37,7 +35,6 @@ from typing import Any
 
 from zenav.common import messages as m
 from zenav.common.bus import Bus, Query
-from zenav.common.client import Sampled
 from zenav.common.clock import Clock
 from zenav.common.config import ConfigError, Settings
 from zenav.common.contract import ErrorCode, GoalResult, Reason
@@ -95,37 +92,33 @@ class Navigator(Service):
         self._holding: Request | None = None  # a chained goal's request, its lease watched while its last command is held
         # control on odom: the odom samples and poses paired for the localizer's correction (None: control on pose)
         self.pairing: Pairing[m.Pose] | None = Pairing() if cfg.control_on == "odom" else None
-        self._poses: Sampled | None = None  # control on odom: the pose topic, read when the navigator looks (on_start)
 
     # ------------------------------------------------------------ inputs
+    @subscribe("pose", latest=True)  # a navigator behind its input acts on the newest pose
     def on_pose(self, msg: m.Pose) -> None:
-        """Control on pose: run the goal on each pose."""
+        """Control on pose: run the goal on each pose. On odom: pair it with its odom sample, for the correction."""
+        sample = PoseSample(msg.t, msg.x, msg.y, wrap_angle(msg.theta), msg.v, msg.omega, *sigmas(msg.cov), msg.slipping)
+        if self.pairing is not None:
+            paired = self.pairing.on_pose(msg.t, (msg.x, msg.y, msg.theta), msg)
+            if paired == Paired.OUT_OF_ORDER:
+                self._out_of_order("pose", f"t {msg.t:.3f} < {self.pairing.t or 0.0:.3f}")
+            elif paired == Paired.UNPAIRED:
+                self.count("poses_unpaired")
+            elif paired == Paired.PAIRED:
+                self.machine.heard(sample)
+                self._show_changes()
+                if self.status != "ok":
+                    self._health(self.clock.now())
+            return
         last = self.machine.pose
         if last is not None and msg.t < last.t:
             self._out_of_order("pose", f"t {msg.t:.3f} < {last.t:.3f}")
             return
-        self._drive(_sample(msg))
-
-    def _take_pose(self) -> None:
-        """Control on odom: the newest pose, if not taken yet, paired with its odom sample for the correction."""
-        msg = self._poses.fresh() if self._poses is not None else None
-        if msg is None or self.pairing is None:
-            return
-        paired = self.pairing.on_pose(msg.t, (msg.x, msg.y, msg.theta), msg)
-        if paired == Paired.OUT_OF_ORDER:
-            self._out_of_order("pose", f"t {msg.t:.3f} < {self.pairing.t or 0.0:.3f}")
-        elif paired == Paired.UNPAIRED:
-            self.count("poses_unpaired")
-        elif paired == Paired.PAIRED:
-            self.machine.heard(_sample(msg))
-            self._show_changes()
-            if self.status != "ok":
-                self._health(self.clock.now())
+        self._drive(sample)
 
     def on_odom(self, msg: m.Odom) -> None:
         """Control on odom: run the goal on each odom sample in the map frame, by the newest pose's correction."""
         assert self.pairing is not None
-        self._take_pose()  # the pose of an earlier sample (or of this one: paired as the sample comes)
         try:
             at = self.pairing.on_odom(msg.t, (msg.x, msg.y, msg.theta))
         except ValueError as e:
@@ -166,7 +159,6 @@ class Navigator(Service):
     @timer("check_period")
     def check(self, now: float) -> None:
         """The lease grace, stale pose and progress checks, and the diag status."""
-        self._take_pose()  # a pose that came with no odom sample after it (the odometry gone) is heard
         p = self.requests.expired(now)
         if p is not None:
             self._refuse(p, f"lease {p.lease} is not alive", Reason.LEASE_UNSEEN)
@@ -227,11 +219,8 @@ class Navigator(Service):
             self.robot_bodies[msg.robot] = (self.clock.now(), other)
 
     def on_start(self) -> None:
-        if self.pairing is None:
-            self.subscribe("pose", m.Pose, self.on_pose, latest=True)  # a navigator behind its input acts on the newest
-        else:
+        if self.pairing is not None:
             self.subscribe("odom", m.Odom, self.on_odom, latest=True)  # as the pose: the newest sample
-            self._poses = self.newest("pose")
         if self.cfg.avoid_robots:
             self.subscribe("robots", m.Body, self.on_body, other_clock=True)  # each robot stamps on its own clock
 
@@ -246,7 +235,24 @@ class Navigator(Service):
     @publish("field")
     def field_tick(self, now: float) -> m.FieldMap:
         """The field as this navigator knows it, for views and recordings."""
-        return self.planner.field_map(now, self.radius)
+        a = self.area
+        shapes = [
+            {"name": s.name, "circle": list(s.circle)}
+            if s.circle is not None
+            else {"name": s.name, "polygon": [list(p) for p in s.polygon]}
+            for s in self.planner.shapes
+        ]
+        return m.FieldMap(
+            t=now,
+            enabled=a.enabled,
+            x_min=a.x_min,
+            x_max=a.x_max,
+            y_min=a.y_min,
+            y_max=a.y_max,
+            obstacles=shapes,
+            radius=self.radius,
+            margin=a.margin,
+        )
 
     @timer("state_period")
     @publish("nav/state")
@@ -309,7 +315,6 @@ class Navigator(Service):
     @query("nav/status", acts=False)
     def status_query(self, req: m.Empty, q: Query) -> m.StatusReply:
         """The state, the goal and its result, and the newest pose."""
-        self._take_pose()
         fb = self.machine.feedback(self.clock.now())
         return m.StatusReply(
             state=self.machine.state,
@@ -368,7 +373,6 @@ class Navigator(Service):
 
     def _pose_or_unavailable(self) -> PoseSample:
         """The newest pose, if a goal may start on it; else an `unavailable` reply."""
-        self._take_pose()
         now = self.clock.now()
         reason = self.machine.refusal(now)
         if reason is not None:
@@ -585,11 +589,6 @@ class Navigator(Service):
         mc = self.machine
         if (mc.state, mc.goal_id, mc.result) != self._shown:
             self.publish("nav/state", self._state(self.clock.now()))
-
-
-def _sample(msg: m.Pose) -> PoseSample:
-    """A pose as the goal machine takes it: heading wrapped, sigmas from its cov."""
-    return PoseSample(msg.t, msg.x, msg.y, wrap_angle(msg.theta), msg.v, msg.omega, *sigmas(msg.cov), msg.slipping)
 
 
 def _brief(info: dict[str, Any]) -> dict[str, Any]:
