@@ -3,11 +3,9 @@
 The guard (guard.py) is the safety layer under every command source (a goal's, teleop, `drive`, a raw `cmd_vel`):
 from the newest `pose`, it slows and then stops the robot before its footprint meets a [field] obstacle, another
 robot (their bodies on the field topic `robots`, which this service also sends its own robot's on) or, with
-`guard_edges`, the field's edge. The pose is read when a command needs it, not served (100 Hz of wakes for a value
-read at the commands' pace): each cmd_vel is guarded with the newest, and while a moving command is in force and no
-cmd_vel came for `guard_period`, a call on the clock re-checks it (a teleop at 10 Hz drives on between its commands, and
-the way ahead shrinks as it does). What it limits is counted (`guard_slowed`, `guard_stopped`) and said on `motor/guard`
-when it changes; without a fresh pose it cannot judge, and passes the commands on, counted (`guard_blind`).
+`guard_edges`, the field's edge. It re-checks the command in force on every pose. What it limits is counted
+(`guard_slowed`, `guard_stopped`) and said on `motor/guard` when it changes; without a fresh pose it cannot judge, and
+passes the commands on, counted (`guard_blind`).
 """
 
 from __future__ import annotations
@@ -18,7 +16,6 @@ from msgspec import Meta, Struct
 
 from zenav.common import messages as m
 from zenav.common.bus import Bus
-from zenav.common.client import Sampled
 from zenav.common.clock import Clock
 from zenav.common.config import Settings
 from zenav.common.runtime import Service, on_liveliness, publish, subscribe, timer
@@ -43,7 +40,6 @@ class MotorConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=True)
     guard_decel: Annotated[float, Meta(gt=0.0, le=100.0)] = 0.5  # [m/s^2] the speed allowed brakes at this within the room ahead
     guard_edges: bool = False  # also stop before the [field] edge (false: a robot may square up against it)
     guard_pose_age: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.5  # [s] an older pose cannot judge: commands pass, counted
-    guard_period: Annotated[float, Meta(gt=0.0, le=1.0)] = 0.02  # [s] a moving command in force, no cmd_vel since: re-checked
     body_period: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.1  # [s] how often the robot's body goes out on the field topic
 
 
@@ -76,12 +72,9 @@ class Motor(Service):
         bounds = (area.x_min, area.y_min, area.x_max, area.y_max) if area.enabled and self.cfg.guard_edges else None
         self.guard = Guard(area.shapes(), robot.radius, self.cfg.guard_gap, self.cfg.guard_decel, bounds)
         self.body_period = self.cfg.body_period  # read by @timer
-        self.pose: m.Pose | None = None  # the newest read, in order
-        self._poses: Sampled | None = None  # the pose topic, read when a command needs it (on_start)
-        self._checked = 0.0  # [s] clock time the command in force was last guarded
-        self._recheck = False  # a re-check is asked of the clock (call_at)
+        self.pose: m.Pose | None = None  # newest
         self.others: dict[str, tuple[float, tuple[float, float, float]]] = {}  # robot -> (clock time heard, its disc)
-        self.asked: m.CmdVel | None = None  # the command in force, as asked (re-checked every guard_period)
+        self.asked: m.CmdVel | None = None  # the command in force, as asked (re-checked on each pose)
         self.limited: tuple[str, bool] = ("", False)  # what the guard holds the command in force back for, and whether to zero
         for name in ("guard_slowed", "guard_stopped", "guard_blind"):
             self.count(name, 0)
@@ -90,7 +83,6 @@ class Motor(Service):
         # Times of the old clock would make the elapsed times negative.
         self.last_out_t = None
         self.last_cmd_t = self.clock.now()
-        self.pose, self._recheck = None, False  # the clock forgot its calls; a pose of the old clock would look fresh
 
     def _output(self, t: float, ramp: tuple[float, float], wheels: tuple[float, float], now: float) -> m.Wheels:
         self.ramp, self.last_out_t = ramp, now
@@ -107,11 +99,7 @@ class Motor(Service):
             return None
         self.last_cmd_t = now
         self.asked = msg
-        out = self._drive(msg, now, self._guarded(msg, now))
-        if self.cfg.guard and msg.v != 0.0 and not self._recheck:
-            self._recheck = True
-            self.call_at(now + self.cfg.guard_period, self.recheck)
-        return out
+        return self._drive(msg, now, self._guarded(msg, now))
 
     def _drive(self, msg: m.CmdVel, now: float, cmd: Limit) -> m.Wheels:
         dt = self.cfg.max_accel_dt if self.last_out_t is None else now - self.last_out_t
@@ -122,8 +110,7 @@ class Motor(Service):
         """The command after the guard; counted and said when it limits."""
         if not self.cfg.guard or msg.v == 0.0:
             return self._say(Limit(msg.v, msg.omega))
-        self._checked = now
-        pose = self._pose()
+        pose = self.pose
         if pose is None or now - pose.t > self.cfg.guard_pose_age:
             self.count("guard_blind")
             self.warn("guard_blind", "no fresh pose: the guard cannot judge the way ahead; commands pass unchecked")
@@ -146,27 +133,16 @@ class Motor(Service):
             del self.others[robot]
         return [(r, disc) for r, (_, disc) in self.others.items()]
 
-    def _pose(self) -> m.Pose | None:
-        """The newest pose read: one older than the one in use (out of order) is not taken."""
-        msg = self._poses.fresh() if self._poses is not None else None
-        if msg is not None and (self.pose is None or msg.t >= self.pose.t):
-            self.pose = msg
-        return self.pose
-
+    @subscribe("pose", latest=True)
     @publish("motors/wheels")
-    def recheck(self, now: float) -> m.Wheels | None:
-        """The command in force guarded again with the newest pose, if no cmd_vel did for guard_period (the way ahead
-        shrinks as the robot drives on); asked again while a moving command stays in force."""
-        self._recheck = False
-        asked = self.asked
+    def on_pose(self, msg: m.Pose) -> m.Wheels | None:
+        """The newest pose: the command in force re-checked (the way ahead shrinks as the robot drives on)."""
+        if self.pose is not None and msg.t < self.pose.t:
+            return None
+        self.pose = msg
+        asked, now = self.asked, self.clock.now()
         if not self.cfg.guard or asked is None or asked.v == 0.0 or now - self.last_cmd_t > self.cfg.watchdog:
             return None
-        self._recheck = True
-        due = self._checked + self.cfg.guard_period
-        if due > now:  # a cmd_vel was guarded since: look again a period after it
-            self.call_at(due, self.recheck)
-            return None
-        self.call_at(now + self.cfg.guard_period, self.recheck)
         was = self.limited[0]
         cmd = self._guarded(asked, now)
         if not cmd.what and not was:
@@ -179,7 +155,6 @@ class Motor(Service):
             self.others[msg.robot] = (self.clock.now(), (msg.x, msg.y, msg.radius))
 
     def on_start(self) -> None:
-        self._poses = self.newest("pose")
         if self.cfg.guard:
             self.subscribe("robots", m.Body, self.on_body, other_clock=True)  # each robot stamps on its own clock
 
@@ -187,7 +162,7 @@ class Motor(Service):
     @publish("robots")
     def send_body(self, now: float) -> m.Body | None:
         """This robot's body on the field, from the newest pose, for the other robots' guards and navigators."""
-        pose = self._pose()
+        pose = self.pose
         if pose is None or now - pose.t > self.cfg.guard_pose_age:
             return None
         asked = self.asked  # where its navigator drives it, while it does
