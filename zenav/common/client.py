@@ -121,7 +121,6 @@ class Sampled:
     ) -> None:
         self._newest, self._typ, self._on_bad, self._admit = newest, typ, on_bad, admit
         self._msg: Any = None
-        self._given: Any = None  # the message `fresh` gave last
 
     @property
     def msg(self) -> Any:
@@ -137,15 +136,6 @@ class Sampled:
                 if self._admit is None or self._admit(msg):
                     self._msg = msg
         return self._msg
-
-    def fresh(self) -> Any:
-        """The newest valid message if it came since the last `fresh` (None: none did): each is given once, for a
-        reader that acts on a message when it first sees it."""
-        msg = self.msg
-        if msg is None or msg is self._given:
-            return None
-        self._given = msg
-        return msg
 
     def forget(self) -> None:
         """Drop the message kept: None until another comes."""
