@@ -32,6 +32,8 @@ def test_from_localizer_writes_the_learnt_track_and_wheels_into_the_config(make_
         client.publish("motors/wheels", m.Wheels(t=0.0, left=-WHEELS, right=WHEELS))
         t = odom.wait(lambda o, after=t: o.t >= after + 0.1, timeout=5.0).t
     client.publish("motors/wheels", m.Wheels(t=0.0, left=0.0, right=0.0))
+    # the robot coasts to a stand before the config is written: turning, it would go on teaching the localizer
+    odom.wait(lambda o, after=t: o.t >= after + 0.5 and abs(o.omega) < 1e-3, timeout=10.0)
     learnt = client.query("localizer/pose").calibration
     assert learnt["track_width_scale"] != 1.0  # the robot turned: the localizer learnt something
 
