@@ -18,6 +18,7 @@ from zenav.common import messages as m
 from zenav.common.bus import Bus
 from zenav.common.clock import Clock
 from zenav.common.config import Settings
+from zenav.common.others import Others
 from zenav.common.runtime import Service, on_liveliness, publish, subscribe, timer
 from zenav.services.motor import kinematics as kin
 from zenav.services.motor.guard import Guard, Limit, position_sigma
@@ -73,7 +74,7 @@ class Motor(Service):
         self.guard = Guard(area.shapes(), robot.radius, self.cfg.guard_gap, self.cfg.guard_decel, bounds)
         self.body_period = self.cfg.body_period  # read by @timer
         self.pose: m.Pose | None = None  # newest
-        self.others: dict[str, tuple[float, tuple[float, float, float]]] = {}  # robot -> (clock time heard, its disc)
+        self.others: Others[tuple[float, float, float]] = Others(self.robot, BODY_KEPT)  # their discs (x, y, radius)
         self.asked: m.CmdVel | None = None  # the command in force, as asked (re-checked on each pose)
         self.limited: tuple[str, bool] = ("", False)  # what the guard holds the command in force back for, and whether to zero
         for name in ("guard_slowed", "guard_stopped", "guard_blind"):
@@ -129,9 +130,7 @@ class Motor(Service):
         return cmd
 
     def _bodies(self, now: float) -> list[tuple[str, tuple[float, float, float]]]:
-        for robot in [r for r, (heard, _) in self.others.items() if now - heard > BODY_KEPT]:
-            del self.others[robot]
-        return [(r, disc) for r, (_, disc) in self.others.items()]
+        return list(self.others.at(now).items())
 
     @subscribe("pose", latest=True)
     @publish("motors/wheels")
@@ -151,8 +150,7 @@ class Motor(Service):
 
     def on_body(self, msg: m.Body) -> None:
         """Another robot's body on the field (this robot's own comes back too: not kept)."""
-        if msg.robot != self.robot:
-            self.others[msg.robot] = (self.clock.now(), (msg.x, msg.y, msg.radius))
+        self.others.heard(msg.robot, self.clock.now(), (msg.x, msg.y, msg.radius))
 
     def on_start(self) -> None:
         if self.cfg.guard:

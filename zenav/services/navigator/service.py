@@ -39,6 +39,7 @@ from zenav.common.clock import Clock
 from zenav.common.config import ConfigError, Settings
 from zenav.common.contract import ErrorCode, GoalResult, Reason
 from zenav.common.geometry import wrap_angle
+from zenav.common.others import Others
 from zenav.common.runtime import QueryError, Service, on_liveliness, publish, query, reply_error, reply_ok, subscribe, timer
 from zenav.services.navigator import goals, intake, planner, routing
 from zenav.services.navigator.controllers import PoseSample, Wheelbase, check_polar_gains, sigmas
@@ -74,7 +75,7 @@ class Navigator(Service):
         self.planner = planner.Planner(self.area, r.radius + self.area.margin)  # the field's visibility graph, built once
         traffic = Traffic(self.robot, r.radius, self.area.margin, self.planner) if cfg.avoid_robots else None
         self.machine = TrafficMachine(cfg, wheels, self.area, gated=False, traffic=traffic)
-        self.robot_bodies: dict[str, tuple[float, Other]] = {}  # robot -> (clock time heard, its body)
+        self.others: Others[Other] = Others(self.robot, BODY_KEPT)  # the other robots' bodies
         for name in COUNTERS:
             self.count(name, 0)
         self._doubt_told = False  # the warning that a goal drives on an uncertain pose (no vps) was logged
@@ -211,12 +212,10 @@ class Navigator(Service):
 
     def on_body(self, msg: m.Body) -> None:
         """Another robot's body on the field (this robot's own comes back too: not kept)."""
-        if msg.robot != self.robot:
-            v = msg.v or 0.0
-            theta = msg.theta or 0.0
-            way = tuple((p[0], p[1]) for p in msg.way)  # where it is going, when it tells it
-            other = Other(msg.robot, msg.x, msg.y, msg.radius, v * math.cos(theta), v * math.sin(theta), way)
-            self.robot_bodies[msg.robot] = (self.clock.now(), other)
+        v, theta = msg.v or 0.0, msg.theta or 0.0
+        way = tuple((p[0], p[1]) for p in msg.way)  # where it is going, when it tells it
+        other = Other(msg.robot, msg.x, msg.y, msg.radius, v * math.cos(theta), v * math.sin(theta), way)
+        self.others.heard(msg.robot, self.clock.now(), other)
 
     def on_start(self) -> None:
         if self.pairing is not None:
@@ -366,10 +365,7 @@ class Navigator(Service):
 
     def _bodies(self) -> list[Other]:
         """The other robots heard within BODY_KEPT."""
-        now = self.clock.now()
-        for robot in [r for r, (heard, _) in self.robot_bodies.items() if now - heard > BODY_KEPT]:
-            del self.robot_bodies[robot]
-        return [o for _, o in self.robot_bodies.values()]
+        return list(self.others.at(self.clock.now()).values())
 
     def _pose_or_unavailable(self) -> PoseSample:
         """The newest pose, if a goal may start on it; else an `unavailable` reply."""

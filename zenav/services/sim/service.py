@@ -15,6 +15,7 @@ from zenav.common import messages as m
 from zenav.common.bus import Bus, Query
 from zenav.common.clock import Clock, ScaledWallClock
 from zenav.common.config import Camera, Settings
+from zenav.common.others import Others
 from zenav.common.runtime import Service, on_liveliness, query, subscribe, timer
 from zenav.world import faults, sensors
 from zenav.world.bodies import Chassis, Disc, Walls
@@ -94,7 +95,7 @@ class Sim(Service):
         self.bot = SimRobot(
             settings.robot, self.scen, seed, c.x0, c.y0, c.theta0, c.encoder_start, c.body_radius, walls, chassis, f.shapes()
         )
-        self.others: dict[str, tuple[float, Disc]] = {}  # robot -> (sim time heard, its body): what the bodies step among
+        self.others: Others[Disc] = Others(self.robot, BODY_KEPT)  # the bodies it steps among, by sim time heard
         self.steps = 0  # steps taken: sim time is steps / rate, never read from the wall
         self.base = 0.0  # [s] scheduling-clock time of step 0 (moves forward on a resync)
         self.cmd = (0.0, 0.0)  # [rad/s] wheel commands (left, right)
@@ -145,16 +146,11 @@ class Sim(Service):
 
     def on_body(self, msg: m.Body) -> None:
         """Another robot's body on the field (this robot's own comes back too: not kept)."""
-        if msg.robot != self.robot:
-            self.others[msg.robot] = (self.t, Disc(msg.x, msg.y, msg.radius))
+        self.others.heard(msg.robot, self.t, Disc(msg.x, msg.y, msg.radius))
 
     def _bodies(self) -> dict[str, Disc]:
         """The other robots' bodies heard within BODY_KEPT."""
-        if not self.others:
-            return {}
-        for robot in [r for r, (heard, _) in self.others.items() if self.t - heard > BODY_KEPT]:
-            del self.others[robot]
-        return {r: disc for r, (_, disc) in self.others.items()}
+        return self.others.at(self.t)
 
     @property
     def t(self) -> float:
