@@ -235,7 +235,7 @@ class Service(Intake, Dispatch):
 
     def newest(self, suffix: str) -> Sampled:
         """Follow a topic without serving its samples (no handler, no wake per sample): its newest message, read when
-        the service asks (`Sampled.msg`, or `fresh`), for a fast topic read at a slower one's pace; a payload that does
+        the service asks (`Sampled.msg`), for a fast topic read at a slower one's pace; a payload that does
         not decode (`bad_input`), or a message stamped past the clock's horizon (`dropped_future`), is counted, logged
         and left out as a served one is. Undeclared as the service stops."""
         newest = self.bus.newest(self.key(suffix))
