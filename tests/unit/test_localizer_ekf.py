@@ -177,6 +177,16 @@ def test_starts_from_two_agreeing_fixes_never_from_a_lone_outlier():
     assert p.x == pytest.approx(0.3, abs=0.02) and p.cov[0] < 2 * 0.02**2
 
 
+def test_the_fix_a_start_was_confirmed_by_is_used_too():
+    ekf = Ekf(LocalizerConfig(), ROBOT)
+    straight(ekf, 0.0, 1.0)
+    reasons = [ekf.on_fix(f, 1.0).reason for f in (fix(0.6, 0.19), fix(0.7, 0.20))]  # 1 cm ahead, then 1 cm behind
+    assert reasons == ["unconfirmed", "initialised"]
+    p = ekf.get_pose()
+    assert p.x == pytest.approx(0.3, abs=0.002)  # both, weighed alike: the second alone would put it 1 cm behind
+    assert p.cov[0] < 0.7 * 0.02**2  # about half a fix's variance (the second alone: a fix's, and more)
+
+
 def test_outliers_are_rejected_and_a_moved_robot_is_reacquired():
     ekf = tracking(3.0)
     rec = ekf.on_fix(fix(2.7, 0.81, 0.5), 3.0)

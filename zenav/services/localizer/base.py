@@ -58,7 +58,7 @@ class LocalizerConfig(Struct, frozen=True, kw_only=True, forbid_unknown_fields=T
     impact_leak: Annotated[float, Meta(gt=0.0, le=10.0)] = 0.25  # [s] ekf: time constant their difference fades with
     calib_noise: Annotated[float, Meta(ge=0.0, le=1.0)] = 1e-8  # [1/m] random walk variance of each calibration error per metre
     calib_sigma: Annotated[float, Meta(ge=0.0, le=0.5)] = 0.05  # 1-sigma prior of each relative calibration error
-    gyro_noise: Pos = 1e-3  # [rad/sqrt(s)] angle random walk of the integrated gyro (when sensors/imu is there)
+    gyro_noise: Pos = 6e-4  # [rad/sqrt(s)] angle random walk of the integrated gyro (when sensors/imu is there)
     gyro_bias_noise: Annotated[float, Meta(ge=0.0, le=1.0)] = 1e-5  # [rad/s/sqrt(s)] random walk of the gyro bias
     gyro_bias_sigma: Pos = 0.05  # [rad/s] 1-sigma prior of the gyro bias
     gyro_max_gap: Pos = 0.1  # [s] a longer silence of the gyro restarts its integral

@@ -8,8 +8,9 @@ captured at t_c is compared with the state interpolated at t_c, gated by its
 Mahalanobis distance, inserted there, and the history is re-integrated forward to
 the newest sample. A long run of rejected fixes means the filter, not the camera, is
 wrong: the pose covariance is inflated and a fix that the previous one confirms
-re-acquires. The state carries the odometry's and the gyro's calibration errors,
-which the fixes make observable. Gyro samples that come after their odom sample
+re-acquires; the filter starts the same way, from two agreeing fixes, and uses
+both. The state carries the odometry's and the gyro's calibration errors, which
+the fixes make observable. Gyro samples that come after their odom sample
 are filled into the history the same way. While the wheels are found slipping (by the
 fixes, or at once by the accelerometer: impact.py) their travel weighs little.
 """
@@ -51,6 +52,7 @@ FIX_GAP = 1.0
 
 @dataclass
 class _Candidate:
+    t: float  # [s] capture
     z: np.ndarray  # an unused fix (x, y, theta)
     R: np.ndarray
     s: list[float]  # the filter's pose (x, y, theta) at its capture time
@@ -265,7 +267,7 @@ class Ekf(Mode):
         reason = "accepted"
         if not self.initialised or d2 > self.cfg.gate:
             # Start (again) only from a fix the previous unused one agrees with: never from a lone outlier.
-            candidate, self.candidate = self.candidate, _Candidate(z, R, s[:3])
+            candidate, self.candidate = self.candidate, _Candidate(t, z, R, s[:3])
             confirmed = self._agrees(candidate, self.candidate)
             if not self.initialised:
                 if not confirmed:
@@ -284,15 +286,24 @@ class Ekf(Mode):
         # Re-acquired while the fixes kept coming: the robot went where the odometry did not take it (a push,
         # a hold). Re-acquired as they came back after a gap: the odometry drifted meanwhile.
         self._slipping(t, z, reason == "reacquired" and not self.after_gap)
-        f = _Fix(t, z, R, reacquire=reason == "reacquired")
-        if in_place:
+        first = len(self.history)
+        if reason == "initialised" and candidate is not None and self.delayed and candidate.t >= self.history[0].t:
+            # The fix this one confirmed is as good: used too, at its capture time (before this one's).
+            j = bisect.bisect_left(self.history, candidate.t, key=lambda e: e.t)
+            first = self._insert(_Fix(candidate.t, candidate.z, candidate.R), j)
+        first = min(first, self._insert(_Fix(t, z, R, reacquire=reason == "reacquired"), k))
+        self._replay(first)
+        return FixResult(True, reason, innovation, d2, sum(e.samples for e in self.history[first:]))
+
+    def _insert(self, f: _Fix, k: int) -> int:
+        """Put fix f in history entry k (the one its capture time falls in); the first entry to re-integrate."""
+        e = self.history[k]
+        if k == 0 or not self.delayed:  # at the entry's own time
             e.s, e.P = self._apply(e.s, e.P, f)
             e.closed = True  # re-predicted from the step before, its state would lose the fix
-            k += 1
-        else:
-            bisect.insort(e.fixes, f, key=lambda x: x.t)
-        self._replay(k)
-        return FixResult(True, reason, innovation, d2, sum(e.samples for e in self.history[k:]))
+            return k + 1
+        bisect.insort(e.fixes, f, key=lambda x: x.t)
+        return k
 
     def _set(self, x: float | None, y: float | None, theta: float | None) -> None:
         last = self.history[-1]
