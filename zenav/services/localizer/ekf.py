@@ -253,8 +253,7 @@ class Ekf(Mode):
             k = len(self.history) - 1
             t = self.history[k].t
         e = self.history[k]
-        in_place = k == 0 or not self.delayed  # the fix is at the entry's own time
-        if in_place:
+        if self._in_place(k):
             s, P = e.s, e.P
         else:
             prev = self.history[k - 1]
@@ -295,10 +294,14 @@ class Ekf(Mode):
         self._replay(first)
         return FixResult(True, reason, innovation, d2, sum(e.samples for e in self.history[first:]))
 
+    def _in_place(self, k: int) -> bool:
+        """Whether a fix in history entry k is at the entry's own time (applied to its state, not between steps)."""
+        return k == 0 or not self.delayed
+
     def _insert(self, f: _Fix, k: int) -> int:
         """Put fix f in history entry k (the one its capture time falls in); the first entry to re-integrate."""
         e = self.history[k]
-        if k == 0 or not self.delayed:  # at the entry's own time
+        if self._in_place(k):
             e.s, e.P = self._apply(e.s, e.P, f)
             e.closed = True  # re-predicted from the step before, its state would lose the fix
             return k + 1
