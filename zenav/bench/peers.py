@@ -9,8 +9,8 @@ gyro's heading (its rate integrated, as a team's IMU reports it), and each VPS f
 arrives, through `addVisionMeasurement` at its capture stamp. On the world model's streams
 both start at the robot's true starting pose (a team sets it at the start of a match:
 WPILib's constructor, zenav's `localizer/set_pose`); on the live stack's recordings zenav's
-localizer started unplaced and was placed by the fixes, WPILib at the true pose. Both are scored the same way at every sample after
-the warm-up (shared/spec/scenarios.md, "Scores").
+localizer started unplaced and was placed by the fixes, WPILib at the true pose. Both are
+scored the same way at every sample after the warm-up (shared/spec/scenarios.md, "Scores").
 
 WPILib is run with its documented default standard deviations, then over a small sweep
 of its state and vision standard deviations, with and without the rejection FRC teams
