@@ -278,7 +278,7 @@ class Robot(GoalMethods[Goal]):
             try:
                 self._next_pose(seen, max(deadline - time.monotonic(), 0.0), ASK_EVERY)
             except TimeoutError:
-                raise TimeoutError(f"navigator not ready after {timeout} s: {why}") from None
+                raise TimeoutError(f"navigator not ready after {timeout:g} s: {why}") from None
 
     # ------------------------------------------------------------ goals (their methods: zenav.goalapi)
     def _send(self, spec: GoalSpec, fields: dict[str, Any]) -> Goal:

@@ -56,7 +56,7 @@ class RawClient:
             if ok and not st.get("not_ready"):
                 return
             if time.monotonic() > deadline:
-                raise TimeoutError(f"navigator not ready after {timeout} s: {st}")
+                raise TimeoutError(f"navigator not ready after {timeout:g} s: {st}")
             t = self.wait(lambda latest: "pose" in latest, timeout)["pose"]["t"]
             self.wait(lambda latest, t=t: latest["pose"]["t"] > t, max(deadline - time.monotonic(), 0.1))
 
